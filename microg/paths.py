@@ -1,0 +1,19 @@
+"""Where the project's shipped files live: protocols, object definitions, sample data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+SOURCE_ROOT = Path(__file__).resolve().parent.parent
+PROTOCOLS = SOURCE_ROOT / "protocols"
+OBJECTS = PROTOCOLS / "objects"
+DATA = SOURCE_ROOT / "data"
+
+
+def object_file(name: str) -> Path:
+    """The shipped object definition called ``name`` (e.g. ``cube``)."""
+    path = OBJECTS / f"{name}.toml"
+    if not path.exists():
+        known = sorted(p.stem for p in OBJECTS.glob("*.toml"))
+        raise FileNotFoundError(f"no object file {path} (shipped objects: {known})")
+    return path

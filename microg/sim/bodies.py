@@ -1,0 +1,145 @@
+"""Rigid objects: shape, mass, principal inertia and surface material, read from object files.
+
+An object file is TOML (see ``protocols/objects/``)::
+
+    name = "cube"
+    shape = "box"               # "box" or "sphere"
+    size = [0.06, 0.06, 0.06]   # box: full edge lengths along the body x, y, z axes (m)
+    # radius = 0.035            # sphere: radius (m)
+    mass = 0.151                # kg
+    # inertia = [Ixx, Iyy, Izz] # optional principal moments (kg m^2); default: solid body
+    [material]
+    restitution = 0.4           # e in (0, 1), Eq. 10
+    static_friction = 0.8       # mu, Eq. 19
+    dynamic_friction = 0.5      # phi, Eq. 20; phi <= mu
+
+The body frame is the principal frame, centred at the centre of mass, so the body inertia is
+diagonal.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+SHAPES = ("box", "sphere")
+BOX, SPHERE = 0, 1
+
+
+class SceneError(ValueError):
+    """A scene, object or hand input that the physics cannot accept; the message names the field."""
+
+
+def _positive(where: str, name: str, value: object) -> float:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) or value <= 0:
+        raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Material:
+    """Surface parameters of the paper's contact model."""
+
+    restitution: float = 0.4
+    static_friction: float = 0.8
+    dynamic_friction: float = 0.5
+
+    def validate(self, where: str) -> None:
+        e, mu, phi = self.restitution, self.static_friction, self.dynamic_friction
+        for name, value in (("restitution", e), ("static_friction", mu), ("dynamic_friction", phi)):
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise SceneError(f"{where}: material.{name} = {value!r}: must be a number")
+        if not 0 < e < 1:
+            raise SceneError(f"{where}: material.restitution = {e}: must lie in (0, 1) (paper, Eq. 10)")
+        if mu < 0:
+            raise SceneError(f"{where}: material.static_friction = {mu}: must be >= 0")
+        if not 0 <= phi <= mu:
+            raise SceneError(f"{where}: material.dynamic_friction = {phi}: must lie in [0, static_friction = {mu}]")
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    """An object's shape and mass properties; where it sits belongs to the scene."""
+
+    name: str
+    shape: str
+    size: tuple[float, float, float]
+    """Box: full edge lengths; sphere: (diameter, diameter, diameter)."""
+    mass: float
+    material: Material = Material()
+    inertia: tuple[float, float, float] | None = None
+    """Principal moments (kg m^2); None means a solid body of uniform density."""
+
+    def validate(self, where: str) -> None:
+        if self.shape not in SHAPES:
+            raise SceneError(f"{where}: shape = {self.shape!r}: must be one of {SHAPES}")
+        _positive(where, "mass", self.mass)
+        for axis, value in zip("xyz", self.size):
+            _positive(where, f"size.{axis}", value)
+        self.material.validate(where)
+        moments = self.principal_inertia
+        if not np.all(np.isfinite(moments)) or np.any(moments <= 0):
+            raise SceneError(f"{where}: inertia = {moments.tolist()}: principal moments must be positive")
+        a, b, c = sorted(moments)
+        if a + b < c * (1 - 1e-9):
+            raise SceneError(f"{where}: inertia = {moments.tolist()}: violates the triangle inequality "
+                             "(no rigid body has these moments)")
+
+    @property
+    def half_extents(self) -> np.ndarray:
+        return 0.5 * np.asarray(self.size, dtype=np.float64)
+
+    @property
+    def principal_inertia(self) -> np.ndarray:
+        """Body-frame principal moments of inertia (kg m^2)."""
+        if self.inertia is not None:
+            return np.asarray(self.inertia, dtype=np.float64)
+        if self.shape == "sphere":
+            r = 0.5 * self.size[0]
+            return np.full(3, 0.4 * self.mass * r * r)
+        x, y, z = self.size
+        return self.mass / 12.0 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+
+
+def load_object(path: str | Path) -> ObjectSpec:
+    """Read an object file; errors name the file, the field and the value."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise SceneError(f"{path}: cannot read object file: {error}") from None
+    return object_from_dict(data, str(path))
+
+
+def object_from_dict(data: dict, where: str) -> ObjectSpec:
+    known = {"name", "code", "shape", "size", "radius", "mass", "inertia", "material", "description"}
+    unknown = set(data) - known
+    if unknown:
+        raise SceneError(f"{where}: unknown field {sorted(unknown)[0]!r} (known: {sorted(known)})")
+    for required in ("name", "shape", "mass"):
+        if required not in data:
+            raise SceneError(f"{where}: missing field {required!r}")
+    shape = data["shape"]
+    if shape == "sphere":
+        radius = _positive(where, "radius", data.get("radius"))
+        size = (2 * radius,) * 3
+    else:
+        size = data.get("size")
+        if not isinstance(size, list) or len(size) != 3:
+            raise SceneError(f"{where}: size = {size!r}: must be three edge lengths [x, y, z] in metres")
+        size = tuple(_positive(where, f"size.{axis}", v) for axis, v in zip("xyz", size))
+    material = data.get("material", {})
+    known_material = {"restitution", "static_friction", "dynamic_friction"}
+    if set(material) - known_material:
+        raise SceneError(f"{where}: unknown field material.{sorted(set(material) - known_material)[0]}")
+    inertia = data.get("inertia")
+    if inertia is not None and (not isinstance(inertia, list) or len(inertia) != 3):
+        raise SceneError(f"{where}: inertia = {inertia!r}: must be three principal moments")
+    spec = ObjectSpec(name=data["name"], shape=shape, size=size, mass=data["mass"],
+                      material=Material(**material), inertia=tuple(inertia) if inertia else None)
+    spec.validate(where)
+    return spec

@@ -1,0 +1,147 @@
+"""The tracked hand: the Leap Motion skeleton in SI units, one type for every hand source.
+
+A hand is a palm pose plus 5 digits x 4 bones (metacarpal, proximal, intermediate, distal).
+Bone ``b`` of digit ``d`` runs from ``joints[d, b]`` (its ``prev_joint``) to ``joints[d, b + 1]``
+(its ``next_joint``), so the 20 bones share 25 joints. The thumb's metacarpal has zero length,
+as in the Leap skeleton. A value the tracker did not deliver is NaN and stays NaN: a recording
+without metacarpal bases, for example, has ``joints[:, 0]`` all NaN. Nothing unknown becomes zero.
+
+Each bone with known ends and positive length is a *phalanx* for contact purposes: a sphere at
+its centroid with radius ``width / 2`` (paper, section 3.3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+DIGITS = ("thumb", "index", "middle", "ring", "pinky")
+BONES = ("metacarpal", "proximal", "intermediate", "distal")
+SIDES = ("left", "right")
+N_DIGITS = len(DIGITS)
+N_BONES = len(BONES)
+BONES_PER_HAND = N_DIGITS * N_BONES
+SLOTS = len(SIDES) * BONES_PER_HAND
+"""Phalanx slots in the physics: left hand 0..19, right hand 20..39, digit-major."""
+
+MIN_PHALANX_LENGTH = 1e-4
+"""Bones shorter than this (m) are not phalanges: the thumb's metacarpal is one."""
+
+
+def slot(side: str, digit: int, bone: int) -> int:
+    """Index of a bone in the physics' phalanx arrays."""
+    return SIDES.index(side) * BONES_PER_HAND + digit * N_BONES + bone
+
+
+def slot_name(index: int) -> str:
+    """Readable name of a phalanx slot, e.g. ``right.index.distal``."""
+    side, rest = divmod(index, BONES_PER_HAND)
+    digit, bone = divmod(rest, N_BONES)
+    return f"{SIDES[side]}.{DIGITS[digit]}.{BONES[bone]}"
+
+
+SLOT_DIGIT = np.array([(i % BONES_PER_HAND) // N_BONES for i in range(SLOTS)], dtype=np.int64)
+SLOT_SIDE = np.array([i // BONES_PER_HAND for i in range(SLOTS)], dtype=np.int64)
+
+
+def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=True))
+
+
+@dataclass(frozen=True, eq=False)
+class Hand:
+    """One tracked hand, in metres, in the tracker's frame (y up)."""
+
+    side: str
+    joints: np.ndarray
+    """(5, 5, 3) joint positions, digit-major; NaN where unknown."""
+    widths: np.ndarray
+    """(5, 4) bone widths; NaN where unknown."""
+    palm_position: np.ndarray
+    """(3,) palm centre."""
+    palm_orientation: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    """(4,) unit quaternion (w, x, y, z) from the hand frame to the world; NaN where unknown."""
+    track_id: int = 0
+    """The tracker's id for this hand; a new id means the track was lost and found again."""
+
+    def __post_init__(self) -> None:
+        if self.side not in SIDES:
+            raise ValueError(f"Hand.side = {self.side!r}: must be one of {SIDES}")
+        for name, shape in (("joints", (N_DIGITS, N_BONES + 1, 3)), ("widths", (N_DIGITS, N_BONES)),
+                            ("palm_position", (3,)), ("palm_orientation", (4,))):
+            value = np.asarray(getattr(self, name), dtype=np.float64)
+            if value.shape != shape:
+                raise ValueError(f"Hand({self.side}).{name} has shape {value.shape}, expected {shape}")
+            if np.isinf(value).any():
+                index = tuple(int(i) for i in np.argwhere(np.isinf(value))[0])
+                raise ValueError(f"Hand({self.side}).{name}{list(index)} = {value[index]}: infinite")
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        known = np.isfinite(self.joints).all(axis=-1)
+        bone_known = known[:, :-1] & known[:, 1:]
+        bad = bone_known & np.isfinite(self.widths) & (self.widths <= 0) & (self.bone_lengths >= MIN_PHALANX_LENGTH)
+        if bad.any():
+            d, b = (int(i) for i in np.argwhere(bad)[0])
+            raise ValueError(
+                f"Hand({self.side}).widths[{d}, {b}] ({DIGITS[d]} {BONES[b]}) = {self.widths[d, b]}: "
+                "a tracked bone must have a positive width")
+
+    @property
+    def bone_lengths(self) -> np.ndarray:
+        """(5, 4) bone lengths; NaN where an end is unknown."""
+        return np.linalg.norm(self.joints[:, 1:] - self.joints[:, :-1], axis=-1)
+
+    @property
+    def bone_centres(self) -> np.ndarray:
+        """(5, 4, 3) bone centroids: the phalanx sphere centres."""
+        return 0.5 * (self.joints[:, 1:] + self.joints[:, :-1])
+
+    @property
+    def phalanx_mask(self) -> np.ndarray:
+        """(5, 4) True where the bone is a contact sphere: known ends and width, non-zero length."""
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(self.bone_lengths) & (self.bone_lengths >= MIN_PHALANX_LENGTH) & (self.widths > 0)
+
+    def moved(self, offset: np.ndarray) -> Hand:
+        """The same hand translated by ``offset`` (m)."""
+        offset = np.asarray(offset, dtype=np.float64)
+        return Hand(self.side, self.joints + offset, self.widths, self.palm_position + offset,
+                    self.palm_orientation, self.track_id)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Hand):
+            return NotImplemented
+        return (self.side == other.side and self.track_id == other.track_id
+                and all(_arrays_equal(getattr(self, n), getattr(other, n))
+                        for n in ("joints", "widths", "palm_position", "palm_orientation")))
+
+    __hash__ = None
+
+
+@dataclass(frozen=True, eq=False)
+class HandFrame:
+    """What a hand source delivers at one instant: a timestamp (s) and the hands it saw."""
+
+    timestamp: float
+    hands: tuple[Hand, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.timestamp):
+            raise ValueError(f"HandFrame.timestamp = {self.timestamp}: must be finite")
+        object.__setattr__(self, "timestamp", float(self.timestamp))
+        object.__setattr__(self, "hands", tuple(self.hands))
+        sides = [h.side for h in self.hands]
+        if len(set(sides)) != len(sides):
+            raise ValueError(f"HandFrame at t={self.timestamp}: two {sides[0]} hands in one frame")
+
+    def hand(self, side: str) -> Hand | None:
+        """The hand on ``side``, or None when it is not tracked in this frame."""
+        return next((h for h in self.hands if h.side == side), None)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, HandFrame):
+            return NotImplemented
+        return self.timestamp == other.timestamp and self.hands == other.hands
+
+    __hash__ = None

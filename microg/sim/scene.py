@@ -1,0 +1,202 @@
+"""A scene: the objects, where they start, and exactly which physical effects act on them.
+
+The step is assembled from the effects a scene names and nothing else (see ``world.pipeline``).
+An interaction model is a named set of contact effects; the three models the toolkit compares:
+
+- ``impulse_penetration``: the paper's model, the impulse phase at contact onset (Eqs. 9-15) plus
+  the penetration phase with friction (Eqs. 16-20).
+- ``penetration_only``: the prior method the paper improves on, spring forces from god-object
+  proxies with friction and no impulse at contact onset.
+- ``soft_hand``: a compliant soft-hand coupling (penalty spring and damper with regularised
+  Coulomb friction, no god-object anchors, no impulses). It stands in for the paper's
+  comparison system; it is not that system.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .bodies import ObjectSpec, SceneError, load_object
+
+EFFECTS: dict[str, str] = {
+    "gravity": "uniform gravity on every object (the scene's gravity vector)",
+    "impulse": "one impulse at the onset of each colliding contact (Eqs. 9-15)",
+    "penetration": "spring force between god-object proxy and tracked phalanx (Eqs. 16-18)",
+    "friction": "Coulomb cone with static mu and dynamic phi on contact forces (Eqs. 19-20)",
+    "soft_hand": "compliant penalty coupling of a soft hand (comparison baseline)",
+    "gyroscopic": "torque-free rotation obeys Euler's equations (angular momentum conserved)",
+    "tracking_filter": "moving-average window filter on the tracked hand (Eq. 1)",
+    "continuous_collision": "swept-sphere onset test: fast phalanges cannot pass thin objects",
+}
+
+INTERACTION_MODELS: dict[str, frozenset[str]] = {
+    "impulse_penetration": frozenset({"impulse", "penetration", "friction"}),
+    "penetration_only": frozenset({"penetration", "friction"}),
+    "soft_hand": frozenset({"soft_hand", "friction"}),
+}
+
+ENVIRONMENT_EFFECTS = frozenset({"gyroscopic", "tracking_filter", "continuous_collision"})
+"""What every study scene adds to its interaction model (plus gravity when it is not zero)."""
+
+ANGULAR_INTEGRATORS = ("midpoint", "semi_implicit_euler", "explicit_euler")
+"""``midpoint`` conserves angular momentum and kinetic energy exactly; the Euler variants are
+kept for the accuracy benchmarks."""
+
+
+@dataclass(frozen=True)
+class SoftHandParameters:
+    """The compliant baseline's contact: normal spring and damper, regularised Coulomb friction."""
+
+    stiffness: float = 200.0
+    """N/m per contact, along the normal."""
+    damping: float = 2.0
+    """N s/m per contact, along the normal."""
+    slip_velocity: float = 0.005
+    """m/s: below this sliding speed friction is viscous, mu * f_n * v / slip_velocity."""
+
+
+@dataclass(frozen=True)
+class PlacedObject:
+    """An object and its initial state in the world frame (m, m/s, rad/s)."""
+
+    spec: ObjectSpec
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    angular_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Everything the physics needs to know before the first frame."""
+
+    objects: tuple[PlacedObject, ...]
+    effects: frozenset[str]
+    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tracking_rate: float = 110.0
+    """Nominal hand-frame rate (Hz); the Leap Motion delivers about 110."""
+    substeps: int = 4
+    """Physics steps per nominal tracking frame; dt = 1 / (tracking_rate * substeps)."""
+    penetration_stiffness: float = 100.0
+    """gamma in Eq. 16 (N/m); the paper's value."""
+    filter_window: int = 3
+    """F in Eq. 1; the paper found 3 best."""
+    angular_integrator: str = "midpoint"
+    resting_tolerance: float = 1e-3
+    """|v| below this (m/s) classifies a contact as resting (Eq. 8)."""
+    jump_distance: float = 0.10
+    """A hand that moves this far (m) between two frames starts a new track (no velocity)."""
+    soft_hand: SoftHandParameters = field(default_factory=SoftHandParameters)
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / (self.tracking_rate * self.substeps)
+
+    def validate(self, where: str = "scene") -> None:
+        unknown = sorted(set(self.effects) - set(EFFECTS))
+        if unknown:
+            raise SceneError(f"{where}: effects contains unknown effect {unknown[0]!r} (known: {sorted(EFFECTS)})")
+        if "friction" in self.effects and not self.effects & {"penetration", "soft_hand"}:
+            raise SceneError(f"{where}: effects names 'friction' without a contact force ('penetration' or 'soft_hand')")
+        if {"penetration", "soft_hand"} <= self.effects:
+            raise SceneError(f"{where}: effects names both 'penetration' and 'soft_hand'; a scene has one hand model")
+        gravity = np.asarray(self.gravity, dtype=float)
+        if gravity.shape != (3,) or not np.isfinite(gravity).all():
+            raise SceneError(f"{where}: gravity = {list(self.gravity)}: must be three finite numbers (m/s^2)")
+        if gravity.any() and "gravity" not in self.effects:
+            raise SceneError(f"{where}: gravity = {list(self.gravity)} but effects does not name 'gravity'")
+        for name in ("tracking_rate", "penetration_stiffness", "resting_tolerance", "jump_distance"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")
+        for name in ("substeps", "filter_window"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise SceneError(f"{where}: {name} = {value!r}: must be a positive integer")
+        if self.angular_integrator not in ANGULAR_INTEGRATORS:
+            raise SceneError(f"{where}: angular_integrator = {self.angular_integrator!r}: "
+                             f"must be one of {ANGULAR_INTEGRATORS}")
+        for name in ("stiffness", "damping", "slip_velocity"):
+            value = getattr(self.soft_hand, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+                raise SceneError(f"{where}: soft_hand.{name} = {value!r}: must be a positive number")
+        if not self.objects:
+            raise SceneError(f"{where}: objects is empty; a scene needs at least one object")
+        for i, placed in enumerate(self.objects):
+            label = f"{where}: objects[{i}] ({placed.spec.name})"
+            placed.spec.validate(label)
+            for name, length in (("position", 3), ("orientation", 4), ("velocity", 3), ("angular_velocity", 3)):
+                value = np.asarray(getattr(placed, name), dtype=float)
+                if value.shape != (length,) or not np.isfinite(value).all():
+                    raise SceneError(f"{label}.{name} = {list(getattr(placed, name))}: "
+                                     f"must be {length} finite numbers")
+            norm = float(np.linalg.norm(placed.orientation))
+            if abs(norm - 1.0) > 1e-6:
+                raise SceneError(f"{label}.orientation = {list(placed.orientation)}: "
+                                 f"not a unit quaternion (norm {norm:.6g})")
+
+
+def compose_scene(objects: list[PlacedObject] | tuple[PlacedObject, ...], interaction: str = "impulse_penetration",
+                  gravity=(0.0, 0.0, 0.0), effects=ENVIRONMENT_EFFECTS, **options) -> Scene:
+    """A scene running ``interaction`` plus ``effects``, with gravity named when it is not zero."""
+    if interaction not in INTERACTION_MODELS:
+        raise SceneError(f"interaction = {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
+    named = set(INTERACTION_MODELS[interaction]) | set(effects)
+    if any(gravity):
+        named.add("gravity")
+    return Scene(objects=tuple(objects), effects=frozenset(named),
+                 gravity=tuple(float(g) for g in gravity), **options)
+
+
+def with_interaction(scene: Scene, interaction: str) -> Scene:
+    """The same scene with its contact model swapped for another interaction model."""
+    if interaction not in INTERACTION_MODELS:
+        raise SceneError(f"interaction = {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
+    contact_effects = frozenset().union(*INTERACTION_MODELS.values())
+    return replace(scene, effects=(scene.effects - contact_effects) | INTERACTION_MODELS[interaction])
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read a scene file (TOML); object files are resolved relative to it."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (OSError, tomllib.TOMLDecodeError) as error:
+        raise SceneError(f"{path}: cannot read scene file: {error}") from None
+    where = str(path)
+    objects = []
+    for i, entry in enumerate(data.pop("objects", [])):
+        if "file" not in entry:
+            raise SceneError(f"{where}: objects[{i}] has no 'file'")
+        spec = load_object(path.parent / entry.pop("file"))
+        if "orientation_deg" in entry:
+            from .rotation import quat_from_euler_deg
+            entry["orientation"] = tuple(quat_from_euler_deg(*entry.pop("orientation_deg")))
+        unknown = set(entry) - {"position", "orientation", "velocity", "angular_velocity"}
+        if unknown:
+            raise SceneError(f"{where}: objects[{i}] has unknown field {sorted(unknown)[0]!r}")
+        objects.append(PlacedObject(spec, **{k: tuple(v) for k, v in entry.items()}))
+    interaction = data.pop("interaction", None)
+    effects = set(data.pop("effects", []))
+    if interaction is not None:
+        if interaction not in INTERACTION_MODELS:
+            raise SceneError(f"{where}: interaction = {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
+        effects |= INTERACTION_MODELS[interaction]
+    if "soft_hand" in data and isinstance(data["soft_hand"], dict):
+        data["soft_hand"] = SoftHandParameters(**data["soft_hand"])
+    renamed = {"tracking_rate_hz": "tracking_rate", "gravity": "gravity"}
+    options = {renamed.get(k, k): v for k, v in data.items()}
+    known = {f for f in Scene.__dataclass_fields__} - {"objects", "effects"}
+    unknown = set(options) - known
+    if unknown:
+        raise SceneError(f"{where}: unknown field {sorted(unknown)[0]!r}")
+    if "gravity" in options:
+        options["gravity"] = tuple(options["gravity"])
+    scene = Scene(objects=tuple(objects), effects=frozenset(effects), **options)
+    scene.validate(where)
+    return scene

@@ -1,0 +1,32 @@
+"""Point forces on a rigid body as a generalised force (force, torque), with the stiffness and
+damping that the linearly implicit velocity update (``integrate.integrate_velocity``) needs.
+
+A body point at offset r moves with J u, u = (v, omega), J = [I | -[r]x] (Eq. 7). A contact that
+pushes the body with f(u') = f0 + D (c_hand_dot - J u') - h K J u' over the next step contributes
+J^T (f0 + D c_hand_dot) to the generalised force, J^T D J to the damping and J^T K J to the
+stiffness.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .rotation import cross, skew
+
+
+@njit(cache=True)
+def add_point_force(wrench, r, force):
+    """Accumulate a force applied at offset r: the force and its torque r x f."""
+    wrench[:3] += force
+    wrench[3:] += cross(r, force)
+
+
+@njit(cache=True)
+def add_point_matrix(matrix, r, local):
+    """Accumulate J^T local J for a 3x3 stiffness or damping acting at offset r."""
+    s = skew(r)
+    matrix[:3, :3] += local
+    matrix[:3, 3:] -= local @ s
+    matrix[3:, :3] += s @ local
+    matrix[3:, 3:] -= s @ local @ s

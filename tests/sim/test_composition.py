@@ -1,0 +1,130 @@
+"""Scenes compose only the effects they name; bad scenes and frames are refused with clear errors."""
+
+import numpy as np
+import pytest
+
+from microg.sim import (INTERACTION_MODELS, Hand, HandFrame, Material, ObjectSpec, PlacedObject, Scene, SceneError,
+                        compose_scene, load_object, load_scene, make_world, step)
+from microg.sim import world as world_module
+from microg.sim.world import substep_stages
+from tests.physics import drive, placed, world_of
+
+
+@pytest.fixture
+def counted(monkeypatch):
+    """Replace every stage by a counting wrapper; returns the call counts by stage name."""
+    calls = {name: 0 for name in world_module.STAGES}
+    for name, stage in list(world_module.STAGES.items()):
+        def wrapper(*args, _stage=stage, _name=name):
+            calls[_name] += 1
+            return _stage(*args)
+        monkeypatch.setitem(world_module.STAGES, name, wrapper)
+    return calls
+
+
+def pinch_path(t):
+    x = 0.03 + 0.008 + 0.005 - min(t, 0.3) / 0.3 * 0.009
+    return {"thumb.distal": (-x, 0.2, 0.0), "index.distal": (x, 0.2, 0.0)}
+
+
+def test_stages_not_named_never_run(counted):
+    world = world_of([placed("cube")], effects={"penetration"})
+    world = drive(world, pinch_path, t_end=0.5)
+    assert world.data.active.any()
+    for absent in ("gravity", "friction", "impulse", "soft_hand", "continuous_collision", "tracking_filter", "gyroscopic"):
+        assert counted[absent] == 0, absent
+    assert counted["penetration"] == counted["integrate_velocity"] == world.data.steps > 0
+
+
+def test_named_stages_run_once_per_step(counted):
+    world = world_of([placed("cube")], interaction="impulse_penetration", gravity=(0.0, -9.81, 0.0))
+    world = drive(world, pinch_path, t_end=0.5)
+    steps = world.data.steps
+    for present in ("gravity", "friction", "impulse", "penetration", "continuous_collision", "gyroscopic"):
+        assert counted[present] == steps, present
+    assert counted["tracking_filter"] == world.data.frames
+
+
+def test_interaction_models_are_the_documented_compositions():
+    assert INTERACTION_MODELS["impulse_penetration"] == {"impulse", "penetration", "friction"}
+    assert INTERACTION_MODELS["penetration_only"] == {"penetration", "friction"}
+    assert INTERACTION_MODELS["soft_hand"] == {"soft_hand", "friction"}
+    stages = substep_stages(compose_scene([placed("cube")], "soft_hand").effects)
+    assert "soft_hand" in stages and "impulse" not in stages and "penetration" not in stages
+
+
+def good_scene(**changes):
+    spec = changes.pop("spec", ObjectSpec("cube", "box", (0.06, 0.06, 0.06), 0.15))
+    placement = {"position": (0.0, 0.2, 0.0), **changes.pop("placement", {})}
+    return Scene(objects=(PlacedObject(spec, **placement),), effects=frozenset(changes.pop("effects", {"penetration"})),
+                 **changes)
+
+
+@pytest.mark.parametrize("scene, message", [
+    (good_scene(placement={"position": (np.nan, 0.2, 0.0)}), "objects[0] (cube).position = [nan, 0.2, 0.0]"),
+    (good_scene(placement={"orientation": (0.0, 0.0, 0.0, 0.0)}), "orientation = [0.0, 0.0, 0.0, 0.0]"),
+    (good_scene(spec=ObjectSpec("cube", "box", (0.06, 0.06, 0.06), -1.0)), "mass = -1.0"),
+    (good_scene(spec=ObjectSpec("cube", "box", (0.06, 0.0, 0.06), 0.15)), "size.y = 0.0"),
+    (good_scene(spec=ObjectSpec("rod", "box", (0.06, 0.06, 0.06), 0.15, inertia=(1e-4, 1e-4, 5e-4))),
+     "inertia = [0.0001, 0.0001, 0.0005]"),
+    (good_scene(effects={"penetration", "antigravity"}), "unknown effect 'antigravity'"),
+    (good_scene(effects={"friction"}), "'friction' without a contact force"),
+    (good_scene(gravity=(0.0, -9.81, 0.0)), "does not name 'gravity'"),
+    (good_scene(spec=ObjectSpec("cube", "box", (0.06, 0.06, 0.06), 0.15, Material(1.2, 0.8, 0.5))),
+     "restitution = 1.2"),
+    (good_scene(spec=ObjectSpec("cube", "box", (0.06, 0.06, 0.06), 0.15, Material(0.4, 0.5, 0.8))),
+     "dynamic_friction = 0.8"),
+    (good_scene(substeps=0), "substeps = 0"),
+])
+def test_bad_scenes_name_the_field_and_value(scene, message):
+    with pytest.raises(SceneError) as error:
+        make_world(scene)
+    assert message in str(error.value)
+
+
+def test_bad_object_file_names_file_field_and_value(tmp_path):
+    path = tmp_path / "cube.toml"
+    path.write_text('name = "cube"\nshape = "box"\nsize = [0.06, 0.06, 0.06]\nmass = 0\n')
+    with pytest.raises(SceneError, match=rf"{path}: mass = 0: must be a positive number"):
+        load_object(path)
+    path.write_text('name = "cube"\nshape = "cone"\nsize = [0.06, 0.06, 0.06]\nmass = 1\n')
+    with pytest.raises(SceneError, match=r"cube.toml: shape = 'cone'"):
+        load_object(path)
+
+
+def test_scene_file_loads_objects_and_effects(tmp_path):
+    from microg.paths import OBJECTS
+    path = tmp_path / "scene.toml"
+    path.write_text(f'interaction = "penetration_only"\neffects = ["gyroscopic"]\ngravity = [0, -9.81, 0]\n'
+                    f'substeps = 2\n[[objects]]\nfile = "{OBJECTS / "cube.toml"}"\nposition = [0, 0.2, 0]\n')
+    with pytest.raises(SceneError, match="does not name 'gravity'"):
+        load_scene(path)
+    path.write_text(path.read_text().replace('["gyroscopic"]', '["gyroscopic", "gravity"]'))
+    scene = load_scene(path)
+    assert scene.effects == {"penetration", "friction", "gyroscopic", "gravity"}
+    assert scene.objects[0].spec.name == "cube" and scene.substeps == 2
+
+
+def test_zero_width_bone_is_refused_with_its_name():
+    joints = np.full((5, 5, 3), np.nan)
+    joints[1, 3], joints[1, 4] = (0.0, 0.2, 0.0), (0.0, 0.22, 0.0)
+    widths = np.full((5, 4), np.nan)
+    widths[1, 3] = 0.0
+    with pytest.raises(ValueError, match=r"Hand\(right\).widths\[1, 3\] \(index distal\) = 0.0"):
+        Hand("right", joints, widths, np.zeros(3))
+
+
+def test_frames_out_of_order_are_refused_by_the_physics():
+    world = world_of([placed("cube")])
+    world = step(world, HandFrame(1.0))
+    with pytest.raises(SceneError, match="timestamp 1.0 is not after"):
+        step(world, HandFrame(1.0))
+
+
+def test_step_leaves_its_input_untouched():
+    world = world_of([placed("cube", velocity=(0.1, 0.0, 0.0))])
+    world = step(world, HandFrame(0.0))
+    before = world.data.position.copy()
+    later = step(world, HandFrame(0.5))
+    assert np.array_equal(world.data.position, before)
+    assert later.data.position[0, 0] == pytest.approx(0.05)
