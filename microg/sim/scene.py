@@ -32,6 +32,7 @@ EFFECTS: dict[str, str] = {
     "gyroscopic": "torque-free rotation obeys Euler's equations (angular momentum conserved)",
     "tracking_filter": "moving-average window filter on the tracked hand (Eq. 1)",
     "continuous_collision": "swept-sphere onset test: fast phalanges cannot pass thin objects",
+    "table": "a static horizontal table the objects rest on (the scene's table settings)",
 }
 
 INTERACTION_MODELS: dict[str, frozenset[str]] = {
@@ -58,6 +59,20 @@ class SoftHandParameters:
     """N s/m per contact, along the normal."""
     slip_velocity: float = 0.005
     """m/s: below this sliding speed friction is viscous, mu * f_n * v / slip_velocity."""
+
+
+@dataclass(frozen=True)
+class TableParameters:
+    """The static table (only with the ``table`` effect): its height and its compliant contact."""
+
+    height: float = 0.0
+    """y of the table top (m) in the world (tracker) frame."""
+    stiffness: float = 2000.0
+    """N/m per object corner: a 150 g cube resting on four corners sinks 0.2 mm."""
+    damping: float = 10.0
+    """N s/m per corner: about critical for the shipped objects."""
+    slip_velocity: float = 0.001
+    """m/s: friction is viscous below this sliding speed, Coulomb above."""
 
 
 @dataclass(frozen=True)
@@ -92,6 +107,7 @@ class Scene:
     jump_distance: float = 0.10
     """A hand that moves this far (m) between two frames starts a new track (no velocity)."""
     soft_hand: SoftHandParameters = field(default_factory=SoftHandParameters)
+    table: TableParameters | None = None
 
     @property
     def dt(self) -> float:
@@ -125,6 +141,15 @@ class Scene:
             value = getattr(self.soft_hand, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise SceneError(f"{where}: soft_hand.{name} = {value!r}: must be a positive number")
+        if ("table" in self.effects) != (self.table is not None):
+            raise SceneError(f"{where}: effects {'names' if 'table' in self.effects else 'does not name'} 'table' "
+                             f"but table = {self.table!r}; give both or neither")
+        if self.table is not None:
+            for name in ("height", "stiffness", "damping", "slip_velocity"):
+                value = getattr(self.table, name)
+                if not isinstance(value, (int, float)) or not math.isfinite(value) or (name != "height" and value <= 0):
+                    raise SceneError(f"{where}: table.{name} = {value!r}: must be a "
+                                     f"{'finite' if name == 'height' else 'positive'} number")
         if not self.objects:
             raise SceneError(f"{where}: objects is empty; a scene needs at least one object")
         for i, placed in enumerate(self.objects):
@@ -143,12 +168,15 @@ class Scene:
 
 def compose_scene(objects: list[PlacedObject] | tuple[PlacedObject, ...], interaction: str = "impulse_penetration",
                   gravity=(0.0, 0.0, 0.0), effects=ENVIRONMENT_EFFECTS, **options) -> Scene:
-    """A scene running ``interaction`` plus ``effects``, with gravity named when it is not zero."""
+    """A scene running ``interaction`` plus ``effects``, with gravity named when it is not zero and
+    the table when ``table`` (TableParameters) is given."""
     if interaction not in INTERACTION_MODELS:
         raise SceneError(f"interaction = {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
     named = set(INTERACTION_MODELS[interaction]) | set(effects)
     if any(gravity):
         named.add("gravity")
+    if options.get("table") is not None:
+        named.add("table")
     return Scene(objects=tuple(objects), effects=frozenset(named),
                  gravity=tuple(float(g) for g in gravity), **options)
 
@@ -189,6 +217,8 @@ def load_scene(path: str | Path) -> Scene:
         effects |= INTERACTION_MODELS[interaction]
     if "soft_hand" in data and isinstance(data["soft_hand"], dict):
         data["soft_hand"] = SoftHandParameters(**data["soft_hand"])
+    if "table" in data and isinstance(data["table"], dict):
+        data["table"] = TableParameters(**data["table"])
     renamed = {"tracking_rate_hz": "tracking_rate", "gravity": "gravity"}
     options = {renamed.get(k, k): v for k, v in data.items()}
     known = {f for f in Scene.__dataclass_fields__} - {"objects", "effects"}

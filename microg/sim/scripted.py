@@ -41,3 +41,34 @@ def probe_hand(phalanges: Mapping[str, Sequence[float]], side: str = "right", wi
 def probe_frames(path, times: Sequence[float], side: str = "right", width: float = 0.016) -> list[HandFrame]:
     """Frames at ``times`` of a probe hand whose phalanges follow ``path(t) -> {name: position}``."""
     return [HandFrame(t, (probe_hand(path(t), side, width),)) for t in times]
+
+
+def minimum_jerk(s: float) -> float:
+    """The minimum-jerk profile from 0 to 1 over normalised time s in [0, 1]."""
+    s = min(max(s, 0.0), 1.0)
+    return s ** 3 * (10 - 15 * s + 6 * s * s)
+
+
+def pinch_and_carry(centre: Sequence[float], half_width: float, carry: Sequence[float], depth: float = 0.005,
+                    approach: float = 0.5, close: float = 0.5, hold: float = 0.3, move: float = 1.5,
+                    width: float = 0.016):
+    """A thumb and an index fingertip that close on an object's -x and +x faces, squeeze ``depth``
+    into them, carry it by ``carry`` (minimum jerk), and open again. Returns ``path(t)`` and the
+    time at which the hand has let go."""
+    centre, carry = np.asarray(centre, dtype=float), np.asarray(carry, dtype=float)
+    radius = width / 2
+    open_x, closed_x = half_width + radius + 0.03, half_width + radius - depth
+    t_closed = approach + close
+    t_moved = t_closed + hold + move
+    t_released = t_moved + hold + close
+
+    def path(t: float) -> dict[str, np.ndarray]:
+        lift = 0.05 * (1.0 - minimum_jerk(t / approach))
+        if t < t_moved:
+            x = open_x + (closed_x - open_x) * minimum_jerk((t - approach) / close)
+        else:
+            x = closed_x + (open_x - closed_x) * minimum_jerk((t - t_moved - hold) / close)
+        offset = centre + carry * minimum_jerk((t - t_closed - hold) / move) + (0.0, lift, 0.0)
+        return {"thumb.distal": offset + (-x, 0.0, 0.0), "index.distal": offset + (x, 0.0, 0.0)}
+
+    return path, t_released

@@ -28,6 +28,7 @@ from .integrate import (EXPLICIT_EULER, MIDPOINT, SEMI_IMPLICIT_EULER, apply_gra
 from .penetration import friction_cone, penetration_forces
 from .scene import Scene
 from .soft_hand import soft_hand_forces
+from .table import table_contacts
 
 CONTACT_EFFECTS = frozenset({"impulse", "penetration", "soft_hand"})
 _METHODS = {"midpoint": MIDPOINT, "semi_implicit_euler": SEMI_IMPLICIT_EULER, "explicit_euler": EXPLICIT_EULER}
@@ -163,6 +164,7 @@ STAGES: dict[str, Callable] = {
     "penetration": penetration_forces,
     "soft_hand": soft_hand_forces,
     "gravity": apply_gravity,
+    "table": table_contacts,
     "integrate_velocity": integrate_velocity,
     "integrate_position": integrate_position,
     "gyroscopic": rotate_free,
@@ -182,7 +184,7 @@ def substep_stages(effects: frozenset[str]) -> tuple[str, ...]:
         names.append("impulse")
     if {"penetration", "friction"} <= effects:
         names.append("friction")
-    names += [e for e in ("penetration", "soft_hand", "gravity") if e in effects]
+    names += [e for e in ("penetration", "soft_hand", "gravity", "table") if e in effects]
     names += ["integrate_velocity", "integrate_position"]
     names.append("gyroscopic" if "gyroscopic" in effects else "rotate_without_gyroscopic")
     return tuple(names)
