@@ -9,7 +9,9 @@ and w the relative velocity of the other body's surface with respect to the obje
 
 and the object receives -f_n n + f_t at the contact point. The friction acts as a damper whose
 coefficient gives the Coulomb force at the current sliding speed, and the velocity update treats
-it implicitly: friction can stop a sliding object but never reverse it, at any step size.
+it implicitly: friction can stop a sliding object but never reverse it, at any step size. A
+contact predicted to release within the step (depth < h times the separating speed) acts with its
+mean spring force until then and nothing else, so it never pulls.
 """
 
 from __future__ import annotations
@@ -23,21 +25,24 @@ from .wrench import add_point_force, add_point_matrix
 
 @njit(cache=True)
 def add_compliant_contact(wrench, stiffness, damping, r, n, depth, other_velocity, velocity, angular_velocity,
-                          spring, damper, friction, slip_velocity):
+                          spring, damper, friction, slip_velocity, h):
     """Accumulate one compliant contact at offset r; returns True when it slides."""
     relative = other_velocity - (cross(angular_velocity, r) + velocity)
     w_n = relative @ n
     press = spring * depth - damper * w_n
     if press <= 0.0:
         return False
-    normal_part = np.outer(n, n)
     on_object = -spring * depth * n
+    if depth <= h * w_n:
+        add_point_force(wrench, r, depth / (2.0 * h * w_n) * on_object)
+        return False
+    normal_part = np.outer(n, n)
     local_damping = damper * normal_part
     w_t = relative - w_n * n
     speed = np.sqrt(w_t @ w_t)
     if friction > 0.0:
         local_damping += friction * press / max(speed, slip_velocity) * (np.eye(3) - normal_part)
-    add_point_force(wrench, r, on_object + local_damping @ other_velocity)
+    add_point_force(wrench, r, on_object + (local_damping + h * spring * normal_part) @ other_velocity)
     add_point_matrix(stiffness, r, spring * normal_part)
     add_point_matrix(damping, r, local_damping)
     return speed > slip_velocity

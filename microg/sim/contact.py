@@ -115,7 +115,6 @@ def _detect(shape, half_size, position, orientation, velocity, angular_velocity,
     for o in range(n_objects):
         rot = quat_to_matrix(orientation[o])
         for k in range(n_slots):
-            onset[k, o] = False
             if not valid[k]:
                 active[k, o] = False
                 ghost[k, o] = False
@@ -239,8 +238,10 @@ def _sweep(shape, half_size, position, orientation, velocity, angular_velocity,
 
 
 def sweep_contacts(model, data, h: float) -> None:
-    """Continuous collision: a phalanx whose path this step crossed an object's surface without
-    ending inside it (a fast slap through a thin plate) gets its contact at the entry point."""
+    """Continuous collision: a phalanx whose path this step entered an object from outside gets its
+    contact where the path entered, on the face it crossed, whether the step ended inside the object
+    or beyond it. Runs before ``detect_contacts``: for a thin plate hit fast, the closest face to
+    the step's end point is the far face, which would let the finger through."""
     _sweep(model.shape, model.half_size, data.position, data.orientation, data.velocity,
            data.angular_velocity, data.hand_previous, data.hand_position, data.hand_velocity,
            data.radius, data.valid, data.fresh, data.active, data.ghost, data.onset, data.anchor,

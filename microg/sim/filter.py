@@ -1,12 +1,19 @@
-"""The window filter on the tracked hand (paper, Eq. 1).
+"""The window filter on the tracked hand (paper, Eq. 1), defined on the frames that arrived.
 
     x_i = (1/F) sum_{f=0}^{F-1} x_{i-f}
 
 The paper's sum runs to F with a 1/F in front; we average exactly F samples, which is what a
-window of size F means. The window holds the last F frames that *arrived*: a missing frame is
-not invented, so after a gap the average spans a longer time. A new track (first frame, a hand
-that was lost, a jump) empties the window, so the average never mixes two tracks. Its lag for a
-steady motion is the mean age of the samples, (F - 1) / 2 frame periods.
+window of size F means. For evenly spaced frames the average lags the hand by (F - 1) / 2 frame
+periods. The tracker's frames are not evenly spaced, and some are missing: averaged as they
+arrive, the last F frames after a gap would race ahead of the hand, at (g + F) / F times its speed
+for F - 1 frames after g missing frames, and the physics would take that for velocity.
+
+So the filter is Eq. 1 written for uneven arrivals: the least-squares line through the last F
+arrived samples, read at the constant lag (F - 1) / 2 nominal periods behind the newest sample.
+On evenly spaced frames at the nominal rate that is exactly the plain average (a least-squares
+line passes through the mean of its samples, at their mean time); after a gap the lag stays the
+same and no frame is invented. A new track (first frame, a hand found again, a jump) empties the
+window, so the filter never mixes two tracks.
 """
 
 from __future__ import annotations
@@ -18,42 +25,52 @@ import numpy as np
 
 @dataclass(frozen=True, eq=False)
 class WindowFilter:
-    """The last ``count`` arrived samples of an array of any shape, in a ring of ``window``."""
+    """The last ``count`` arrived samples (arrays of any shape) and their times, in a ring."""
 
     window: int
+    period: float
+    """Nominal frame period (s): the lag is (window - 1) / 2 of it."""
     samples: np.ndarray
+    times: np.ndarray
     count: int = 0
     newest: int = -1
 
     @classmethod
-    def empty(cls, window: int, shape: tuple[int, ...]) -> WindowFilter:
-        return cls(window, np.zeros((window, *shape)))
+    def empty(cls, window: int, period: float, shape: tuple[int, ...]) -> WindowFilter:
+        return cls(window, period, np.zeros((window, *shape)), np.zeros(window))
 
-    def push(self, sample: np.ndarray) -> WindowFilter:
-        """The filter after ``sample`` arrived."""
-        samples = self.samples.copy()
+    def push(self, sample: np.ndarray, time: float) -> WindowFilter:
+        """The filter after ``sample`` arrived at ``time``."""
         newest = (self.newest + 1) % self.window
-        samples[newest] = sample
-        return WindowFilter(self.window, samples, min(self.count + 1, self.window), newest)
+        samples, times = self.samples.copy(), self.times.copy()
+        samples[newest], times[newest] = sample, time
+        return WindowFilter(self.window, self.period, samples, times, min(self.count + 1, self.window), newest)
 
     def reset(self) -> WindowFilter:
-        return WindowFilter(self.window, self.samples)
+        return WindowFilter(self.window, self.period, self.samples, self.times)
 
     @property
     def value(self) -> np.ndarray:
-        """The mean of the samples in the window (Eq. 1)."""
-        if self.count == self.window:
-            return self.samples.mean(axis=0)
-        return self.samples[(self.newest - np.arange(self.count)) % self.window].mean(axis=0)
+        """Eq. 1: the window's least-squares line at (count - 1) / 2 periods before the newest sample."""
+        index = (self.newest - np.arange(self.count)) % self.window
+        samples, times = self.samples[index], self.times[index]
+        mean = samples.mean(axis=0)
+        if self.count == 1:
+            return mean
+        spread = times - times.mean()
+        slope = np.tensordot(spread, samples - mean, axes=1) / (spread @ spread)
+        target = times[0] - 0.5 * (self.count - 1) * self.period
+        return mean + slope * (target - times.mean())
 
 
-def filter_series(values: np.ndarray, window: int, new_track: np.ndarray | None = None) -> np.ndarray:
-    """Eq. 1 over a series of arrived samples (axis 0); ``new_track`` marks samples that restart it."""
-    state = WindowFilter.empty(window, values.shape[1:])
-    out = np.empty_like(values, dtype=np.float64)
+def filter_series(values: np.ndarray, times: np.ndarray, window: int, period: float,
+                  new_track: np.ndarray | None = None) -> np.ndarray:
+    """Eq. 1 over a series of arrived samples (axis 0) at ``times``; ``new_track`` restarts it."""
+    state = WindowFilter.empty(window, period, values.shape[1:])
+    out = np.empty(values.shape, dtype=np.float64)
     for i, sample in enumerate(values):
         if new_track is not None and new_track[i]:
             state = state.reset()
-        state = state.push(sample)
+        state = state.push(sample, times[i])
         out[i] = state.value
     return out

@@ -121,7 +121,7 @@ class Hand:
 
 @dataclass(frozen=True, eq=False)
 class HandFrame:
-    """What a hand source delivers at one instant: a timestamp (s) and the hands it saw."""
+    """What a hand source delivers at one instant: a timestamp (s) and the hands it saw (left first)."""
 
     timestamp: float
     hands: tuple[Hand, ...] = ()
@@ -130,7 +130,7 @@ class HandFrame:
         if not np.isfinite(self.timestamp):
             raise ValueError(f"HandFrame.timestamp = {self.timestamp}: must be finite")
         object.__setattr__(self, "timestamp", float(self.timestamp))
-        object.__setattr__(self, "hands", tuple(self.hands))
+        object.__setattr__(self, "hands", tuple(sorted(self.hands, key=lambda h: SIDES.index(h.side))))
         sides = [h.side for h in self.hands]
         if len(set(sides)) != len(sides):
             raise ValueError(f"HandFrame at t={self.timestamp}: two {sides[0]} hands in one frame")

@@ -7,6 +7,10 @@ centroid p moved by the radius against the normal, so a sphere that only touches
     f_n = (f . n) n,  f_t = f - f_n                    (Eqs. 17-18)
 
 f pulls the rendered hand out of the object; the object receives -f at c, as force and torque.
+The velocity update treats the spring implicitly on the *relative* motion of hand and object over
+the step (both move; see ``wrench``), and a spring only pushes: a contact predicted to release
+within the step (depth < h times its separating speed, Eq. 8) acts with its mean force until the
+release and adds no stiffness, so an object leaving a finger is never pulled back.
 
 Two stages. ``friction_cone`` (Eqs. 19-20) runs first: inside the cone, f . n > 0 and
 |f_t| <= mu (f . n), the contact sticks and the anchor stays; outside it the anchor slides along
@@ -23,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from .contact import project_to_surface
-from .rotation import quat_to_matrix
+from .rotation import cross, quat_to_matrix
 from .wrench import add_point_force, add_point_matrix
 
 
@@ -63,8 +67,8 @@ def friction_cone(model, data, h: float) -> None:
 
 
 @njit(cache=True)
-def _penetration(gamma, friction, shape, half_size, position, orientation, hand_position, radius,
-                 active, anchor, normal, depth, sliding, wrench, stiffness):
+def _penetration(gamma, friction, shape, half_size, position, orientation, velocity, angular_velocity,
+                 hand_position, hand_velocity, radius, active, anchor, normal, depth, sliding, wrench, stiffness, h):
     n_slots, n_objects = active.shape
     for o in range(n_objects):
         rot = quat_to_matrix(orientation[o])
@@ -80,16 +84,20 @@ def _penetration(gamma, friction, shape, half_size, position, orientation, hand_
                                                            anchor[k, o], normal[k, o])
             depth[k, o] = delta
             r = rot @ anchor[k, o]
-            add_point_force(wrench[o], r, -gamma * (rot @ offset))
-            if friction and not sliding[k, o]:
-                add_point_matrix(stiffness[o], r, gamma * np.eye(3))
-            else:
-                n_world = rot @ normal[k, o]
-                add_point_matrix(stiffness[o], r, gamma * np.outer(n_world, n_world))
+            n_world = rot @ normal[k, o]
+            on_object = -gamma * (rot @ offset)
+            separating = n_world @ (hand_velocity[k] - (cross(angular_velocity[o], r) + velocity[o]))
+            if delta <= h * separating:
+                add_point_force(wrench[o], r, delta / (2.0 * h * separating) * on_object)
+                continue
+            local = gamma * np.eye(3) if friction and not sliding[k, o] else gamma * np.outer(n_world, n_world)
+            add_point_force(wrench[o], r, on_object + h * (local @ hand_velocity[k]))
+            add_point_matrix(stiffness[o], r, local)
 
 
 def penetration_forces(model, data, h: float) -> None:
     """Eqs. 16-18: the spring force of every contact, applied to the object at its anchor."""
     _penetration(model.penetration_stiffness, "friction" in model.effects, model.shape, model.half_size,
-                 data.position, data.orientation, data.hand_position, data.radius, data.active, data.anchor,
-                 data.normal, data.depth, data.sliding, data.wrench, data.stiffness)
+                 data.position, data.orientation, data.velocity, data.angular_velocity, data.hand_position,
+                 data.hand_velocity, data.radius, data.active, data.anchor, data.normal, data.depth, data.sliding,
+                 data.wrench, data.stiffness, h)

@@ -16,7 +16,7 @@ from .rotation import quat_to_matrix
 
 @njit(cache=True)
 def _soft_hand(spring, damper, slip_velocity, friction, static_friction, position, orientation, velocity,
-               angular_velocity, hand_velocity, active, anchor, normal, depth, sliding, wrench, stiffness, damping):
+               angular_velocity, hand_velocity, active, anchor, normal, depth, sliding, wrench, stiffness, damping, h):
     n_slots, n_objects = active.shape
     for o in range(n_objects):
         rot = quat_to_matrix(orientation[o])
@@ -26,7 +26,7 @@ def _soft_hand(spring, damper, slip_velocity, friction, static_friction, positio
                 sliding[k, o] = add_compliant_contact(
                     wrench[o], stiffness[o], damping[o], rot @ anchor[k, o], rot @ normal[k, o], depth[k, o],
                     hand_velocity[k], velocity[o], angular_velocity[o], spring, damper,
-                    static_friction[o] if friction else 0.0, slip_velocity)
+                    static_friction[o] if friction else 0.0, slip_velocity, h)
 
 
 def soft_hand_forces(model, data, h: float) -> None:
@@ -35,4 +35,4 @@ def soft_hand_forces(model, data, h: float) -> None:
     _soft_hand(p.stiffness, p.damping, p.slip_velocity, "friction" in model.effects, model.static_friction,
                data.position, data.orientation, data.velocity, data.angular_velocity, data.hand_velocity,
                data.active, data.anchor, data.normal, data.depth, data.sliding, data.wrench,
-               data.stiffness, data.damping)
+               data.stiffness, data.damping, h)

@@ -21,7 +21,7 @@ CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0) for
 
 @njit(cache=True)
 def _table(height, spring, damper, slip_velocity, shape, half_size, static_friction, position, orientation,
-           velocity, angular_velocity, wrench, stiffness, damping, corners, down):
+           velocity, angular_velocity, wrench, stiffness, damping, corners, down, h):
     still = np.zeros(3)
     for o in range(position.shape[0]):
         rot = quat_to_matrix(orientation[o])
@@ -31,13 +31,13 @@ def _table(height, spring, damper, slip_velocity, shape, half_size, static_frict
                 depth = height - (position[o, 1] + r[1])
                 if depth > 0.0:
                     add_compliant_contact(wrench[o], stiffness[o], damping[o], r, down, depth, still, velocity[o],
-                                          angular_velocity[o], spring, damper, static_friction[o], slip_velocity)
+                                          angular_velocity[o], spring, damper, static_friction[o], slip_velocity, h)
         else:
             r = half_size[o, 0] * down
             depth = height - (position[o, 1] + r[1])
             if depth > 0.0:
                 add_compliant_contact(wrench[o], stiffness[o], damping[o], r, down, depth, still, velocity[o],
-                                      angular_velocity[o], spring, damper, static_friction[o], slip_velocity)
+                                      angular_velocity[o], spring, damper, static_friction[o], slip_velocity, h)
 
 
 def table_contacts(model, data, h: float) -> None:
@@ -45,4 +45,4 @@ def table_contacts(model, data, h: float) -> None:
     t = model.scene.table
     _table(t.height, t.stiffness, t.damping, t.slip_velocity, model.shape, model.half_size, model.static_friction,
            data.position, data.orientation, data.velocity, data.angular_velocity, data.wrench, data.stiffness,
-           data.damping, CORNERS, DOWN)
+           data.damping, CORNERS, DOWN, h)

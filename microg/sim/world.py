@@ -104,6 +104,7 @@ class Data:
     present: np.ndarray
     track_id: np.ndarray
     reference: np.ndarray
+    """(2, 26, 3) palm and joints of each side's last raw hand, for the jump test."""
     filters: tuple[WindowFilter, WindowFilter]
     # contacts (K, N, ...); anchors and normals in the object's body frame
     active: np.ndarray
@@ -140,14 +141,16 @@ def filter_hands(model: Model, data: Data, joints: list, new_track: np.ndarray) 
             filtered.append(None)
             continue
         window = filters[side].reset() if new_track[side] else filters[side]
-        filters[side] = window.push(sample)
+        filters[side] = window.push(sample, data.frame_time)
         filtered.append(filters[side].value)
     data.filters = tuple(filters)
     return filtered
 
 
 def move_hand(model: Model, data: Data, h: float) -> None:
-    """Place the phalanges for the end of this step, on the line from the last frame to this one."""
+    """Place the phalanges for the end of this step, on the line from the last frame to this one;
+    a new step starts with no contact onsets."""
+    data.onset[:] = False
     data.hand_previous[:] = data.hand_position
     interval = data.frame_time - data.previous_frame_time
     alpha = 1.0 if interval <= 0 else min(1.0, (data.time + h - data.previous_frame_time) / interval)
@@ -177,9 +180,9 @@ def substep_stages(effects: frozenset[str]) -> tuple[str, ...]:
     """The physics step's stages, in order, for a set of effects: nothing unnamed runs."""
     names = ["move_hand"]
     if effects & CONTACT_EFFECTS:
-        names.append("detect_contacts")
         if "continuous_collision" in effects:
             names.append("continuous_collision")
+        names.append("detect_contacts")
     if "impulse" in effects:
         names.append("impulse")
     if {"penetration", "friction"} <= effects:
@@ -229,8 +232,9 @@ def make_world(scene: Scene) -> World:
         hand_to=nan_slots.copy(), hand_velocity=np.zeros((SLOTS, 3)), radius=np.zeros(SLOTS),
         valid=np.zeros(SLOTS, dtype=bool), fresh=np.zeros(SLOTS, dtype=bool),
         joints=np.full((2, N_DIGITS, N_BONES + 1, 3), np.nan), present=np.zeros(2, dtype=bool),
-        track_id=np.zeros(2, dtype=np.int64), reference=np.full((2, 3), np.nan),
-        filters=tuple(WindowFilter.empty(scene.filter_window, (N_DIGITS, N_BONES + 1, 3)) for _ in SIDES),
+        track_id=np.zeros(2, dtype=np.int64), reference=np.full((2, 1 + N_DIGITS * (N_BONES + 1), 3), np.nan),
+        filters=tuple(WindowFilter.empty(scene.filter_window, 1.0 / scene.tracking_rate, (N_DIGITS, N_BONES + 1, 3))
+                      for _ in SIDES),
         active=np.zeros((SLOTS, n), dtype=bool), ghost=np.zeros((SLOTS, n), dtype=bool),
         onset=np.zeros((SLOTS, n), dtype=bool), sliding=np.zeros((SLOTS, n), dtype=bool),
         anchor=np.zeros((SLOTS, n, 3)), normal=np.zeros((SLOTS, n, 3)), depth=np.zeros((SLOTS, n)),
@@ -239,26 +243,27 @@ def make_world(scene: Scene) -> World:
     return World(model, data)
 
 
-def _hand_reference(hand) -> np.ndarray:
-    if np.isfinite(hand.palm_position).all():
-        return hand.palm_position
-    return np.nanmean(hand.joints.reshape(-1, 3), axis=0)
+def _hand_points(hand) -> np.ndarray:
+    """Palm and joints of a hand, the points a jump is measured on."""
+    return np.vstack([hand.palm_position, hand.joints.reshape(-1, 3)])
 
 
 def _track_changes(model: Model, data: Data, frame: HandFrame) -> np.ndarray:
-    """Which sides start a new track this frame: the hand (re)appeared, changed id, or jumped."""
+    """Which sides start a new track this frame: the hand (re)appeared, changed id, or some point
+    of it (palm or joint) moved ``jump_distance`` or more since the last frame."""
     new_track = np.zeros(2, dtype=bool)
     for side, name in enumerate(SIDES):
         hand = frame.hand(name)
         if hand is None:
             data.present[side] = False
             continue
-        reference = _hand_reference(hand)
-        jumped = np.linalg.norm(reference - data.reference[side]) >= model.scene.jump_distance
-        new_track[side] = not data.present[side] or hand.track_id != data.track_id[side] or bool(jumped)
+        points = _hand_points(hand)
+        moved = np.linalg.norm(points - data.reference[side], axis=1)
+        jumped = bool((moved[np.isfinite(moved)] >= model.scene.jump_distance).any())
+        new_track[side] = not data.present[side] or hand.track_id != data.track_id[side] or jumped
         data.present[side] = True
         data.track_id[side] = hand.track_id
-        data.reference[side] = reference
+        data.reference[side] = points
     return new_track
 
 

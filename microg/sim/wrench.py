@@ -1,9 +1,13 @@
 """Point forces on a rigid body as a generalised force (force, torque), with the stiffness and
 damping that the linearly implicit velocity update (``integrate.integrate_velocity``) needs.
 
-A body point at offset r moves with J u, u = (v, omega), J = [I | -[r]x] (Eq. 7). A contact that
-pushes the body with f(u') = f0 + D (c_hand_dot - J u') - h K J u' over the next step contributes
-J^T (f0 + D c_hand_dot) to the generalised force, J^T D J to the damping and J^T K J to the
+A body point at offset r moves with J u, u = (v, omega), J = [I | -[r]x] (Eq. 7). A contact with
+another body whose surface point moves at w pushes, at the end of the next step,
+
+    f(u') = f0 + (D + h K) (w - J u')
+
+(spring K and damper D acting on the relative motion of the two surfaces). It contributes
+J^T (f0 + (D + h K) w) to the generalised force, J^T D J to the damping and J^T K J to the
 stiffness.
 """
 

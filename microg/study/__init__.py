@@ -1,0 +1,27 @@
+"""The study engine (paper, section 4.3): protocols, participants, sessions, the log store, export.
+
+    from microg.study import load_protocol, create_study, Participant
+    store = create_study("studies/s1", load_protocol("protocols/paper.toml"), seed=1)
+    store.add_participant(Participant("P01", "female", 24, "right", True))
+
+The command line (``microg study init``, ``microg participant add``, ``microg session run``,
+``microg session resume``, ``microg export``) wraps the same functions; see docs/study.md.
+"""
+
+from .assignment import Participant, ParticipantError, assign_group, assign_order, balanced_latin_square, paper_sample
+from .export import export_study, hand_frames, questionnaire_table, read_tables, run_frames, trials_table
+from .inputs import InputError, ParticipantPlan, ScriptedInputs, open_inputs, participant_plan
+from .protocol import Protocol, ProtocolError, load_protocol
+from .questionnaire import RatingError, TerminalRater, parse_rating
+from .session import SimulationClock, WallClock, resume_session, run_session, run_task, task_world
+from .stages import Observation, TaskState, advance
+from .store import Store, StoreError, create_study, open_study, plan_tasks
+
+__all__ = [
+    "InputError", "Observation", "Participant", "ParticipantError", "ParticipantPlan", "Protocol", "ProtocolError",
+    "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TaskState", "TerminalRater",
+    "WallClock", "advance", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
+    "hand_frames", "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",
+    "plan_tasks", "questionnaire_table", "read_tables", "resume_session", "run_frames", "run_session", "run_task",
+    "task_world", "trials_table",
+]

@@ -44,7 +44,9 @@ INDEX_TIP = slot("right", 1, 3)
 
 @pytest.mark.parametrize("approach", [0.0, 0.3])
 def test_soft_hand_presses_with_spring_and_damper(approach):
-    # f_n = k delta + c v for a fingertip delta deep, moving into the surface at v.
+    # f_n = k delta + c v for a fingertip delta deep, moving into the surface at v; the step
+    # integrates the spring over the hand's motion too, so the force is that at the step's end,
+    # k (delta + h v) + c v, before the object's own motion (implicit) is taken off.
     world = world_of([placed("cube", velocity=(0.0, 0.0, 0.0))], interaction="soft_hand")
     params = world.model.scene.soft_hand
     data = world.data.copy()
@@ -53,6 +55,7 @@ def test_soft_hand_presses_with_spring_and_damper(approach):
     data.hand_velocity[INDEX_TIP] = (0.0, -approach, 0.0)
     STAGES["detect_contacts"](world.model, data, world.model.dt)
     STAGES["soft_hand"](world.model, data, world.model.dt)
-    press = params.stiffness * 0.004 + params.damping * approach
+    h = world.model.dt
+    press = params.stiffness * (0.004 + h * approach) + params.damping * approach
     assert data.wrench[0, 1] == pytest.approx(-press, rel=1e-9)
     assert not data.impulse.any()

@@ -1,0 +1,114 @@
+"""The report's figures: bars per object and group with significance marks (the paper's Fig. 11) and
+the diverging stacked rating distribution (the paper's Fig. 12)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
+
+from microg.analysis.likert import SCALE
+
+NEUTRAL = 5
+GROUP_COLOURS = ("#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3")
+
+
+def plot_bars(
+    cells: pd.DataFrame,
+    dv: str,
+    posthoc: pd.DataFrame,
+    within: str = "object",
+    between: str = "group",
+    ylabel: str | None = None,
+    title: str | None = None,
+) -> Figure:
+    """Mean +- SE of ``dv`` per ``within`` level and group, one bar per group; brackets with stars
+    mark the Bonferroni-significant post hoc comparisons (groups at a level, and levels)."""
+    summary = cells.groupby([within, between], observed=True)[dv].agg(["mean", "sem", "count"])
+    levels = sorted(cells[within].unique())
+    groups = sorted(cells[between].unique())
+    width = 0.8 / len(groups)
+    fig = Figure(figsize=(2.6 + 1.5 * len(levels), 3.6), layout="constrained")
+    ax = fig.subplots()
+    tops, centres = {}, {}
+    for g_index, group in enumerate(groups):
+        for l_index, level in enumerate(levels):
+            x = l_index + (g_index - (len(groups) - 1) / 2) * width
+            mean, sem = summary.loc[(level, group), ["mean", "sem"]]
+            sem = 0.0 if np.isnan(sem) else sem
+            label = f"{group} (n = {int(summary.loc[(level, group), 'count'])})" if l_index == 0 else None
+            ax.bar(x, mean, width * 0.95, yerr=sem, capsize=3, color=GROUP_COLOURS[g_index % 5], label=label)
+            centres[(level, group)] = x
+            tops[(level, group)] = mean + sem
+    span = max(max(tops.values()), 1e-9)
+    step = 0.07 * span
+    level_tops = {level: max(tops[(level, g)] for g in groups) for level in levels}
+    marks = posthoc[posthoc["stars"] != ""]
+    for row in marks[marks["factor"] == between].itertuples(index=False):
+        height = level_tops[row.at] + step
+        _bracket(ax, centres[(row.at, row.A)], centres[(row.at, row.B)], height, step, row.stars)
+        level_tops[row.at] = height + 2 * step
+    ceiling = max(level_tops.values())
+    for row in marks[marks["factor"] == within].itertuples(index=False):
+        a, b = levels.index(row.A), levels.index(row.B)
+        height = max(level_tops[lv] for lv in levels[min(a, b) : max(a, b) + 1]) + step
+        height = max(height, ceiling)
+        _bracket(ax, a, b, height, step, row.stars)
+        ceiling = height + 2 * step
+    ax.set_xticks(range(len(levels)), levels)
+    ax.set_xlabel(within)
+    ax.set_ylabel(ylabel or dv)
+    ax.set_ylim(0, max(ceiling, span) * 1.08)
+    ax.legend(title=between, frameon=False, fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    ax.spines[["top", "right"]].set_visible(False)
+    if title:
+        ax.set_title(title, fontsize="medium")
+    return fig
+
+
+def plot_ratings(summary: pd.DataFrame, title: str | None = None) -> Figure:
+    """Diverging stacked bars of the ratings per item and system: shares below the neutral 5 to the
+    left, above it to the right, the neutral share split across zero."""
+    counts = summary[[f"count_{score}" for score in SCALE]].to_numpy(float)
+    shares = 100 * counts / counts.sum(axis=1, keepdims=True)
+    labels = [f"{row.item}\n{row.system}" for row in summary.itertuples(index=False)]
+    colours = matplotlib.colormaps["RdYlBu"](np.linspace(0.05, 0.95, len(SCALE)))
+    fig = Figure(figsize=(8, 0.7 * len(labels) + 1.6), layout="constrained")
+    ax = fig.subplots()
+    neutral = SCALE.index(NEUTRAL)
+    y = np.arange(len(labels))[::-1]
+    left = -shares[:, :neutral].sum(axis=1) - shares[:, neutral] / 2
+    for index, score in enumerate(SCALE):
+        ax.barh(
+            y, shares[:, index], left=left, color=colours[index], edgecolor="white", linewidth=0.5, label=str(score)
+        )
+        left = left + shares[:, index]
+    ax.axvline(0, color="black", linewidth=0.8)
+    ax.set_yticks(y, labels)
+    ax.set_xlabel("share of ratings (%), left: below 5, right: above 5")
+    limit = np.ceil(np.max(np.abs(ax.get_xlim())) / 10) * 10
+    ax.set_xlim(-limit, limit)
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{abs(v):.0f}"))
+    ax.legend(title="rating", ncol=len(SCALE), loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False,
+              fontsize="small", columnspacing=0.8, handlelength=1.2)  # fmt: skip
+    ax.spines[["top", "right"]].set_visible(False)
+    if title:
+        ax.set_title(title, fontsize="medium")
+    return fig
+
+
+def save_figure(fig: Figure, stem: Path) -> tuple[Path, Path]:
+    """Write ``stem``.png and ``stem``.svg."""
+    png, svg = stem.with_suffix(".png"), stem.with_suffix(".svg")
+    fig.savefig(png, dpi=150)
+    fig.savefig(svg)
+    return png, svg
+
+
+def _bracket(ax, x0: float, x1: float, height: float, step: float, text: str) -> None:
+    ax.plot([x0, x0, x1, x1], [height, height + step / 2, height + step / 2, height], color="black", linewidth=0.8)
+    ax.text((x0 + x1) / 2, height + step / 2, text, ha="center", va="bottom")

@@ -1,0 +1,77 @@
+"""The questionnaire: each item for each system, on the protocol's scale (the paper: 0-10).
+
+``TerminalRater`` asks in the terminal with the paper's question text and anchors, and asks again
+on anything that is not a whole number on the scale. ``ModelRater`` takes ratings from the
+simulated participant's rating model; its answers are marked as modelled (``source = model``).
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Protocol as Interface
+
+from .protocol import Item, Questionnaire, Stage
+
+
+class RatingError(ValueError):
+    """An answer that is not a rating on the scale; the message says what is expected."""
+
+
+class Rater(Interface):
+    source: str
+    """``participant`` (a person answered) or ``model`` (a simulated participant's rating model)."""
+
+    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int: ...
+
+
+def parse_rating(text: str, low: int, high: int) -> int:
+    """The rating in ``text``, or RatingError naming the answer and the scale."""
+    answer = text.strip()
+    if not answer:
+        raise RatingError(f"no answer: type a whole number from {low} to {high}")
+    try:
+        value = int(answer)
+    except ValueError:
+        raise RatingError(f"{answer!r} is not a whole number: type a whole number from {low} to {high}") from None
+    if not low <= value <= high:
+        raise RatingError(f"{value} is off the scale: type a whole number from {low} to {high}")
+    return value
+
+
+def question_text(item: Item, stage: Stage, questionnaire: Questionnaire) -> str:
+    q = questionnaire
+    return (f"{stage.label}: {item.question}\n"
+            f"  ({q.scale_min}: {item.low}, {q.scale_max}: {item.high})")
+
+
+class TerminalRater:
+    """Asks a person; ``read`` and ``write`` default to the terminal."""
+
+    source = "participant"
+
+    def __init__(self, read: Callable[[str], str] = input, write: Callable[[str], None] = print,
+                 on_rejected: Callable[[Item, Stage, str, str], None] | None = None):
+        self.read, self.write, self.on_rejected = read, write, on_rejected
+
+    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
+        self.write(question_text(item, stage, questionnaire))
+        while True:
+            text = self.read(f"Rating ({questionnaire.scale_min}-{questionnaire.scale_max}): ")
+            try:
+                return parse_rating(text, questionnaire.scale_min, questionnaire.scale_max)
+            except RatingError as error:
+                self.write(f"  {error}")
+                if self.on_rejected:
+                    self.on_rejected(item, stage, text, str(error))
+
+
+class ModelRater:
+    """Ratings from the simulated participant's rating model (``microg.sim.participant``)."""
+
+    source = "model"
+
+    def __init__(self, rate: Callable[[Item, Stage, Questionnaire], int]):
+        self._rate = rate
+
+    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
+        value = self._rate(item, stage, questionnaire)
+        return parse_rating(str(value), questionnaire.scale_min, questionnaire.scale_max)

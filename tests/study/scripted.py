@@ -1,0 +1,70 @@
+"""A scripted participant for the study tests: a thumb and an index phalanx that pinch the task's
+object from both sides along x, carry it through the places and let go, on a fixed timetable."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from microg.sim import HandFrame
+from microg.sim.scripted import probe_hand
+
+RATE = 110.0
+RADIUS = 0.008
+"""Phalanx radius (probe width 0.016 m)."""
+
+
+def pinch_keyframes(plan, *, squeeze=0.006, travel=0.4, dwell=None, drop_at_place=None, open_s=0.5,
+                    skip_place=None):
+    """(t, centre, gap) keyframes: approach and close at the start, carry to each place and dwell,
+    open after the last place. ``drop_at_place=k`` opens the hand at place k for ``open_s`` and
+    closes it again; ``skip_place=k`` leaves place k after half the dwell."""
+    half = float(plan.spec.half_extents[0])
+    open_gap, closed = half + RADIUS + 0.02, half + RADIUS - squeeze
+    dwell = plan.hold_s + 0.3 if dwell is None else dwell
+    start = np.asarray(plan.start)
+    keys = [(0.0, start, open_gap), (0.3, start, closed), (0.5, start, closed)]
+    t, here = 0.5, start
+    for k, place in enumerate(plan.places):
+        place = np.asarray(place)
+        t += travel
+        keys.append((t, place, closed))
+        if drop_at_place == k:
+            keys += [(t + 0.1, place, closed), (t + 0.2, place, open_gap), (t + 0.2 + open_s, place, open_gap),
+                     (t + 0.4 + open_s, place, closed)]
+            t += 0.4 + open_s
+        t += dwell if skip_place != k else dwell * 0.5
+        keys.append((t, place, closed))
+        here = place
+    keys += [(t + 0.1, here, open_gap), (t + 0.6, here, open_gap)]
+    return keys
+
+
+class ScriptedPinch:
+    """A HandSource playing ``keyframes``; ends (returns None) after the last keyframe.
+    ``pace`` > 0 sleeps that many seconds per frame (to give a test time to act on a real process)."""
+
+    def __init__(self, keyframes, t0=0.0, pace=0.0, description="scripted pinch"):
+        self.keys, self.t0, self.pace, self.description = keyframes, t0, pace, description
+        self.index = 0
+
+    def position(self, t):
+        times = [k[0] for k in self.keys]
+        centre = np.array([np.interp(t, times, [k[1][i] for k in self.keys]) for i in range(3)])
+        return centre, float(np.interp(t, times, [k[2] for k in self.keys]))
+
+    def next_frame(self, world=None):
+        t = self.index / RATE
+        if t > self.keys[-1][0]:
+            return None
+        self.index += 1
+        if self.pace:
+            time.sleep(self.pace)
+        centre, gap = self.position(t)
+        hand = probe_hand({"thumb.proximal": centre + [gap, 0, 0], "index.proximal": centre - [gap, 0, 0]},
+                          width=2 * RADIUS)
+        return HandFrame(self.t0 + t, (hand,))
+
+    def close(self):
+        pass

@@ -1,0 +1,103 @@
+"""The study verbs from the command line: a researcher's whole path, and clear errors."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from microg.sim.tracking.recording import RecordingInfo, write_recording
+from microg.study.cli import main
+from microg.study.export import read_tables
+from microg.study.inputs import participant_plan
+from microg.study.protocol import load_protocol
+from microg.study.store import PlannedTask, open_study
+
+from .conftest import PROTOCOLS
+from .scripted import ScriptedPinch, pinch_keyframes
+
+VERBS = [["study", "init"], ["study", "status"], ["participant", "add"], ["participant", "add-sample"],
+         ["participant", "withdraw"], ["participant", "list"], ["session", "run"], ["session", "resume"], ["export"]]
+
+
+@pytest.mark.parametrize("verb", VERBS, ids=" ".join)
+def test_every_verb_explains_itself(verb):
+    result = CliRunner().invoke(main, verb + ["--help"], prog_name="microg")
+    assert result.exit_code == 0 and "Usage: microg " + " ".join(verb) in result.output
+
+
+def cube_recording(path):
+    """A recording of the scripted pinch doing the tiny protocol's cube task."""
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    plan = participant_plan(protocol, PlannedTask(0, "stage1", "impulse_penetration", "cube", "C", 1))
+    source, frames = ScriptedPinch(pinch_keyframes(plan)), []
+    while (frame := source.next_frame()) is not None:
+        frames.append(frame)
+    write_recording(path, RecordingInfo(source="scripted pinch", device="none", frame_rate=110.0,
+                                        start_time="unknown"), frames)
+    return path
+
+
+def test_a_researcher_creates_a_study_runs_a_replayed_session_and_exports_it(tmp_path):
+    run = CliRunner().invoke
+    study = str(tmp_path / "study")
+    result = run(main, ["study", "init", study, "--protocol", str(PROTOCOLS / "tiny.toml"), "--seed", "4"])
+    assert result.exit_code == 0, result.output
+    result = run(main, ["participant", "add", study, "--id", "P01", "--gender", "female", "--age", "24",
+                        "--handedness", "right", "--mr-experience", "yes"])
+    assert result.exit_code == 0 and result.output.startswith("P01: group ")
+
+    recording = cube_recording(tmp_path / "cube.arrows")
+    answers = "abc\n11\n7\n5\n6\n8\n"
+    result = run(main, ["session", "run", study, "--participant", "P01", "--input", f"replay:{recording}",
+                        "--questionnaire", "ask", "--quiet"], input=answers)
+    assert result.exit_code == 0, result.output
+    assert "'abc' is not a whole number" in result.output and "11 is off the scale" in result.output
+    trials, questionnaire = read_tables(study)
+    stages = trials[trials.stage != "training"]
+    assert stages.completed.all() and not trials.simulated.any()
+    assert sorted(questionnaire.rating) == [5, 6, 7, 8] and (questionnaire.source == "participant").all()
+    with open_study(study) as store:
+        rejected = [e.data["answer"] for e in store.events(store.session_of("P01").id) if e.kind == "answer_rejected"]
+        assert rejected == ["abc", "11"]
+
+    result = run(main, ["session", "resume", study, "--participant", "P01"])
+    assert result.exit_code == 1 and "is completed; there is nothing to resume" in result.output
+    result = run(main, ["session", "run", study, "--participant", "P01", "--input", f"replay:{recording}"])
+    assert result.exit_code == 1 and "never run twice" in result.output
+
+    out = str(tmp_path / "out")
+    result = run(main, ["export", study, "--out", out, "--quiet"])
+    assert result.exit_code == 0 and (tmp_path / "out" / "trials.parquet").exists()
+    assert (tmp_path / "out" / "bids" / "sub-P01" / "motion").is_dir()
+    result = run(main, ["export", study, "--out", out, "--quiet"])
+    assert result.exit_code == 1 and "exists" in result.output and "--overwrite" in result.output
+
+    result = run(main, ["participant", "withdraw", study, "P01", "--reason", "felt unwell"])
+    assert result.exit_code == 0
+    result = run(main, ["participant", "list", study])
+    assert "[withdrawn]" in result.output
+    assert "0 active, 1 withdrawn" in run(main, ["study", "status", study]).output
+
+
+@pytest.mark.parametrize("args, message", [
+    (["participant", "add", "{study}", "--id", "P02", "--gender", "male", "--age", "12", "--handedness", "left",
+      "--mr-experience", "no"], "participant P02: age = 12: the protocol 'tiny' takes participants aged 18-30"),
+    (["session", "run", "{study}", "--participant", "P09", "--input", "leap"], "no participant 'P09'"),
+    (["session", "run", "{study}", "--all", "--input", "webcam"], "must be leap, replay:FILE or simulated"),
+    (["export", "{missing}"], "no study in"),
+])
+def test_bad_input_on_the_command_line_gets_a_clear_error(tmp_path, args, message):
+    study, missing = str(tmp_path / "study"), str(tmp_path / "missing")
+    CliRunner().invoke(main, ["study", "init", study, "--protocol", str(PROTOCOLS / "tiny.toml")])
+    result = CliRunner().invoke(main, [a.format(study=study, missing=missing) for a in args])
+    assert result.exit_code == 1 and message in result.output, result.output
+    assert "Traceback" not in result.output
+
+
+def test_a_bad_protocol_names_file_key_and_value_on_the_command_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(f'extends = "{PROTOCOLS / "tiny.toml"}"\n[task]\nhold_s = 0\n')
+    result = CliRunner().invoke(main, ["study", "init", str(tmp_path / "s"), "--protocol", str(bad)])
+    assert result.exit_code == 1
+    assert f"{bad}: task.hold_s = 0: must be a positive number" in result.output
+    assert not (tmp_path / "s").exists()

@@ -1,0 +1,117 @@
+"""The shipped protocols state the paper's study; bad protocol files fail naming file, key and value."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from microg.paths import PROTOCOLS
+from microg.study.protocol import ProtocolError, load_protocol
+
+PAPER = PROTOCOLS / "paper.toml"
+
+# The questionnaire as the paper words it (section 4.3, "Evaluation Metrics").
+PAPER_ITEMS = {
+    "naturalness": ("How natural did the sensation of the average task completion experience feel?",
+                    "Extremely unnatural", "Extremely natural"),
+    "efficiency": ("How would you rate the efficiency of the average task completion experience?",
+                   "Extremely inefficient", "Extremely efficient"),
+}
+
+
+def test_the_paper_protocol_states_the_papers_study():
+    p = load_protocol(PAPER)
+    assert p.total_participants == 30 and p.balance == "gender" and p.age_range == (18, 30)
+    assert {(g.code, g.size, g.training) for g in p.groups} == {("V", 15, True), ("B", 15, False)}
+    assert [o.code for o in p.objects] == ["C", "F", "L"]
+    assert p.order == "latin_square"
+    assert p.task.hold_s == 3.0 and len(p.task.places) == 3
+    assert p.gravity == (0.0, -9.81, 0.0)
+    assert [(s.name, s.system) for s in p.stages] == [("stage1", "impulse_penetration"), ("stage2", "soft_hand")]
+    assert p.training.groups == ("V",) and p.training.system == "impulse_penetration"
+    q = p.questionnaire
+    assert (q.scale_min, q.scale_max) == (0, 10)
+    assert {i.name: (i.question, i.low, i.high) for i in q.items} == PAPER_ITEMS
+    assert [ph.name for ph in p.timeline] == ["orientation", "instructions", "training", "stage1", "stage2",
+                                              "questionnaire"]
+    assert sum(ph.minutes for ph in p.timeline) <= 40 == p.duration_minutes
+    assert [ph.name for ph in p.phases_for("B")] == ["orientation", "instructions", "stage1", "stage2",
+                                                     "questionnaire"]
+
+
+def test_the_microgravity_variant_differs_only_in_gravity_and_support():
+    paper, micro = load_protocol(PAPER), load_protocol(PROTOCOLS / "paper-microgravity.toml")
+    assert micro.gravity == (0.0, 0.0, 0.0) and micro.task.start_support == "none"
+    assert micro.task.places == paper.task.places and micro.groups == paper.groups
+    assert micro.questionnaire == paper.questionnaire and micro.sha256 != paper.sha256
+
+
+def test_the_protocol_digest_depends_on_content_not_on_where_the_file_is(tmp_path):
+    copy = tmp_path / "paper.toml"
+    copy.write_text(PAPER.read_text())
+    assert load_protocol(copy).sha256 == load_protocol(PAPER).sha256
+    copy.write_text(PAPER.read_text().replace("hold_s = 3.0", "hold_s = 3.5"))
+    assert load_protocol(copy).sha256 != load_protocol(PAPER).sha256
+
+
+def edited(tmp_path: Path, old: str, new: str, name: str = "bad.toml") -> Path:
+    text = PAPER.read_text()
+    assert old in text, old
+    path = tmp_path / name
+    path.write_text(text.replace(old, new, 1))
+    return path
+
+
+BAD = [
+    # (replace this, with this, the message must contain these)
+    ("hold_s = 3.0", "hold_s = -3", ["task.hold_s", "-3", "positive"]),
+    ("hold_s = 3.0", 'hold_s = "three"', ["task.hold_s", "'three'"]),
+    ('system = "soft_hand"', 'system = "clap"', ["stages[1].system", "'clap'", "impulse_penetration"]),
+    ("size = 15\ntraining = false", "size = 14\ntraining = false", ["participants.total", "30", "add up to 29"]),
+    ('order = "latin_square"', 'order = "random"', ["objects.order", "'random'", "permutation"]),
+    ("place_radius = 0.04", "place_radius = 0.04\nplace_radiuss = 0.05", ["unknown key task.place_radiuss"]),
+    ('names = ["cube", "flat_cuboid", "long_cuboid"]', 'names = ["cube", "teapot"]', ["'teapot'", "no object file"]),
+    ("    [0.12, 0.18, 0.0],\n]", "    [0.12, 0.18, 0.9],\n]", ["task.places[2]", "[0.12, 0.18, 0.9]", "workspace"]),
+    ("minutes = 12\n\n[[timeline]]\nphase = \"stage2\"", "minutes = 30\n\n[[timeline]]\nphase = \"stage2\"",
+     ["duration_minutes", "40", "58 minutes"]),
+    ("timeout_s = 240.0", "timeout_s = 300.0", ["'stage1'", "minutes = 12", "timeout_s = 15 minutes"]),
+    ("scale_max = 10", "scale_max = 0", ["questionnaire.scale_max", "0"]),
+    ('phase = "questionnaire"', 'phase = "debriefing"', ["timeline[5].phase", "'debriefing'"]),
+    ("gravity = [0.0, -9.81, 0.0]", "gravity = [0.0, -9.81]", ["scene.gravity", "[0.0, -9.81]", "3 finite numbers"]),
+    ('code = "V"', 'code = "V-1"', ["groups[0].code", "'V-1'", "letters and digits"]),
+    ("age_range = [18, 30]", "age_range = [30, 18]", ["participants.age_range", "[30, 18]"]),
+    ('name = "paper"\n', "", ["missing key name"]),
+    ("hold_s = 3.0", "hold_s = 3.0 3", ["not valid TOML"]),
+]
+
+
+@pytest.mark.parametrize("old, new, expected", BAD, ids=[b[2][0] for b in BAD])
+def test_a_bad_protocol_is_rejected_naming_file_key_and_value(tmp_path, old, new, expected):
+    path = edited(tmp_path, old, new)
+    with pytest.raises(ProtocolError) as error:
+        load_protocol(path)
+    message = str(error.value)
+    assert message.startswith(str(path)), message
+    for part in expected:
+        assert part in message, (part, message)
+
+
+def test_files_that_extend_each_other_in_a_circle_are_rejected(tmp_path):
+    (tmp_path / "a.toml").write_text('extends = "b.toml"\n')
+    (tmp_path / "b.toml").write_text('extends = "a.toml"\n')
+    with pytest.raises(ProtocolError, match=re.escape("extend each other in a circle")):
+        load_protocol(tmp_path / "a.toml")
+
+
+def test_a_missing_protocol_file_is_named(tmp_path):
+    with pytest.raises(ProtocolError, match=re.escape(str(tmp_path / "nope.toml"))):
+        load_protocol(tmp_path / "nope.toml")
+
+
+def test_an_extending_file_overrides_only_what_it_names(tmp_path):
+    (tmp_path / "mine.toml").write_text(f'extends = "{PAPER}"\nname = "mine"\n[task]\nhold_s = 2.0\n')
+    mine = load_protocol(tmp_path / "mine.toml")
+    assert mine.name == "mine" and mine.task.hold_s == 2.0
+    assert mine.task.places == load_protocol(PAPER).task.places

@@ -1,0 +1,242 @@
+"""The session runner with the real physics, driven by scripted hand frames."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from microg.sim import step
+from microg.study.export import hand_frames, run_frames, trials_table
+from microg.study.inputs import ScriptedInputs, participant_plan
+from microg.study.session import SimulationClock, guarded, resume_session, run_session, run_task, task_world
+from microg.study.store import StoreError, create_study, open_study
+
+from .conftest import answers, scripted_inputs
+from .scripted import RATE, ScriptedPinch, pinch_keyframes
+
+
+def one_task(store, task_index=0, rules=None, **script):
+    """Run one planned task of P01's session with a scripted pinch; returns (result, run_id, source)."""
+    session = store.session_of("P01") or store.create_session("P01", "scripted", True, "simulation")
+    task = store.tasks(session.id)[task_index]
+    source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task), **script))
+    run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
+    result = run_task(store, session.id, run_id, task_world(store.protocol, task), guarded(source, store.protocol),
+                      rules or store.protocol.task, SimulationClock(), batch=store.protocol.frame_batch)
+    return result, run_id, source
+
+
+def test_a_session_walks_the_timeline_and_each_task_ends_when_the_hand_lets_go(make_study):
+    store, record = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    inputs = scripted_inputs()
+    status = run_session(store, session.id, inputs, clock=SimulationClock(), rater=answers("7", "6", "3", "4"),
+                         progress=False)
+    assert status == "completed" and store.session(session.id).status == "completed"
+
+    phases = [e.data["phase"] for e in store.events(session.id) if e.kind == "phase_start"]
+    assert phases == [p.name for p in store.protocol.phases_for(record.group)]
+    trials = trials_table(store)
+    assert len(trials) == len(store.tasks(session.id)) and trials.completed.all() and (trials.attempts == 0).all()
+    for source, (_, trial) in zip(inputs.made, trials.iterrows()):
+        # the script starts opening the hand at its second-to-last keyframe; the grasp ends within that opening
+        opening = source.keys[-3][0]
+        assert opening <= trial.time_s <= opening + 0.1
+    runs = store.db.execute("SELECT id, frames FROM task_runs ORDER BY id").fetchall()
+    for (run_id, frames), source in zip(runs, inputs.made):
+        assert frames == source.index == len(run_frames(store, run_id))
+    assert store.answers(session.id) == {("impulse_penetration", "naturalness"): 7,
+                                         ("impulse_penetration", "efficiency"): 6,
+                                         ("soft_hand", "naturalness"): 3, ("soft_hand", "efficiency"): 4}
+
+
+def test_under_gravity_the_object_rests_at_its_start_until_held_and_a_dropped_one_returns_there(make_study):
+    store, _ = make_study("quick-gravity")
+    result, run_id, _ = one_task(store, squeeze=0.03, drop_at_place=1, open_s=0.3)
+    assert result.status == "aborted" and result.attempts == 1  # the script ends without picking it up again
+    events = store.events(store.session_of("P01").id, run_id)
+    kinds = [e.kind for e in events]
+    assert kinds.index("drop") <= kinds.index("respawn")
+    frames = run_frames(store, run_id)
+    start = np.array(store.protocol.task.start)
+    hold_t = next(e.data["frame_t"] for e in events if e.kind == "hold")
+    back_t = next(e.data["frame_t"] for e in events if e.kind == "respawn")
+    before_hold = frames[frames.t < hold_t - 0.1][["px", "py", "pz"]].to_numpy()
+    after_return = frames[frames.t >= back_t][["px", "py", "pz"]].to_numpy()
+    assert len(before_hold) > 10 and len(after_return) > 10
+    assert (before_hold == start).all() and (after_return == start).all()
+    fell = frames[(frames.t > hold_t) & (frames.t < back_t)].py.min()
+    assert fell < store.protocol.task.workspace_min[1]  # it did fall out under gravity
+
+
+def test_in_microgravity_a_drop_counts_as_an_attempt(make_study):
+    store, _ = make_study("quick")
+    result, run_id, _ = one_task(store, drop_at_place=1, open_s=0.3)
+    assert result.attempts == 1
+    assert [e.kind for e in store.events(store.session_of("P01").id, run_id)].count("drop") == 1
+
+
+def test_a_task_not_finished_in_time_ends_as_a_timeout(make_study):
+    store, _ = make_study("quick")
+    rules = replace(store.protocol.task, timeout_s=1.0)
+    result, run_id, _ = one_task(store, rules=rules, squeeze=-0.05)  # the pinch never closes on the object
+    assert (result.status, result.time_s, result.attempts) == ("timeout", None, 0)
+    row = store.db.execute("SELECT status, time_s, reason FROM task_runs WHERE id = ?", (run_id,)).fetchone()
+    assert row["status"] == "timeout" and row["time_s"] is None and "timeout_s = 1" in row["reason"]
+    assert result.frames == round(1.0 * RATE) + 1
+
+
+def test_a_source_that_ends_early_aborts_the_task(make_study):
+    store, _ = make_study("quick")
+    session = store.create_session("P01", "scripted", True, "simulation")
+
+    class Short(ScriptedPinch):
+        def next_frame(self, world=None):
+            return None if self.index >= 50 else super().next_frame(world)
+
+    inputs = ScriptedInputs(lambda plan, seed: Short(pinch_keyframes(plan)))
+    run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+    trials = trials_table(store)
+    assert (trials.status == "aborted").all() and not trials.completed.any() and trials.time_s.isna().all()
+
+
+def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study):
+    store, _ = make_study("quick")
+    result, run_id, _ = one_task(store)
+    assert result.status == "completed"
+    task = store.tasks(store.session_of("P01").id)[0]
+    world, positions = task_world(store.protocol, task), []
+    for frame in hand_frames(store, run_id):
+        world = step(world, frame)
+        positions.append(world.data.position[0].copy())
+    logged = run_frames(store, run_id)[["px", "py", "pz"]].to_numpy()
+    assert np.array_equal(np.array(positions), logged)
+
+
+class Failing(ScriptedPinch):
+    """A source that breaks (as a tracker might) after ``fail_after`` frames."""
+
+    def __init__(self, keys, fail_after):
+        super().__init__(keys)
+        self.fail_after = fail_after
+
+    def next_frame(self, world=None):
+        if self.index == self.fail_after:
+            raise RuntimeError("tracker unplugged")
+        return super().next_frame(world)
+
+
+def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_again(make_study):
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    last = len(store.tasks(session.id)) - 1
+    calls = []
+
+    def breaking(plan, seed):
+        calls.append(plan.phase)
+        keys = pinch_keyframes(plan)
+        return Failing(keys, 100) if len(calls) == last + 1 else ScriptedPinch(keys)
+
+    with pytest.raises(RuntimeError, match="tracker unplugged"):
+        run_session(store, session.id, ScriptedInputs(breaking), clock=SimulationClock(), progress=False)
+    runs = store.runs(session.id)
+    assert [r.status for r in runs] == ["completed"] * last + ["interrupted"]
+    kept = store.db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (runs[-1].id,)).fetchone()[0]
+    assert kept == 100
+    assert "tracker unplugged" in store.db.execute("SELECT reason FROM task_runs WHERE id = ?",
+                                                   (runs[-1].id,)).fetchone()[0]
+
+    status = resume_session(store, session.id, scripted_inputs(), clock=SimulationClock(store.last_time(session.id)),
+                            progress=False)
+    assert status == "completed"
+    runs = store.runs(session.id)
+    assert [(r.task_index, r.run, r.status) for r in runs] == \
+        [(i, 1, "completed") for i in range(last)] + [(last, 1, "interrupted"), (last, 2, "completed")]
+    assert store.db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (runs[-2].id,)).fetchone()[0] == kept
+    trials = trials_table(store)
+    assert trials.completed.all() and trials.runs.tolist() == [1] * last + [2]
+
+
+def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+
+    class SkipFirst:
+        def show(self, phase):
+            pass
+
+        def ready(self, task):
+            return task.index != 0
+
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), operator=SkipFirst(), progress=False)
+    first = trials_table(store).iloc[0]
+    assert first.status == "skipped" and not first.completed
+    assert np.isnan(first.time_s) and first.attempts is pd.NA
+
+
+def test_the_log_never_changes_what_it_holds(make_study):
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), progress=False)
+    attempts = [
+        "UPDATE events SET kind = 'x'", "DELETE FROM events", "DELETE FROM frames",
+        "UPDATE frames SET px = 0", "UPDATE task_runs SET time_s = 1.0", "UPDATE task_runs SET status = 'running'",
+        "DELETE FROM task_runs", "UPDATE sessions SET status = 'running'", "UPDATE participants SET age = 30",
+        "DELETE FROM participants", "UPDATE protocols SET resolved = '{}'", "UPDATE tasks SET object = 'ball'",
+    ]
+    for statement in attempts:
+        with pytest.raises(sqlite3.DatabaseError, match="never"):
+            store.db.execute(statement)
+    with pytest.raises(StoreError, match="never run twice"):
+        store.create_session("P01", "scripted", True, "simulation")
+    with pytest.raises(StoreError, match="never overwritten"):
+        create_study(store.dir, store.protocol, 1)
+
+
+def test_one_session_is_run_by_one_process_at_a_time(make_study):
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    store.lock_session(session.id)
+    with open_study(store.dir) as other:
+        with pytest.raises(StoreError, match="another process"):
+            other.lock_session(session.id)
+
+
+def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
+    pylsl = pytest.importorskip("pylsl")
+    from microg.study.lsl import MarkerOutlet
+
+    outlet = MarkerOutlet(name="microg-test", source_id="microg-test-markers")
+    streams = pylsl.resolve_byprop("source_id", "microg-test-markers", timeout=5.0)
+    assert streams, "the marker stream is not visible on this machine"
+    inlet = pylsl.StreamInlet(streams[0])
+    inlet.open_stream(timeout=5.0)
+    store, _ = make_study("quick")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    task = store.tasks(session.id)[0]
+    source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task)))
+    run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
+    run_task(store, session.id, run_id, task_world(store.protocol, task), source, store.protocol.task,
+             SimulationClock(), markers=outlet)
+    received = []
+    while (sample := inlet.pull_sample(timeout=1.0))[0] is not None:
+        received.append(sample[0][0])
+    kinds = [json.loads(m)["kind"] for m in received]
+    logged = [e.kind for e in store.events(session.id, run_id) if e.kind not in ("task_start", "tracking_guard")]
+    assert kinds == logged
+
+
+def test_withdrawing_a_participant_ends_their_unfinished_session_as_aborted(make_study):
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", True, "simulation")
+    store.withdraw("P01", "felt unwell")
+    assert store.session(session.id).status == "aborted"
+    with pytest.raises(ValueError, match="only a running session"):
+        run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), progress=False)
+    trials = trials_table(store)
+    assert trials.withdrawn.all() and (trials.status == "not_run").all()
