@@ -36,6 +36,8 @@ class ParticipantPlan:
     hold_s: float
     timeout_s: float
     gravity: tuple[float, float, float]
+    table_height: float | None
+    """The table the object starts on (m), or None (microgravity)."""
     system: str
     phase: str
     tracking_rate: float
@@ -43,10 +45,12 @@ class ParticipantPlan:
 
 def participant_plan(protocol: Protocol, task: PlannedTask) -> ParticipantPlan:
     rules = protocol.task
-    return ParticipantPlan(object=task.object, spec=protocol.object(task.object).spec, start=rules.start,
-                           start_orientation=rules.start_orientation, places=rules.places,
+    start, start_orientation = protocol.start_pose(task.object)
+    return ParticipantPlan(object=task.object, spec=protocol.object(task.object).spec, start=start,
+                           start_orientation=start_orientation, places=rules.places,
                            place_radius=rules.place_radius, hold_s=rules.hold_s, timeout_s=rules.timeout_s,
-                           gravity=protocol.gravity, system=task.system, phase=task.phase,
+                           gravity=protocol.gravity, table_height=protocol.table_height, system=task.system,
+                           phase=task.phase,
                            tracking_rate=float(protocol.scene_options.get("tracking_rate", 110.0)))
 
 

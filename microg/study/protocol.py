@@ -21,15 +21,17 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from microg.paths import OBJECTS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError
 from microg.sim.bodies import object_from_dict
+from microg.sim.rotation import quat_to_matrix
 
 PHASES_INFO = ("orientation", "instructions")
 """Timeline phases that show text and log their start and end."""
 ORDER_SCHEMES = ("latin_square", "permutation")
 BALANCING = ("gender", "none")
-START_SUPPORTS = ("until_held", "none")
 SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "filter_window", "angular_integrator",
                  "resting_tolerance", "jump_distance")
 """Scene settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
@@ -72,7 +74,6 @@ class TaskRules:
     timeout_s: float
     grasp_settle_s: float
     drop_grace_s: float
-    start_support: str
     workspace_min: tuple[float, float, float]
     workspace_max: tuple[float, float, float]
 
@@ -126,6 +127,8 @@ class Protocol:
     seed: int | None
     duration_minutes: float
     gravity: tuple[float, float, float]
+    table_height: float | None
+    """y of the table the object starts on (m); None: no table (microgravity)."""
     scene_options: dict
     total_participants: int
     balance: str
@@ -148,6 +151,15 @@ class Protocol:
     def object(self, name: str) -> StudyObject:
         known = {o.name: o for o in self.objects + (self.training.objects if self.training else ())}
         return known[name]
+
+    def start_pose(self, name: str) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
+        """Where the object ``name`` waits at the start of a task: at ``task.start``, or, with a
+        table, standing on it below that point (its lowest point on the table top)."""
+        x, y, z = self.task.start
+        if self.table_height is not None:
+            rot = quat_to_matrix(np.asarray(self.task.start_orientation, dtype=float))
+            y = self.table_height + float(np.abs(rot[1]) @ self.object(name).spec.half_extents)
+        return (x, y, z), self.task.start_orientation
 
     def phases_for(self, group: str) -> tuple[Phase, ...]:
         """The timeline as a participant of ``group`` goes through it."""
@@ -356,6 +368,12 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
 
     scene = top.table("scene")
     gravity = scene.vector("gravity")
+    table_height = scene.raw("table_height", "none")
+    if table_height == "none":
+        table_height = None
+    elif isinstance(table_height, bool) or not isinstance(table_height, (int, float)) \
+            or not math.isfinite(table_height):
+        raise scene.fail("table_height", table_height, 'must be a height (m) or "none"')
     options = {}
     for key in SCENE_OPTIONS:
         if key in scene.data:
@@ -411,7 +429,6 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
         timeout_s=t.number("timeout_s", unit=" (seconds)"),
         grasp_settle_s=t.number("grasp_settle_s", 0.1, positive=False, unit=" (seconds)"),
         drop_grace_s=t.number("drop_grace_s", 0.25, positive=False, unit=" (seconds)"),
-        start_support=t.text("start_support", "until_held", START_SUPPORTS),
         workspace_min=t.vector("workspace_min"),
         workspace_max=t.vector("workspace_max"),
     )
@@ -516,7 +533,7 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
     top.raw("sources", None)
     top.done()
     return Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
-                    gravity=gravity, scene_options=options, total_participants=total, balance=balance,
+                    gravity=gravity, table_height=table_height, scene_options=options, total_participants=total, balance=balance,
                     age_range=age_range, groups=tuple(groups), objects=objects, order=order, task=task,
                     training=training, stages=tuple(stages), questionnaire=questionnaire, timeline=tuple(timeline),
                     frame_batch=frame_batch, resolved=resolved)

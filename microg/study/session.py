@@ -8,11 +8,12 @@ crash as interrupted (their frames stay), then runs the session on: an interrupt
 again from its start.
 
 Each task gets its own world holding only the task's object at its start pose, under the
-protocol's gravity and the stage's interaction model. Frames come from the task's hand source;
-each one steps the physics, then the task's state machine (``microg.study.stages``), then the
-start support: under ``start_support = "until_held"`` the object rests at its start pose until it
-is first held (the world has no table), and an object that leaves the workspace while not held
-goes back to its start. Events are committed as they happen, frames every ``frame_batch``.
+protocol's gravity and the stage's interaction model; with a ``table_height`` the object stands
+on a table (the physics' ``table`` effect) and falls back onto it when dropped. Frames come from
+the task's hand source; each one steps the physics, then the task's state machine
+(``microg.study.stages``); an object that leaves the workspace while not held (drifting away in
+microgravity, or off the table) goes back to its start, as the researcher would put it back.
+Events are committed as they happen, frames every ``frame_batch``.
 
 Clocks are injected: ``WallClock`` for live sessions, ``SimulationClock`` (which advances with
 the frames' timestamps) otherwise. Task times always come from the frames' timestamps.
@@ -27,7 +28,7 @@ from typing import Callable, Protocol as Interface
 import numpy as np
 from tqdm import tqdm
 
-from microg.sim import HandFrame, PlacedObject, World, compose_scene, grasped, make_world, \
+from microg.sim import HandFrame, PlacedObject, TableParameters, World, compose_scene, grasped, make_world, \
     rendered_phalanges, step, touching
 from microg.sim.hand import BONES_PER_HAND, SIDES
 
@@ -116,30 +117,25 @@ class TaskResult:
 
 
 def task_world(protocol: Protocol, task: PlannedTask) -> World:
-    """The task's object alone at its start pose, under the stage's interaction model."""
-    placed = PlacedObject(protocol.object(task.object).spec, protocol.task.start, protocol.task.start_orientation)
-    return make_world(compose_scene([placed], task.system, protocol.gravity, **protocol.scene_options))
+    """The task's object alone at its start pose (on the table, if there is one), under the stage's
+    interaction model."""
+    position, orientation = protocol.start_pose(task.object)
+    placed = PlacedObject(protocol.object(task.object).spec, position, orientation)
+    table = None if protocol.table_height is None else TableParameters(height=protocol.table_height)
+    return make_world(compose_scene([placed], task.system, protocol.gravity, table=table, **protocol.scene_options))
 
 
-def support(world: World, rules: TaskRules, state: TaskState, pinned: bool) -> tuple[World, bool, list[Event]]:
-    """Hold a not-yet-held object at its start (if the protocol says so) and bring back an object
-    that left the workspace while not held. Returns the world, whether it is still pinned, events."""
+def put_back(world: World, rules: TaskRules, state: TaskState, start) -> tuple[World, list[Event]]:
+    """Bring an object that left the workspace while not held back to its start pose, at rest."""
     position = world.data.position[0]
-    events = []
-    outside = not all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, position, rules.workspace_max))
-    if outside and not state.held:
-        events.append(Event(world.time, "respawn", {"position": [float(v) for v in position]}))
-        pinned = rules.start_support == "until_held"
-    elif pinned and state.held:
-        return world, False, events
-    elif not pinned:
-        return world, False, events
+    inside = all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, position, rules.workspace_max))
+    if inside or state.held:
+        return world, []
     data = world.data.copy()
-    data.position[0] = rules.start
-    data.orientation[0] = rules.start_orientation
+    data.position[0], data.orientation[0] = start
     data.velocity[0] = 0.0
     data.angular_velocity[0] = 0.0
-    return World(world.model, data), pinned, events
+    return World(world.model, data), [Event(world.time, "respawn", {"position": [float(v) for v in position]})]
 
 
 def _hand_blob(frame: HandFrame, rendered: np.ndarray, side: int) -> bytes | None:
@@ -166,7 +162,7 @@ def frame_row(run_id: int, index: int, frame: HandFrame, world: World, state: Ta
 
 def guarded(source, protocol: Protocol):
     """``source`` behind the tracking guard (``microg.sim.tracking.guard``), which drops incomplete
-    hands and stale frames, fills gaps and holds single-frame jumps before the physics sees them."""
+    hands and stale frames and bridges tracking glitches before the physics sees them."""
     from microg.sim.tracking.guard import GuardConfig, TrackingGuard
 
     options = protocol.scene_options
@@ -181,7 +177,8 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
-    state, pinned = TaskState(), rules.start_support == "until_held"
+    state = TaskState()
+    start = (world.data.position[0].copy(), world.data.orientation[0].copy())
     buffer: list[tuple] = []
     index, last_t = 0, None
     try:
@@ -195,7 +192,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
             last_t = frame.timestamp
             state, task_events = advance(state, Observation(frame.timestamp, is_grasped,
                                                             tuple(world.data.position[0])), rules)
-            world, pinned, support_events = support(world, rules, state, pinned)
+            world, support_events = put_back(world, rules, state, start)
             events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in task_events] + \
                      [Event(clock.now(), e.kind, dict(e.data, frame_t=frame.timestamp)) for e in support_events]
             if events:

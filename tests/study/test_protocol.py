@@ -43,7 +43,7 @@ def test_the_paper_protocol_states_the_papers_study():
 
 def test_the_microgravity_variant_differs_only_in_gravity_and_support():
     paper, micro = load_protocol(PAPER), load_protocol(PROTOCOLS / "paper-microgravity.toml")
-    assert micro.gravity == (0.0, 0.0, 0.0) and micro.task.start_support == "none"
+    assert micro.gravity == (0.0, 0.0, 0.0) and micro.table_height is None and paper.table_height == 0.15
     assert micro.task.places == paper.task.places and micro.groups == paper.groups
     assert micro.questionnaire == paper.questionnaire and micro.sha256 != paper.sha256
 

@@ -13,7 +13,7 @@ RATE = 100.0
 START = (0.0, 0.2, 0.0)
 PLACES = ((0.1, 0.2, 0.0), (0.2, 0.2, 0.0), (0.3, 0.2, 0.0))
 RULES = TaskRules(start=START, start_orientation=(1.0, 0.0, 0.0, 0.0), places=PLACES, place_radius=0.02,
-                  hold_s=3.0, timeout_s=60.0, grasp_settle_s=0.1, drop_grace_s=0.25, start_support="none",
+                  hold_s=3.0, timeout_s=60.0, grasp_settle_s=0.1, drop_grace_s=0.25,
                   workspace_min=(-1.0, -1.0, -1.0), workspace_max=(1.0, 1.0, 1.0))
 
 
