@@ -8,6 +8,8 @@ SOURCE_ROOT = Path(__file__).resolve().parent.parent
 PROTOCOLS = SOURCE_ROOT / "protocols"
 OBJECTS = PROTOCOLS / "objects"
 DATA = SOURCE_ROOT / "data"
+LEAP_RECORDINGS = DATA / "leap-v2-recordings"
+"""Four real Leap Motion recordings in LeapJS v2 JSON (see the README beside them)."""
 
 
 def object_file(name: str) -> Path:

@@ -13,10 +13,19 @@ from dataclasses import dataclass
 from typing import Callable, Protocol as Interface
 
 from microg.sim import HandFrame, ObjectSpec, World
+from microg.sim.participant import TaskDisplay
 from microg.sim.tracking.source import HandSource
 
 from .protocol import Protocol
 from .store import PlannedTask
+
+
+PRACTICE = "practice"
+"""The simulated profile whose skill grows with the tasks done (see ``SimulatedInputs``)."""
+
+
+Display = Callable[[], TaskDisplay]
+"""What the task shows right now (the place marks, the stage): a simulated participant watches it."""
 
 
 class InputError(ValueError):
@@ -41,17 +50,21 @@ class ParticipantPlan:
     system: str
     phase: str
     tracking_rate: float
+    hand: str = "right"
+    """The hand the participant uses (their dominant one)."""
+    tasks_done: int = 0
+    """Tasks this participant did before this one in the session (training included)."""
 
 
-def participant_plan(protocol: Protocol, task: PlannedTask) -> ParticipantPlan:
+def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right") -> ParticipantPlan:
     rules = protocol.task
     start, start_orientation = protocol.start_pose(task.object)
     return ParticipantPlan(object=task.object, spec=protocol.object(task.object).spec, start=start,
                            start_orientation=start_orientation, places=rules.places,
                            place_radius=rules.place_radius, hold_s=rules.hold_s, timeout_s=rules.timeout_s,
                            gravity=protocol.gravity, table_height=protocol.table_height, system=task.system,
-                           phase=task.phase,
-                           tracking_rate=float(protocol.scene_options.get("tracking_rate", 110.0)))
+                           phase=task.phase, tracking_rate=float(protocol.scene_options.get("tracking_rate", 110.0)),
+                           hand=hand, tasks_done=task.index)
 
 
 class Inputs(Interface):
@@ -62,7 +75,8 @@ class Inputs(Interface):
     clock: str
     """``wall`` for live input, ``simulation`` otherwise."""
 
-    def open(self, plan: ParticipantPlan, seed: int) -> HandSource: ...
+    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
+        """The hand source for one task; ``display`` shows the task's marks to a simulated participant."""
 
     def close(self) -> None: ...
 
@@ -89,7 +103,7 @@ class LiveInputs:
         self.spec = spec
         self._source: HandSource | None = source
 
-    def open(self, plan: ParticipantPlan, seed: int) -> HandSource:
+    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
         if self._source is None:
             self._source = _open_tracking(self.spec)
         return _Borrowed(self._source)
@@ -107,7 +121,7 @@ class ReplayInputs:
     def __init__(self, spec: str):
         self.spec = spec
 
-    def open(self, plan: ParticipantPlan, seed: int) -> HandSource:
+    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
         return _open_tracking(self.spec)
 
     def close(self) -> None:
@@ -115,15 +129,23 @@ class ReplayInputs:
 
 
 class SimulatedInputs:
+    """A simulated participant (``microg.sim.participant``) plays each task. Profile ``practice``
+    starts every participant new to the system and lets each task done (training included) improve
+    the skill by the power law of practice; ``veteran`` and ``beginner`` are fixed skills."""
+
     clock = "simulation"
     simulated = True
 
     def __init__(self, spec: str, profile: str):
         self.spec, self.profile = spec, profile
 
-    def open(self, plan: ParticipantPlan, seed: int) -> HandSource:
-        participant = _participant_module(f"--input {self.spec}", "simulated_participant")
-        return participant.simulated_participant(plan, profile=self.profile, seed=seed)
+    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
+        from microg.sim.participant import PickPlacePlan, SimulatedParticipant
+
+        skill = f"practised:{plan.tasks_done}" if self.profile == PRACTICE else self.profile
+        task = PickPlacePlan(object_name=plan.object, places=plan.places, hold_s=plan.hold_s,
+                             place_radius=plan.place_radius, side=plan.hand)
+        return SimulatedParticipant(task, skill, seed, time_limit_s=plan.timeout_s + 10.0, display=display)
 
     def close(self) -> None:
         pass
@@ -136,23 +158,11 @@ class ScriptedInputs:
                  simulated: bool = True, clock: str = "simulation"):
         self.make, self.spec, self.simulated, self.clock = make, spec, simulated, clock
 
-    def open(self, plan: ParticipantPlan, seed: int) -> HandSource:
+    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
         return self.make(plan, seed)
 
     def close(self) -> None:
         pass
-
-
-def _participant_module(spec: str, needs: str):
-    """``microg.sim.participant``, checked for the function ``needs`` before any session starts."""
-    try:
-        from microg.sim import participant
-    except ImportError as error:
-        raise InputError(f"{spec}: the simulated participant (microg.sim.participant) is not available: "
-                         f"{error}") from None
-    if not hasattr(participant, needs):
-        raise InputError(f"{spec}: microg.sim.participant has no {needs}() yet")
-    return participant
 
 
 def _open_tracking(spec: str) -> HandSource:
@@ -179,30 +189,20 @@ def open_inputs(spec: str, group_profile: str | None = None) -> Inputs:
     profile plays ``group_profile``."""
     kind, argument = parse_input(spec)
     if kind == "simulated":
+        from microg.sim.participant import skill_profile
+
         profile = argument or group_profile
         if not profile:
-            raise InputError(f"--input {spec!r}: give a skill profile, as simulated:veteran or simulated:beginner")
-        _participant_module(f"--input {spec}", "simulated_participant")
+            raise InputError(f"--input {spec!r}: give a skill profile, as simulated:practice, simulated:veteran "
+                             f"or simulated:beginner")
+        if profile != PRACTICE:
+            try:
+                skill_profile(profile)
+            except ValueError as error:
+                raise InputError(f"--input {spec!r}: {error}; or {PRACTICE}") from None
         return SimulatedInputs(f"simulated:{profile}", profile)
     source = _open_tracking(spec)  # the device answers, the recording reads: before any session starts
     if kind == "leap":
         return LiveInputs(spec, source)
     source.close()
     return ReplayInputs(spec)
-
-
-def open_model_rater(profile: str, seed: int, results: Callable[[str], list[dict]]):
-    """Questionnaire answers from the simulated participant's rating model, which is called as
-    ``rate(item=..., system=..., profile=..., results=[{object, completed, time_s, attempts}, ...],
-    scale=(low, high), seed=...)`` with this participant's own results in that system."""
-    from .questionnaire import ModelRater
-
-    module = _participant_module("--questionnaire model (use ask or skip without it)", "rate")
-    return ModelRater(lambda item, stage, q: module.rate(
-        item=item.name, system=stage.system, profile=profile, results=results(stage.system),
-        scale=(q.scale_min, q.scale_max), seed=seed))
-
-
-def check_model_rater() -> None:
-    """Fail now, before a session starts, when there is no rating model."""
-    _participant_module("--questionnaire model (use ask or skip without it)", "rate")

@@ -1,8 +1,8 @@
 """The questionnaire: each item for each system, on the protocol's scale (the paper: 0-10).
 
 ``TerminalRater`` asks in the terminal with the paper's question text and anchors, and asks again
-on anything that is not a whole number on the scale. ``ModelRater`` takes ratings from the
-simulated participant's rating model; its answers are marked as modelled (``source = model``).
+on anything that is not a whole number on the scale. Simulated participants answer through the
+rating model (``microg.study.ratings.ModelRater``); those answers are marked ``source = model``.
 """
 
 from __future__ import annotations
@@ -62,16 +62,3 @@ class TerminalRater:
                 self.write(f"  {error}")
                 if self.on_rejected:
                     self.on_rejected(item, stage, text, str(error))
-
-
-class ModelRater:
-    """Ratings from the simulated participant's rating model (``microg.sim.participant``)."""
-
-    source = "model"
-
-    def __init__(self, rate: Callable[[Item, Stage, Questionnaire], int]):
-        self._rate = rate
-
-    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
-        value = self._rate(item, stage, questionnaire)
-        return parse_rating(str(value), questionnaire.scale_min, questionnaire.scale_max)

@@ -31,6 +31,7 @@ from tqdm import tqdm
 from microg.sim import HandFrame, PlacedObject, TableParameters, World, compose_scene, grasped, make_world, \
     rendered_phalanges, step, touching
 from microg.sim.hand import BONES_PER_HAND, SIDES
+from microg.sim.participant import TaskDisplay
 
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol, TaskRules
@@ -138,6 +139,20 @@ def put_back(world: World, rules: TaskRules, state: TaskState, start) -> tuple[W
     return World(world.model, data), [Event(world.time, "respawn", {"position": [float(v) for v in position]})]
 
 
+@dataclass
+class TaskBoard:
+    """What the task shows the participant right now: the stage, the current place, whether its
+    mark is lit and its timer. The runner updates it every frame; a simulated participant reads it."""
+
+    display: TaskDisplay = field(default_factory=TaskDisplay)
+
+    def read(self) -> TaskDisplay:
+        return self.display
+
+    def show(self, state: TaskState, t: float) -> None:
+        self.display = TaskDisplay(state.stage, state.place, state.lit_since is not None, state.place_timer(t))
+
+
 def _hand_blob(frame: HandFrame, rendered: np.ndarray, side: int) -> bytes | None:
     hand = frame.hand(SIDES[side])
     if hand is None:
@@ -171,8 +186,8 @@ def guarded(source, protocol: Protocol):
 
 
 def run_task(store: Store, session_id: int, run_id: int, world: World, source, rules: TaskRules, clock: Clock,
-             markers: Markers | None = None, batch: int = 64, on_frame: Callable[[int], None] | None = None
-             ) -> TaskResult:
+             markers: Markers | None = None, batch: int = 64, on_frame: Callable[[int], None] | None = None,
+             board: TaskBoard | None = None) -> TaskResult:
     """Drive one task from ``source`` until it completes, times out or the source ends; log it all.
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
@@ -192,6 +207,8 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
             last_t = frame.timestamp
             state, task_events = advance(state, Observation(frame.timestamp, is_grasped,
                                                             tuple(world.data.position[0])), rules)
+            if board is not None:
+                board.show(state, frame.timestamp)
             world, support_events = put_back(world, rules, state, start)
             events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in task_events] + \
                      [Event(clock.now(), e.kind, dict(e.data, frame_t=frame.timestamp)) for e in support_events]
@@ -284,7 +301,9 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
         run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
         store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator")
         return TaskResult("skipped", None, None, 0)
-    source = guarded(inputs.open(participant_plan(protocol, task), seed), protocol)
+    hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
+    board = TaskBoard()
+    source = guarded(inputs.open(participant_plan(protocol, task, hand), seed, board.read), protocol)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     if markers:
         markers("task_start", {"task": task.index, "phase": task.phase, "system": task.system, "object": task.object})
@@ -295,7 +314,7 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
             bar.set_postfix_str(f"{label}: {frames} frames, {frames / max(time.monotonic() - started, 1e-9):.0f} fps")
 
     return run_task(store, session.id, run_id, task_world(protocol, task), source, protocol.task, clock, markers,
-                    protocol.frame_batch, show)
+                    protocol.frame_batch, show, board)
 
 
 def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol) -> None:

@@ -1,4 +1,4 @@
-"""Import of LeapJS v2 recordings (JSON, plain or gzip; see shared/data/leap-v2-recordings/README.md).
+"""Import of LeapJS v2 recordings (JSON, plain or gzip; see data/leap-v2-recordings/README.md).
 
 Each finger ("pointable") gives mcp, pip, dip and tip positions, i.e. the proximal, intermediate
 and distal bones. There is no carpal position, so the metacarpal bases of the index to pinky

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 from tqdm import tqdm
 
-from ..inputs import check_model_rater, open_inputs, open_model_rater, parse_input
+from ..inputs import open_inputs, parse_input
 from ..protocol import Phase
 from ..questionnaire import TerminalRater
 from ..session import make_clock, resume_session, run_session
@@ -35,7 +35,7 @@ def session() -> None:
     """Run and resume participants' sessions."""
 
 
-def _rater(kind: str, store: Store, session_id: int, profile: str | None, seed: int, clock):
+def _rater(kind: str, store: Store, session_id: int, seed: int, clock):
     if kind == "skip":
         return None
     if kind == "ask":
@@ -44,12 +44,8 @@ def _rater(kind: str, store: Store, session_id: int, profile: str | None, seed: 
                                                                   "answer": text, "message": message})])
         return TerminalRater(on_rejected=rejected)
 
-    def results(system: str) -> list[dict]:
-        from ..export import trials_table
-        trials = trials_table(store)
-        mine = trials[(trials.session == session_id) & (trials.system == system)]
-        return mine[["object", "completed", "time_s", "attempts"]].to_dict("records")
-    return open_model_rater(profile or "", seed, results)
+    from ..ratings import ModelRater
+    return ModelRater(store, session_id, seed)
 
 
 def _run_one(store: Store, participant_id: str, input_spec: str | None, questionnaire: str | None, lsl: bool,
@@ -65,8 +61,6 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
     inputs = open_inputs(spec, store.protocol.group(record.group).simulated_profile)
     kind = spec.partition(":")[0]
     rating = questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
-    if rating == "model":
-        check_model_rater()
     if resume:
         session_record = existing
         if session_record.status != "running":
@@ -76,7 +70,7 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
         session_record = store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock)
     store.lock_session(session_record.id)
     clock = make_clock(inputs.clock, store.last_time(session_record.id))
-    rater = _rater(rating, store, session_record.id, getattr(inputs, "profile", None), session_record.seed, clock)
+    rater = _rater(rating, store, session_record.id, session_record.seed, clock)
     markers = None
     if lsl:
         from ..lsl import MarkerOutlet
@@ -96,8 +90,10 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
 
 
 INPUT_HELP = ("leap (live tracking), replay:FILE (a recording, replayed for each task) or simulated[:PROFILE] "
-              "(a simulated participant; PROFILE veteran or beginner, default: the group's).")
-QUESTIONNAIRE_HELP = ("ask (in the terminal), model (the simulated participant's ratings) or skip; default: ask "
+              "(a simulated participant; PROFILE practice (skill grows with each task done), veteran or beginner; "
+              "default: the group's simulated_profile).")
+QUESTIONNAIRE_HELP = ("ask (in the terminal), model (the rating model of microg.study.ratings, answers marked "
+                      "simulated) or skip; default: ask "
                       "for leap, model for simulated, skip for replay.")
 
 

@@ -14,7 +14,7 @@ from microg.sim.tracking import (RecordingError, RecordingInfo, RecordingWriter,
                                  open_source, read_recording, record, write_recording)
 from microg.sim.tracking.recording import UNKNOWN
 from microg.sim.tracking.source import HandSource
-from tests.sim.tracking.conftest import REPOSITORY
+from microg.paths import SOURCE_ROOT as REPOSITORY
 from tests.sim.tracking.synthetic import flat_hand, sweep, with_nan
 
 INFO = RecordingInfo(source="test", device="synthetic hand", frame_rate=110.0, start_time="2024-05-01T10:00:00+00:00")

@@ -1,0 +1,46 @@
+"""Minimum-jerk movements (Flash and Hogan, 1985) and the movement-time law that sizes them.
+
+A point-to-point movement of duration T that minimises the integrated squared jerk follows
+
+    x(t) = x0 + (x1 - x0) s(t / T),   s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5,
+
+with zero velocity and acceleration at both ends and a bell-shaped speed whose peak, at mid-time,
+is 1.875 times the mean speed. The participant moves every degree of freedom (palm position,
+palm orientation by slerp, joint angles) along ``s``; a target that moves while the hand travels
+(a drifting object) is followed by re-evaluating x1 at each frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def minimum_jerk(tau: float | np.ndarray) -> float | np.ndarray:
+    """The normalised minimum-jerk position s(tau), tau clipped to [0, 1]."""
+    tau = np.clip(tau, 0.0, 1.0)
+    return tau ** 3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
+
+
+def minimum_jerk_velocity(tau: float | np.ndarray) -> float | np.ndarray:
+    """ds/dtau: multiply by (x1 - x0) / T for the velocity."""
+    tau = np.clip(tau, 0.0, 1.0)
+    return 30.0 * tau ** 2 * (1.0 - tau) ** 2
+
+
+def movement_time(distance: float, tolerance: float, intercept: float, slope: float) -> float:
+    """Fitts' law, Shannon form: T = a + b log2(D / W + 1), with W the target's full width (2 x tolerance)."""
+    return intercept + slope * math.log2(distance / (2.0 * tolerance) + 1.0)
+
+
+def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
+    """Spherical interpolation between unit quaternions (shortest arc), s in [0, 1]."""
+    dot = float(np.dot(q0, q1))
+    if dot < 0.0:
+        q1, dot = -q1, -dot
+    if dot > 0.9995:
+        q = q0 + s * (q1 - q0)
+        return q / np.linalg.norm(q)
+    theta = math.acos(dot)
+    return (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)

@@ -1,0 +1,142 @@
+"""What makes simulated frames look measured: frame timing, physiological tremor, tracking noise.
+
+Frame timing (measured on the shared recordings, 1076 intervals): frames come every
+``period`` = 8.72 ms (median; 115 Hz, one recording 110 Hz) with a jitter of SD 0.18 ms; an
+interval spans two periods (one frame missing) with probability 0.0019 and three periods (two
+missing, about 26-27 ms) with probability 0.0074.
+
+Physiological tremor: a narrow-band oscillation of the whole hand at 8-12 Hz, modelled as a
+sinusoid per axis with slowly wandering frequency and amplitude (the modulated-sinusoid model of
+tremor cancelling, Riviere et al. 1998). Its RMS amplitude per axis is a skill parameter; the
+literature gives about 50-100 um RMS per axis for a hand held still (Becker et al. 2008: 96.6 +-
+84.5 um RMS under microsurgical conditions, 45-63 um per axis for a braced hand).
+
+Tracking noise: the Leap reports a still hand with a smooth wander whose spectrum rolls off as
+f^-3 to f^-5 above a few hertz (the device filters internally). It is modelled per pose
+parameter (palm position, palm rotation, digit base angles) as white noise through two
+first-order low-pass stages with a 5 Hz corner (an f^-4 roll-off), scaled so that its RMS above
+5 Hz equals what the still hand of ``pinch.json.gz`` shows: 65.7 um (palm position), 0.875 mrad
+(palm rotation), 0.967 mrad (digit angles). That puts 18 % of the variance above 5 Hz, so the
+stationary SDs are 154 um, 2.05 mrad and 2.27 mrad. All of the still hand's motion above 5 Hz is
+counted as noise, so these are upper bounds; they lie within the static precision reported for
+the device (Weichert et al. 2013: < 0.2 mm; Guna et al. 2014: SD < 0.5 mm).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+class NormalStream:
+    """Standard normal draws from a generator, fetched in blocks (a frame needs a few dozen)."""
+
+    BLOCK = 4096
+
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
+        self.block = rng.standard_normal(self.BLOCK)
+        self.used = 0
+
+    def take(self, count: int) -> np.ndarray:
+        if self.used + count > self.BLOCK:
+            self.block = self.rng.standard_normal(self.BLOCK)
+            self.used = 0
+        out = self.block[self.used:self.used + count]
+        self.used += count
+        return out
+
+
+@dataclass(frozen=True)
+class FrameTiming:
+    """The frame-interval distribution: whole periods (frames missing) plus jitter, in seconds."""
+
+    period: float = 8.72e-3
+    jitter_sd: float = 0.18e-3
+    p_one_missing: float = 0.0019
+    p_two_missing: float = 0.0074
+
+    def interval(self, rng: np.random.Generator) -> float:
+        """One frame interval."""
+        u = rng.random()
+        periods = 3 if u < self.p_two_missing else 2 if u < self.p_two_missing + self.p_one_missing else 1
+        return periods * self.period + self.jitter_sd * rng.standard_normal()
+
+
+def band_fraction(corner: float, band: float) -> float:
+    """Fraction of the variance above ``band`` Hz of noise with PSD 1 / (1 + (f/corner)^2)^2."""
+    u = band / corner
+    return 1.0 - (u / (1.0 + u * u) + math.atan(u)) / (math.pi / 2)
+
+
+@dataclass(frozen=True)
+class TrackingNoiseLevels:
+    """RMS above ``band`` Hz of a still tracked hand, measured on the recordings (see module doc)."""
+
+    palm_position: float = 65.7e-6
+    palm_rotation: float = 0.875e-3
+    digit_angle: float = 0.967e-3
+    corner: float = 5.0
+    band: float = 5.0
+
+    def stationary_sd(self) -> np.ndarray:
+        """(3,) SDs of the whole process: palm position (m), palm rotation (rad), digit angle (rad)."""
+        scale = 1.0 / math.sqrt(band_fraction(self.corner, self.band))
+        return scale * np.array([self.palm_position, self.palm_rotation, self.digit_angle])
+
+
+class TrackingNoise:
+    """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters."""
+
+    SIZE = 16
+
+    def __init__(self, levels: TrackingNoiseLevels, rng: np.random.Generator):
+        self.tau = 1.0 / (2.0 * math.pi * levels.corner)
+        sd = levels.stationary_sd()
+        self.sd = np.repeat(sd, [3, 3, 10])
+        self.normals = NormalStream(rng)
+        # Two equal first-order stages: the output's variance is half the first stage's.
+        self.first = math.sqrt(2.0) * self.sd * self.normals.take(self.SIZE)
+        self.second = self.sd * self.normals.take(self.SIZE)
+
+    def advance(self, dt: float) -> np.ndarray:
+        """The noise after ``dt`` seconds: (16,) = palm offset (3, m), rotation vector (3, rad),
+        digit base angles (5, 2; rad)."""
+        decay = math.exp(-dt / self.tau)
+        self.first = decay * self.first + math.sqrt(2.0 * (1.0 - decay * decay)) * self.sd * self.normals.take(self.SIZE)
+        self.second = decay * self.second + (1.0 - decay) * self.first
+        return self.second
+
+
+class Tremor:
+    """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and amplitude."""
+
+    LOW, HIGH = 8.0, 12.0
+    FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
+    """Hz and s: the frequency wanders around the participant's own as an Ornstein-Uhlenbeck process."""
+    AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
+
+    def __init__(self, rms: float, rng: np.random.Generator):
+        self.centre = rng.uniform(self.LOW + 1.0, self.HIGH - 1.0)
+        self.offset = 0.0
+        self.phase = rng.uniform(0.0, 2.0 * math.pi, 3)
+        self.normals = NormalStream(rng)
+        self.log_amplitude = self.AMPLITUDE_LOG_SD * self.normals.take(3)
+        # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
+        self.base = rms * math.sqrt(2.0) * math.exp(-self.AMPLITUDE_LOG_SD ** 2)
+
+    @staticmethod
+    def _ou(value, dt, tau, sd, noise):
+        decay = math.exp(-dt / tau)
+        return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
+
+    def advance(self, dt: float) -> np.ndarray:
+        """The tremor displacement (3,) in metres after ``dt`` seconds."""
+        draws = self.normals.take(4)
+        self.offset = self._ou(self.offset, dt, self.FREQUENCY_TAU, self.FREQUENCY_SD, float(draws[0]))
+        frequency = min(max(self.centre + self.offset, self.LOW), self.HIGH)
+        self.phase = self.phase + 2.0 * math.pi * frequency * dt
+        self.log_amplitude = self._ou(self.log_amplitude, dt, self.AMPLITUDE_TAU, self.AMPLITUDE_LOG_SD, draws[1:])
+        return self.base * np.exp(self.log_amplitude) * np.sin(self.phase)

@@ -1,0 +1,193 @@
+"""Pictures of a logged task for reports and papers: an image strip of its key moments (like the
+paper's Figs. 7 and 9) and a short animation, drawn headless by pybullet's CPU renderer
+(TinyRenderer: no display, no GPU). The strip is laid out with matplotlib, so it can be PNG, PDF
+or SVG, with each panel's heads-up display as text under it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .scene import PALETTE, Camera, Capsules, FrameScene, TaskLayout, bone_colours, hud_lines, ring_mesh, \
+    z_to_direction
+from .track import Moment, Track
+
+STRIP_FORMATS = (".png", ".pdf", ".svg")
+ANIMATION_FORMATS = (".gif", ".webp")
+TRACKED_FADE = 0.55
+"""The tracked hand, when drawn with the rendered one, is its colour blended this far toward white
+(the CPU renderer has no transparency)."""
+CENTRE_DOT = 0.005
+"""Radius (m) of the dot at each place's centre."""
+
+
+def _rgba(colour, fade: float = 0.0) -> list[float]:
+    rgb = np.asarray(colour, dtype=float) / 255.0
+    return list(rgb + fade * (1.0 - rgb)) + [1.0]
+
+
+def _xyzw(wxyz) -> list[float]:
+    w, x, y, z = (float(v) for v in wxyz)
+    return [x, y, z, w]
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Send what C code writes on standard error to /dev/null: pybullet announces its build time
+    when imported, which would land in the middle of the command's output."""
+    sys.stderr.flush()
+    saved, null = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 2)
+    try:
+        yield
+    finally:
+        ctypes.CDLL(None).fflush(None)
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+
+
+class Renderer:
+    """A pybullet client in DIRECT mode (no window) that draws one ``FrameScene`` at a time."""
+
+    def __init__(self, layout: TaskLayout, camera: Camera, size: tuple[int, int] = (640, 480)):
+        with _quiet_stderr():
+            import pybullet
+
+            self.client = pybullet.connect(pybullet.DIRECT)
+        self.pb = pybullet
+        self.layout, self.camera, self.size = layout, camera, size
+        self.ring = ring_mesh(layout.place_radius)
+        width, height = size
+        self.view = pybullet.computeViewMatrix(list(camera.eye), list(camera.target), [0, 1, 0])
+        self.projection = pybullet.computeProjectionMatrixFOV(camera.fov_deg, width / height, 0.01, 10.0)
+
+    def close(self) -> None:
+        self.pb.disconnect(self.client)
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *_) -> None:
+        self.close()
+
+    def _body(self, shape: int, rgba: list[float], position, orientation=(0.0, 0.0, 0.0, 1.0), **options) -> None:
+        visual = self.pb.createVisualShape(shape, rgbaColor=rgba, physicsClientId=self.client, **options)
+        self.pb.createMultiBody(baseMass=0, baseVisualShapeIndex=visual, basePosition=list(position),
+                                baseOrientation=list(orientation), physicsClientId=self.client)
+
+    def _capsules(self, capsules: Capsules, colours: np.ndarray, fade: float) -> None:
+        drawn = capsules.drawn
+        turns = z_to_direction(capsules.end - capsules.start)
+        for k in np.flatnonzero(drawn):
+            length = float(np.linalg.norm(capsules.end[k] - capsules.start[k]))
+            rgba = _rgba(colours[k], fade)
+            radius = float(capsules.radius[k])
+            if length < 1e-4:
+                self._body(self.pb.GEOM_SPHERE, rgba, capsules.centre[k], radius=radius)
+            else:
+                self._body(self.pb.GEOM_CAPSULE, rgba, capsules.centre[k], _xyzw(turns[k]), radius=radius,
+                           length=length)
+
+    def draw(self, scene: FrameScene, hands: str = "rendered") -> np.ndarray:
+        """The frame as an (H, W, 3) uint8 image; ``hands``: rendered, tracked or both."""
+        pb, layout = self.pb, self.layout
+        pb.resetSimulation(physicsClientId=self.client)
+        if layout.table_height is not None:
+            centre = layout.table_centre - [0.0, layout.table_size[1] / 2, 0.0]
+            self._body(pb.GEOM_BOX, _rgba(PALETTE["table"]), centre, halfExtents=list(layout.table_size / 2))
+        if layout.shape == "sphere":
+            self._body(pb.GEOM_SPHERE, _rgba(PALETTE["object"]), scene.object_position, radius=layout.size[0] / 2)
+        else:
+            self._body(pb.GEOM_BOX, _rgba(PALETTE["object"]), scene.object_position,
+                       _xyzw(scene.object_orientation), halfExtents=list(layout.size / 2))
+        vertices, faces = self.ring
+        for place, state in zip(layout.places, scene.places):
+            rgba = _rgba(PALETTE[state])
+            self._body(pb.GEOM_MESH, rgba, place, vertices=vertices.tolist(), indices=faces.ravel().tolist())
+            self._body(pb.GEOM_SPHERE, rgba, place, radius=CENTRE_DOT)
+        if hands in ("tracked", "both"):
+            self._capsules(scene.tracked, bone_colours(np.zeros_like(scene.touching), "tracked"),
+                           TRACKED_FADE if hands == "both" else 0.0)
+        if hands in ("rendered", "both"):
+            self._capsules(scene.rendered, bone_colours(scene.touching, "rendered"), 0.0)
+        width, height = self.size
+        _, _, rgba, _, _ = pb.getCameraImage(width, height, self.view, self.projection, renderer=pb.ER_TINY_RENDERER,
+                                             shadow=1, lightDirection=[0.4, 1.0, 0.6], physicsClientId=self.client)
+        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3]
+
+
+def _title(track: Track) -> str:
+    run = track.run
+    result = f"{run.time_s:.1f} s" if run.status == "completed" else run.status
+    return (f"{run.participant}, task {run.task_index}: {run.phase}, {run.object} ({run.object_code}), "
+            f"{run.system}: {result}, {run.attempts if run.attempts is not None else 0} attempts")
+
+
+def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[Moment], out: Path,
+                hands: str = "rendered", size: tuple[int, int] = (480, 360), title: bool = True) -> Path:
+    """An image strip, one panel per moment, each with its label above and the heads-up display
+    (stage, task timer, place timer, attempts) under it."""
+    from matplotlib.figure import Figure
+
+    out = Path(out)
+    if out.suffix.lower() not in STRIP_FORMATS:
+        raise ValueError(f"--out {out}: an image strip is {', '.join(STRIP_FORMATS)}")
+    if not moments:
+        raise ValueError(f"run {track.run.id} has no frames to draw")
+    n_places = len(layout.places)
+    with Renderer(layout, camera, size) as renderer:
+        images = [renderer.draw(track.scene(m.index, n_places), hands) for m in moments]
+    aspect = size[1] / size[0]
+    figure = Figure(figsize=(2.4 * len(moments), 2.4 * aspect + 0.8 + (0.3 if title else 0.0)), layout="constrained")
+    axes = figure.subplots(1, len(moments), squeeze=False)[0]
+    for letter, ax, image, moment in zip("abcdefghijklmnopqrstuvwxyz", axes, images, moments):
+        scene = track.scene(moment.index, n_places)
+        ax.imshow(image)
+        ax.set_axis_off()
+        ax.set_title(f"({letter}) {moment.label}", fontsize=9)
+        ax.text(0.5, -0.04, "\n".join(hud_lines(scene, layout.hold_s, n_places)), transform=ax.transAxes,
+                ha="center", va="top", fontsize=7, linespacing=1.4)
+    if title:
+        figure.suptitle(_title(track), fontsize=9)
+    figure.savefig(out, dpi=200, bbox_inches="tight")
+    return out
+
+
+def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path, hands: str = "rendered",
+                    size: tuple[int, int] = (480, 360), fps: float = 15.0, speed: float = 1.0,
+                    progress: bool = True) -> Path:
+    """The run as an animated GIF or WebP at ``speed`` times real time, the heads-up display in a
+    band under the scene."""
+    from PIL import Image, ImageDraw, ImageFont
+    from tqdm import tqdm
+
+    out = Path(out)
+    if out.suffix.lower() not in ANIMATION_FORMATS:
+        raise ValueError(f"--out {out}: an animation is {', '.join(ANIMATION_FORMATS)}")
+    if fps <= 0 or speed <= 0:
+        raise ValueError(f"fps = {fps}, speed = {speed}: both must be positive")
+    if not track.rows:
+        raise ValueError(f"run {track.run.id} has no frames to draw")
+    n_places = len(layout.places)
+    times = np.arange(0.0, track.duration + 1e-9, speed / fps)
+    font = ImageFont.load_default(size=max(10, size[1] // 26))
+    band = 3 * (font.size + 4) + 8
+    pictures = []
+    with Renderer(layout, camera, size) as renderer:
+        for t in tqdm(times, unit="frame", desc=out.name, disable=not progress):
+            scene = track.scene(track.index_at(float(t)), n_places)
+            picture = Image.new("RGB", (size[0], size[1] + band), "white")
+            picture.paste(Image.fromarray(renderer.draw(scene, hands)), (0, 0))
+            ImageDraw.Draw(picture).multiline_text((8, size[1] + 6), "\n".join(hud_lines(scene, layout.hold_s,
+                                                                                           n_places)),
+                                                   fill="black", font=font, spacing=4)
+            pictures.append(picture)
+    pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=int(round(1000 / fps)), loop=0)
+    return out

@@ -1,0 +1,259 @@
+"""What one logged frame looks like: plain geometry that the browser view and the picture export
+both draw, so the two show the same thing.
+
+A hand is drawn as 20 capsules, one per bone of the Leap skeleton (bone ``b`` of digit ``d`` runs
+from joint ``b`` to joint ``b + 1``, radius ``width / 2``, the phalanx sphere's radius). The
+*tracked* hand is the skeleton as the source delivered it; the *rendered* (god-object) hand moves
+each bone so that its centre is the logged rendered phalanx centre: out of contact the two agree,
+in contact the rendered phalanx stays on the object's surface while the tracked one may sink in
+(paper, section 3.3, Fig. 6). Phalanges whose ``touching`` bit is set are drawn in the highlight
+colour (the paper's highlighted hand avatar, Fig. 1).
+
+Places are rings of the protocol's ``place_radius`` around each place: grey until they are the
+current target, white while the object is on its way there, yellow while lit (the object is held
+inside and the place's timer runs), green once done (Fig. 9).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES
+from microg.study.protocol import Protocol
+from microg.study.store import HAND_LAYOUT, HAND_VALUES
+
+HAND_MODES = ("rendered", "tracked", "both")
+"""Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
+PLACE_STATES = ("pending", "next", "lit", "done")
+
+PALETTE = {
+    "rendered": (70, 125, 235),      # the rendered hand: blue
+    "highlight": (235, 40, 180),     # a phalanx in contact: magenta
+    "tracked": (150, 160, 175),      # the tracked hand: grey (faint when both are shown)
+    "object": (205, 120, 45),        # light hardwood
+    "table": (200, 200, 196),
+    "pending": (150, 150, 150),      # a place not yet the target
+    "next": (245, 245, 245),         # the current target, not reached
+    "lit": (255, 215, 0),            # the object held in the target: its timer runs
+    "done": (40, 185, 70),           # held there for hold_s
+}
+"""Colours (RGB 0-255), chosen to be told apart by hue, in a picture as in a screenshot."""
+TRACKED_OPACITY = 0.35
+"""Opacity of the tracked hand when both hands are shown."""
+
+
+@dataclass(frozen=True)
+class Capsules:
+    """Line segments with a radius; rows of NaN are not drawn (an untracked bone or hand)."""
+
+    start: np.ndarray
+    """(K, 3) one end (m)."""
+    end: np.ndarray
+    """(K, 3) the other end (m)."""
+    radius: np.ndarray
+    """(K,) radius (m)."""
+
+    @property
+    def centre(self) -> np.ndarray:
+        return 0.5 * (self.start + self.end)
+
+    @property
+    def drawn(self) -> np.ndarray:
+        """(K,) True where the capsule is known and has a positive radius."""
+        with np.errstate(invalid="ignore"):
+            return np.isfinite(self.start).all(1) & np.isfinite(self.end).all(1) & (self.radius > 0)
+
+
+@dataclass(frozen=True)
+class HandValues:
+    """One side's logged hand blob, split as ``microg.study.store.HAND_LAYOUT`` says."""
+
+    joints: np.ndarray
+    """(5, 5, 3)"""
+    widths: np.ndarray
+    """(5, 4)"""
+    palm_position: np.ndarray
+    palm_orientation: np.ndarray
+    rendered: np.ndarray
+    """(20, 3) rendered (god-object) phalanx centres; NaN where untracked."""
+
+
+def split_hand(values: np.ndarray) -> HandValues:
+    """The parts of a 162-value hand blob (all NaN for an untracked hand)."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.shape != (HAND_VALUES,):
+        raise ValueError(f"a hand blob has {HAND_VALUES} values, got shape {values.shape}")
+    parts, start = {}, 0
+    for name, size in HAND_LAYOUT:
+        parts[name] = values[start:start + size]
+        start += size
+    return HandValues(parts["joints"].reshape(N_DIGITS, N_BONES + 1, 3), parts["widths"].reshape(N_DIGITS, N_BONES),
+                      parts["palm_position"], parts["palm_orientation"], parts["rendered"].reshape(BONES_PER_HAND, 3))
+
+
+def tracked_bones(hand: HandValues) -> Capsules:
+    """The 20 bones of the tracked skeleton, digit-major (the physics' slot order)."""
+    return Capsules(hand.joints[:, :-1].reshape(-1, 3), hand.joints[:, 1:].reshape(-1, 3),
+                    0.5 * hand.widths.reshape(-1))
+
+
+def rendered_bones(hand: HandValues) -> Capsules:
+    """The tracked bones, each moved so its centre is the rendered phalanx centre. A bone that is
+    no phalanx (the thumb's zero-length metacarpal, an untracked bone) has no rendered centre and
+    is not drawn."""
+    tracked = tracked_bones(hand)
+    shift = hand.rendered - tracked.centre
+    return Capsules(tracked.start + shift, tracked.end + shift, tracked.radius)
+
+
+def both_sides(capsules: list[Capsules]) -> Capsules:
+    """The left and right hands' capsules as one set of 40, in slot order."""
+    return Capsules(*(np.concatenate([getattr(c, f) for c in capsules]) for f in ("start", "end", "radius")))
+
+
+def touching_slots(mask: int) -> np.ndarray:
+    """(40,) bool from the logged ``touching`` bit mask (bit k = phalanx slot k)."""
+    return np.array([(int(mask) >> k) & 1 for k in range(len(SIDES) * BONES_PER_HAND)], dtype=bool)
+
+
+def place_states(current: int, lit: bool, n_places: int) -> tuple[str, ...]:
+    """The state of each place marker when ``current`` places are done (the index of the target)
+    and the target is ``lit`` or not."""
+    return tuple("done" if k < current else ("lit" if lit else "next") if k == current else "pending"
+                 for k in range(n_places))
+
+
+def bone_colours(touching: np.ndarray, base: str) -> np.ndarray:
+    """(40, 3) uint8: the highlight colour where a phalanx touches, ``base`` elsewhere."""
+    colours = np.tile(np.array(PALETTE[base], dtype=np.uint8), (len(touching), 1))
+    colours[touching] = PALETTE["highlight"]
+    return colours
+
+
+def z_to_direction(direction: np.ndarray) -> np.ndarray:
+    """(K, 4) unit quaternions (w, x, y, z) turning the z axis onto each (K, 3) direction; the
+    identity for a zero or unknown direction."""
+    d = np.asarray(direction, dtype=np.float64)
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = np.where(length > 1e-12, d / length, [0.0, 0.0, 1.0])
+    unit = np.where(np.isfinite(unit), unit, [0.0, 0.0, 1.0])
+    # half-way quaternion: (1 + z.u, z x u), normalised; opposite to z: a half turn about x
+    q = np.column_stack([1.0 + unit[:, 2], -unit[:, 1], unit[:, 0], np.zeros(len(unit))])
+    opposite = q[:, 0] < 1e-9
+    q[opposite] = (0.0, 1.0, 0.0, 0.0)
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class FrameScene:
+    """Everything drawn for one frame of a task run."""
+
+    t: float
+    """Seconds since the run's first frame (the task timer)."""
+    stage: str
+    place: int
+    """The current place's index (= places done)."""
+    place_lit: bool
+    place_timer: float
+    held: bool
+    attempts: int
+    """Drops so far."""
+    object_position: np.ndarray
+    object_orientation: np.ndarray
+    """(w, x, y, z)"""
+    tracked: Capsules
+    """(40) slot order: left hand 0-19, right hand 20-39."""
+    rendered: Capsules
+    touching: np.ndarray
+    """(40,) bool"""
+    places: tuple[str, ...]
+    """State of each place marker (``PLACE_STATES``)."""
+
+
+def hud_lines(scene: FrameScene, hold_s: float, n_places: int) -> list[str]:
+    """The heads-up display: stage, task timer, place and its timer, attempts."""
+    if scene.place_lit:
+        place = f"place {scene.place + 1} lit: {scene.place_timer:.1f} / {hold_s:g} s"
+    elif scene.place < n_places:
+        place = f"place {scene.place + 1} of {n_places}: not reached"
+    else:
+        place = f"all {n_places} places done"
+    holding = "holding" if scene.held else "not holding"
+    return [f"{scene.stage} · {scene.t:.1f} s", f"{place} · {holding}", f"attempts (drops): {scene.attempts}"]
+
+
+@dataclass(frozen=True)
+class TaskLayout:
+    """What stays put during a task: the object's shape, the places, the table."""
+
+    shape: str
+    """``box`` or ``sphere``."""
+    size: np.ndarray
+    """Box: edge lengths; sphere: (diameter,) * 3 (m)."""
+    start: np.ndarray
+    places: np.ndarray
+    """(P, 3)"""
+    place_radius: float
+    hold_s: float
+    table_height: float | None
+    table_centre: np.ndarray
+    """Centre of the table top (m)."""
+    table_size: np.ndarray
+    """Edge lengths of the table slab (m)."""
+
+
+TABLE_MARGIN = 0.12
+TABLE_DEPTH = 0.30
+TABLE_THICKNESS = 0.02
+CAMERA_MARGIN = 0.05
+"""Space (m) the default camera leaves around the start and the places."""
+RING_TUBE = 0.003
+"""Radius of a place ring's tube (m)."""
+
+
+def task_layout(protocol: Protocol, object_name: str) -> TaskLayout:
+    """The layout of a task with ``object_name``: its start pose and the protocol's places, with a
+    table under the start and the places when the protocol has one."""
+    spec = protocol.object(object_name).spec
+    start = np.asarray(protocol.start_pose(object_name)[0], dtype=np.float64)
+    places = np.asarray(protocol.task.places, dtype=np.float64)
+    xs = np.concatenate([[start[0]], places[:, 0]])
+    height = protocol.table_height
+    centre = np.array([0.5 * (xs.min() + xs.max()), height if height is not None else np.nan, start[2]])
+    size = np.array([xs.max() - xs.min() + 2 * TABLE_MARGIN, TABLE_THICKNESS, TABLE_DEPTH])
+    return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start, places,
+                      protocol.task.place_radius, protocol.task.hold_s, height, centre, size)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera looking at ``target`` from ``eye``, y up; ``fov_deg`` is the vertical field."""
+
+    eye: np.ndarray
+    target: np.ndarray
+    fov_deg: float = 40.0
+
+
+def default_camera(layout: TaskLayout, aspect: float = 4 / 3, fov_deg: float = 40.0) -> Camera:
+    """The participant's side of the scene, a little from above (y up, +z toward the participant),
+    just far enough back that the start and every place, with a margin, fill a view of ``aspect``
+    (width / height)."""
+    points = np.vstack([layout.start, layout.places])
+    target = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    half = 0.5 * (points.max(axis=0) - points.min(axis=0)) + layout.place_radius + CAMERA_MARGIN
+    tangent = np.tan(np.radians(fov_deg) / 2)
+    direction = np.array([0.0, 0.45, 1.0]) / np.linalg.norm([0.0, 0.45, 1.0])
+    distance = max(half[1] / tangent, half[0] / (tangent * aspect)) + half[2]
+    return Camera(target + distance * direction, target, fov_deg)
+
+
+def ring_mesh(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) of a place marker: a thin ring of ``radius`` around the origin, facing z
+    (toward the participant)."""
+    import trimesh
+
+    ring = trimesh.creation.torus(major_radius=radius, minor_radius=RING_TUBE, major_sections=48, minor_sections=8)
+    return np.asarray(ring.vertices), np.asarray(ring.faces)
