@@ -12,6 +12,14 @@ LEAP_RECORDINGS = DATA / "leap-v2-recordings"
 """Four real Leap Motion recordings in LeapJS v2 JSON (see the README beside them)."""
 
 
+def protocol_file(name_or_path: str | Path) -> Path:
+    """A protocol file, or the name of a shipped one (``paper``, ``paper-microgravity``)."""
+    path = Path(name_or_path)
+    if path.exists() or path.suffix == ".toml":
+        return path
+    return PROTOCOLS / f"{name_or_path}.toml"
+
+
 def object_file(name: str) -> Path:
     """The shipped object definition called ``name`` (e.g. ``cube``)."""
     path = OBJECTS / f"{name}.toml"

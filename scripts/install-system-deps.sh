@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# System packages some tests use: Chromium (the 3D view's browser test) and R with afex and
+# System packages some tests use: Chromium and its driver (the 3D view's browser test) and R with afex and
 # emmeans (the live cross-check of the statistics). Installed with apt when this machine allows;
 # otherwise the tests that need them skip and say why.
 set -u
-packages=(chromium r-base-core r-cran-afex r-cran-emmeans)
+packages=(chromium chromium-driver r-base-core r-cran-afex r-cran-emmeans)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

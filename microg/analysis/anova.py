@@ -34,7 +34,8 @@ def mixed_anova(data: pd.DataFrame, dv: str, within: str, between: str, subject:
     missing a within level are dropped with a warning that names them (complete cases, as afex).
     The Greenhouse-Geisser columns are filled for every within effect; whether to use them is
     :func:`sphericity_correction`'s call. With two within levels sphericity holds trivially
-    (epsilon 1, no Mauchly test).
+    (epsilon 1, no Mauchly test); with fewer error degrees of freedom than within levels there is
+    too little data to test or estimate it (epsilon and Mauchly NaN).
     """
     if ss_type not in (2, 3):
         raise ValueError(f"ss_type must be 2 or 3, not {ss_type!r}")
@@ -46,15 +47,25 @@ def mixed_anova(data: pd.DataFrame, dv: str, within: str, between: str, subject:
             f"{n} complete {subject}s in {len(levels)} group(s) of column {between!r} with {k} level(s) of "
             f"column {within!r}: a mixed ANOVA needs at least two of each"
         )
-    if n - len(levels) < 1:
+    if n - len(levels) < k - 1:
         raise AnalysisInputError(
-            f"column {between!r}: {n} complete {subject}s in {len(levels)} groups leave no error degrees of freedom"
+            f"{n} complete {subject}s in {len(levels)} groups of column {between!r} leave {n - len(levels)} error "
+            f"degrees of freedom; the {k} levels of column {within!r} need at least {k - 1}"
         )
-    hypotheses = _mlm_sums_of_squares(wide.to_numpy(), groups, levels, ss_type)
-    eps, w_mauchly, p_mauchly = _sphericity(wide, groups, dv, within, between, subject)
-
+    try:
+        hypotheses = _mlm_sums_of_squares(wide.to_numpy(), groups, levels, ss_type)
+    except np.linalg.LinAlgError:
+        raise AnalysisInputError(
+            f"the {n} complete {subject}s' {dv} values leave the within-{subject} covariance singular (too few "
+            f"{subject}s, or a level of column {within!r} without variation)"
+        ) from None
     df_between, df_within = len(levels) - 1, k - 1
     df_error = n - len(levels)
+    if df_error < k:
+        eps, w_mauchly, p_mauchly = np.nan, np.nan, np.nan
+    else:
+        eps, w_mauchly, p_mauchly = _sphericity(wide, groups, dv, within, between, subject)
+
     table = pd.DataFrame(
         {
             "source": [between, within, f"{between}:{within}"],
@@ -82,9 +93,12 @@ def sphericity_correction(anova: pd.DataFrame, alpha: float = SPHERICITY_ALPHA) 
     """Which p to read for each source, and why: Greenhouse-Geisser when Mauchly's test rejects
     sphericity at ``alpha``, the uncorrected p otherwise (and always for the between factor)."""
     rows = []
-    for row in anova.itertuples(index=False):
-        if np.isnan(row.eps_GG):
+    for index, row in enumerate(anova.itertuples(index=False)):
+        if index == 0:
             rows.append((row.source, "none", "between-participant effect", row.df1, row.df2, row.p_unc))
+        elif np.isnan(row.eps_GG):
+            why = f"too few participants to test sphericity (error df {row.df2 / row.df1:g} < within levels)"
+            rows.append((row.source, "none", why, row.df1, row.df2, row.p_unc))
         elif np.isnan(row.p_mauchly):
             rows.append((row.source, "none", "two levels: sphericity holds", row.df1, row.df2, row.p_unc))
         elif row.p_mauchly < alpha:

@@ -65,10 +65,13 @@ def _difference(levels: list, a, b) -> np.ndarray:
     return np.array([1.0 if g == a else -1.0 if g == b else 0.0 for g in levels])
 
 
+POSTHOC_COLUMNS = ("factor", "at", "A", "B", "estimate", "SE", "df", "T", "p_unc", "p_bonf", "stars")
+
+
 def _family(rows: list) -> pd.DataFrame:
     table = pd.DataFrame(
         [(factor, at, a, b, *result) for factor, at, a, b, result in rows],
-        columns=["factor", "at", "A", "B", "estimate", "SE", "df", "T", "p_unc"],
+        columns=list(POSTHOC_COLUMNS[:-2]),
     )
     table["at"] = table["at"].astype(object)
     table["p_bonf"] = pg.multicomp(table["p_unc"].to_numpy(), method="bonf")[1]

@@ -14,8 +14,12 @@ import pandas as pd
 from markupsafe import Markup
 
 from microg import __version__
-from microg.analysis.analyse import EXCLUDED_STAGES, NORMALITY_ALPHA, SPHERICITY_ALPHA, StudyAnalysis, analyse_study
+from microg.analysis.analyse import (BETWEEN, EXCLUDED_STAGES, NORMALITY_ALPHA, SPHERICITY_ALPHA, WITHIN,
+                                    StudyAnalysis, analyse_study)
+from microg.analysis.anova import ANOVA_COLUMNS
 from microg.analysis.figures import plot_bars, plot_ratings, save_figure
+from microg.analysis.posthoc import POSTHOC_COLUMNS
+from microg.analysis.tables import MEASURES
 from microg.analysis.report_template import TEMPLATE
 
 MEASURE_NAMES = {"time_s": "time", "attempts": "attempts"}
@@ -58,11 +62,16 @@ def write_report(
 
 
 def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
-    """The CSV tables at full precision."""
+    """The CSV tables at full precision. An ANOVA the data cannot support (too few complete
+    participants, or a measure without variation) is written with its sources and empty statistics;
+    the report says why."""
     written = []
-    for (name, dv), table in analysis.anova.items():
+    not_estimable = pd.DataFrame({"source": [BETWEEN, WITHIN, f"{BETWEEN}:{WITHIN}"]}).reindex(columns=ANOVA_COLUMNS)
+    for name, dv in ((name, dv) for name in analysis.systems for dv in MEASURES):
         suffix = "" if name == analysis.system else f"_{name}"
-        for kind, frame in (("anova", table), ("posthoc", analysis.posthoc[(name, dv)])):
+        anova = analysis.anova.get((name, dv), not_estimable)
+        post = analysis.posthoc.get((name, dv), pd.DataFrame(columns=POSTHOC_COLUMNS))
+        for kind, frame in (("anova", anova), ("posthoc", post)):
             path = out / f"{kind}_{MEASURE_NAMES[dv]}{suffix}.csv"
             frame.to_csv(path, index=False)
             written.append(path)

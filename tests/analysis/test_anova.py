@@ -114,9 +114,17 @@ def test_sphericity_correction_uses_greenhouse_geisser_when_mauchly_rejects():
     assert decision.loc["Group", "p"] == table.loc[0, "p_unc"]
 
 
-def test_no_error_degrees_of_freedom_is_an_input_error():
+def test_too_few_error_degrees_of_freedom_is_an_input_error():
     data = pd.DataFrame(
         {"s": ["a", "a", "b", "b"], "g": ["x", "x", "y", "y"], "w": ["1", "2", "1", "2"], "v": [1.0, 2, 3, 5]}
     )
-    with pytest.raises(AnalysisInputError, match="no error degrees of freedom"):
+    with pytest.raises(AnalysisInputError, match="leave 0 error degrees of freedom; the 2 levels of column 'w' "
+                                                 "need at least 1"):
+        mixed_anova(data, "v", "w", "g", "s")
+
+
+def test_a_measure_without_variation_is_an_input_error_not_a_crash():
+    data = pd.DataFrame({"s": list("aaabbbcccddd"), "g": list("xxxxxxyyyyyy"), "w": list("123") * 4,
+                         "v": [0.0] * 12})
+    with pytest.raises(AnalysisInputError, match="covariance singular"):
         mixed_anova(data, "v", "w", "g", "s")

@@ -15,16 +15,6 @@ from microg.study.store import PlannedTask, open_study
 from .conftest import PROTOCOLS
 from .scripted import ScriptedPinch, pinch_keyframes
 
-VERBS = [["study", "init"], ["study", "status"], ["participant", "add"], ["participant", "add-sample"],
-         ["participant", "withdraw"], ["participant", "list"], ["session", "run"], ["session", "resume"], ["export"]]
-
-
-@pytest.mark.parametrize("verb", VERBS, ids=" ".join)
-def test_every_verb_explains_itself(verb):
-    result = CliRunner().invoke(main, verb + ["--help"], prog_name="microg")
-    assert result.exit_code == 0 and "Usage: microg " + " ".join(verb) in result.output
-
-
 def cube_recording(path):
     """A recording of the scripted pinch doing the tiny protocol's cube task."""
     protocol = load_protocol(PROTOCOLS / "tiny.toml")

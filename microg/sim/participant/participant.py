@@ -495,10 +495,12 @@ class SimulatedParticipant:
             self._enter("watch", t)
 
     def _on_watch(self, t, dt, world):
-        """Stay until the object is seen away from the hand; if it still clings, back off again."""
-        if _length(self._seen.position - self._pose.position) > RELEASED_DISTANCE and not self._grasped(world):
+        """Stay until the object is seen away from the hand (with a display: until the task shows it
+        is over); if it still clings, back off again."""
+        away = _length(self._seen.position - self._pose.position) > RELEASED_DISTANCE and not self._grasped(world)
+        if away and self.display is None:
             self._enter("done", t)
-        elif t - self._phase_start > WATCH_S:
+        elif not away and t - self._phase_start > WATCH_S:
             self._begin_open(t)
 
     # -- the tracked hand ----------------------------------------------------------------------

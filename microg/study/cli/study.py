@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from microg.paths import PROTOCOLS
+from microg.paths import protocol_file
 
 from ..protocol import load_protocol
 from ..store import create_study, open_study
@@ -20,14 +20,6 @@ def study() -> None:
     """Create a study and see where it stands."""
 
 
-def protocol_path(name_or_path: str) -> Path:
-    """A protocol file, or the name of a shipped one (``paper``, ``paper-microgravity``)."""
-    path = Path(name_or_path)
-    if path.exists() or path.suffix == ".toml":
-        return path
-    return PROTOCOLS / f"{name_or_path}.toml"
-
-
 @study.command("init")
 @study_dir_argument
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
@@ -37,7 +29,7 @@ def protocol_path(name_or_path: str) -> Path:
 @clear_errors
 def init(study_dir: str, protocol_name: str, seed: int | None) -> None:
     """Create a study in STUDY_DIR from a protocol: one SQLite database holding everything."""
-    protocol = load_protocol(protocol_path(protocol_name))
+    protocol = load_protocol(protocol_file(protocol_name))
     seed = seed if seed is not None else protocol.seed if protocol.seed is not None else secrets.randbelow(2**31)
     with create_study(study_dir, protocol, seed) as store:
         click.echo(f"created study {store.name!r} in {study_dir} (seed {seed}, protocol sha256 {protocol.sha256[:12]})")

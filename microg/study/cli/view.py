@@ -79,11 +79,10 @@ def export(study_dir: str, session: str, task_index: int, run: int | None, out: 
     paper's Figs. 7 and 9) or an animation."""
     from ..view import export_task
 
-    if out.exists() and not overwrite:
-        raise FileExistsError(f"{out} exists; choose another --out or pass --overwrite")
     try:
         written = export_task(study_dir, session, task_index, out, run=run, hands=hands, seconds=seconds,
-                              size=_size(size), fps=fps, speed=speed, title=title, progress=not quiet)
+                              size=_size(size), fps=fps, speed=speed, title=title, overwrite=overwrite,
+                              progress=not quiet)
     except ValueError as error:
         raise click.ClickException(str(error)) from None
     click.echo(f"wrote {written}")

@@ -30,9 +30,11 @@ def serve(*args, **kwargs):
 
 def export_task(study_dir: str | Path, session: str, task_index: int, out: str | Path, *, run: int | None = None,
                 hands: str = "rendered", seconds: tuple[float, ...] = (), size: tuple[int, int] = (480, 360),
-                fps: float = 15.0, speed: float = 1.0, title: bool = True, progress: bool = True) -> Path:
+                fps: float = 15.0, speed: float = 1.0, title: bool = True, overwrite: bool = False,
+                progress: bool = True) -> Path:
     """Pictures of one task run: an image strip (``out`` .png, .pdf, .svg) of its key moments, or
-    of the frames at ``seconds`` into the task; or an animation (.gif, .webp)."""
+    of the frames at ``seconds`` into the task; or an animation (.gif, .webp). An existing ``out``
+    is replaced only with ``overwrite``."""
     from .picture import ANIMATION_FORMATS, STRIP_FORMATS, write_animation, write_strip
 
     out = Path(out)
@@ -42,6 +44,10 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
                          f"({', '.join(ANIMATION_FORMATS)})")
     if hands not in HAND_MODES:
         raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
+    if seconds and suffix in ANIMATION_FORMATS:
+        raise ValueError(f"--at chooses the panels of a strip; an animation ({out}) shows the whole task")
+    if out.exists() and not overwrite:
+        raise FileExistsError(f"{out} exists; choose another --out or pass --overwrite")
     with open_readonly(study_dir) as store:
         record = find_session(store, session)
         if record is None:

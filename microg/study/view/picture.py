@@ -14,8 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .scene import PALETTE, Camera, Capsules, FrameScene, TaskLayout, bone_colours, hud_lines, ring_mesh, \
-    z_to_direction
+from microg.sim.hand import MIN_PHALANX_LENGTH
+
+from .scene import PALETTE, TRACKED_THINNER, Camera, Capsules, FrameScene, TaskLayout, bone_colours, hud_lines, \
+    ring_mesh, z_to_direction
 from .track import Moment, Track
 
 STRIP_FORMATS = (".png", ".pdf", ".svg")
@@ -23,6 +25,8 @@ ANIMATION_FORMATS = (".gif", ".webp")
 TRACKED_FADE = 0.55
 """The tracked hand, when drawn with the rendered one, is its colour blended this far toward white
 (the CPU renderer has no transparency)."""
+PANEL_FRAME = "0.35"
+"""Grey of the line around each panel of a strip."""
 CENTRE_DOT = 0.005
 """Radius (m) of the dot at each place's centre."""
 
@@ -82,14 +86,14 @@ class Renderer:
         self.pb.createMultiBody(baseMass=0, baseVisualShapeIndex=visual, basePosition=list(position),
                                 baseOrientation=list(orientation), physicsClientId=self.client)
 
-    def _capsules(self, capsules: Capsules, colours: np.ndarray, fade: float) -> None:
+    def _capsules(self, capsules: Capsules, colours: np.ndarray, fade: float = 0.0, thinner: float = 1.0) -> None:
         drawn = capsules.drawn
         turns = z_to_direction(capsules.end - capsules.start)
         for k in np.flatnonzero(drawn):
             length = float(np.linalg.norm(capsules.end[k] - capsules.start[k]))
             rgba = _rgba(colours[k], fade)
-            radius = float(capsules.radius[k])
-            if length < 1e-4:
+            radius = float(capsules.radius[k]) * thinner
+            if length < MIN_PHALANX_LENGTH:
                 self._body(self.pb.GEOM_SPHERE, rgba, capsules.centre[k], radius=radius)
             else:
                 self._body(self.pb.GEOM_CAPSULE, rgba, capsules.centre[k], _xyzw(turns[k]), radius=radius,
@@ -113,10 +117,11 @@ class Renderer:
             self._body(pb.GEOM_MESH, rgba, place, vertices=vertices.tolist(), indices=faces.ravel().tolist())
             self._body(pb.GEOM_SPHERE, rgba, place, radius=CENTRE_DOT)
         if hands in ("tracked", "both"):
+            both = hands == "both"
             self._capsules(scene.tracked, bone_colours(np.zeros_like(scene.touching), "tracked"),
-                           TRACKED_FADE if hands == "both" else 0.0)
+                           TRACKED_FADE if both else 0.0, TRACKED_THINNER if both else 1.0)
         if hands in ("rendered", "both"):
-            self._capsules(scene.rendered, bone_colours(scene.touching, "rendered"), 0.0)
+            self._capsules(scene.rendered, bone_colours(scene.touching, "rendered"))
         width, height = self.size
         _, _, rgba, _, _ = pb.getCameraImage(width, height, self.view, self.projection, renderer=pb.ER_TINY_RENDERER,
                                              shadow=1, lightDirection=[0.4, 1.0, 0.6], physicsClientId=self.client)
@@ -150,7 +155,10 @@ def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[
     for letter, ax, image, moment in zip("abcdefghijklmnopqrstuvwxyz", axes, images, moments):
         scene = track.scene(moment.index, n_places)
         ax.imshow(image)
-        ax.set_axis_off()
+        ax.set_xticks([])
+        ax.set_yticks([])
+        for spine in ax.spines.values():
+            spine.set_color(PANEL_FRAME)
         ax.set_title(f"({letter}) {moment.label}", fontsize=9)
         ax.text(0.5, -0.04, "\n".join(hud_lines(scene, layout.hold_s, n_places)), transform=ax.transAxes,
                 ha="center", va="top", fontsize=7, linespacing=1.4)
@@ -189,5 +197,5 @@ def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path,
                                                                                            n_places)),
                                                    fill="black", font=font, spacing=4)
             pictures.append(picture)
-    pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=int(round(1000 / fps)), loop=0)
+    pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=round(1000 / fps), loop=0)
     return out

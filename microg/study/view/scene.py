@@ -42,6 +42,9 @@ PALETTE = {
 """Colours (RGB 0-255), chosen to be told apart by hue, in a picture as in a screenshot."""
 TRACKED_OPACITY = 0.35
 """Opacity of the tracked hand when both hands are shown."""
+TRACKED_THINNER = 0.8
+"""With both hands shown, the tracked bones are drawn this much thinner, so they show only where
+they leave the rendered hand (into the object)."""
 
 
 @dataclass(frozen=True)
@@ -245,7 +248,7 @@ def default_camera(layout: TaskLayout, aspect: float = 4 / 3, fov_deg: float = 4
     target = 0.5 * (points.min(axis=0) + points.max(axis=0))
     half = 0.5 * (points.max(axis=0) - points.min(axis=0)) + layout.place_radius + CAMERA_MARGIN
     tangent = np.tan(np.radians(fov_deg) / 2)
-    direction = np.array([0.0, 0.45, 1.0]) / np.linalg.norm([0.0, 0.45, 1.0])
+    direction = np.array([0.0, 0.7, 1.0]) / np.linalg.norm([0.0, 0.7, 1.0])
     distance = max(half[1] / tangent, half[0] / (tangent * aspect)) + half[2]
     return Camera(target + distance * direction, target, fov_deg)
 

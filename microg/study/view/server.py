@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
+from microg.sim import SLOTS
 from microg.study.store import SessionRecord, Store, StoreError
 
-from .scene import HAND_MODES, PALETTE, TRACKED_OPACITY, Camera, Capsules, FrameScene, TaskLayout, bone_colours, \
-    default_camera, hud_lines, ring_mesh, task_layout, z_to_direction
+from .scene import HAND_MODES, PALETTE, TRACKED_OPACITY, TRACKED_THINNER, Capsules, FrameScene, TaskLayout, \
+    bone_colours, default_camera, hud_lines, ring_mesh, task_layout, z_to_direction
 from .track import RunInfo, Track, find_run, find_session, open_readonly, read_track, session_runs
 
 HOST = "127.0.0.1"
@@ -30,9 +31,6 @@ FRAME_INTERVAL = 1 / 30
 """Seconds between drawn frames."""
 POLL_INTERVAL = 0.25
 """Seconds between reads of the database."""
-TRACKED_THINNER = 0.8
-"""With both hands shown, the tracked bones are drawn this much thinner, so they show only where
-they leave the rendered hand (inside the object)."""
 BROWSER_ASPECT = 1.0
 """Width / height of the scene the default camera frames: a browser window less the control panel."""
 LEAP_DEVICE = (0.08, 0.011, 0.03)
@@ -68,13 +66,20 @@ def _unit_meshes():
                                                                        np.asarray(cylinder.faces))
 
 
+def _linear(colours: np.ndarray) -> np.ndarray:
+    """sRGB colours (0-255) as the linear values viser's batched meshes take per instance, so a
+    hand looks the colour that a single mesh of the same colour would."""
+    srgb = np.asarray(colours, dtype=np.float64) / 255.0
+    return np.where(srgb <= 0.04045, srgb / 12.92, ((srgb + 0.055) / 1.055) ** 2.4)
+
+
 class HandLayer:
     """One hand drawing (tracked or rendered) as batched meshes: a cylinder per bone and a sphere
     at each bone's ends; bones not drawn get scale zero."""
 
     def __init__(self, server, name: str, opacity: float | None):
         (sphere_v, sphere_f), (cylinder_v, cylinder_f) = _unit_meshes()
-        n = 40
+        n = SLOTS
         identity = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         self.bones = server.scene.add_batched_meshes_simple(
             f"/hands/{name}/bones", cylinder_v, cylinder_f, identity, np.zeros((n, 3)),
@@ -92,10 +97,10 @@ class HandLayer:
         self.bones.batched_positions = 0.5 * (start + end)
         self.bones.batched_wxyzs = z_to_direction(end - start)
         self.bones.batched_scales = np.column_stack([radius, radius, length])
-        self.bones.batched_colors = colours
+        self.bones.batched_colors = _linear(colours)
         self.ends.batched_positions = np.vstack([start, end])
         self.ends.batched_scales = np.concatenate([radius, radius])
-        self.ends.batched_colors = np.vstack([colours, colours])
+        self.ends.batched_colors = _linear(np.vstack([colours, colours]))
 
     @property
     def visible(self) -> bool:
@@ -158,13 +163,11 @@ class View:
     """A session's view: the viser server, its controls, and what it shows."""
 
     def __init__(self, store: Store, session: SessionRecord | None, spec: str | None, port: int,
-                 hands: str = "rendered", camera: Camera | None = None):
+                 hands: str = "rendered"):
         import viser
 
-        if hands not in HAND_MODES:
-            raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
-        self.store, self.session, self.spec = store, session, spec
-        self.camera = camera
+        self.store, self.spec = store, spec
+        self.session: SessionRecord | None = None
         self.lock = threading.RLock()
         self.playback = Playback()
         self.runs: list[RunInfo] = []
@@ -176,10 +179,12 @@ class View:
         self.server.request_share_url = lambda *args, **kwargs: None  # never tunnel the view off this machine
         self.server.gui.configure_theme(show_share_button=False, control_width="medium")
         self.server.scene.set_up_direction("+y")
-        self.server.scene.configure_environment_map("city", environment_intensity=0.25)
+        self.server.scene.configure_environment_map("city", environment_intensity=0.5)
         self.server.scene.configure_default_lights(cast_shadow=False)
         self.drawer = SceneDrawer(self.server)
         self._build_controls()
+        if session is not None:
+            self._show_session(session)
         self._last_poll = 0.0
         self.poll()
 
@@ -188,7 +193,8 @@ class View:
         return f"http://{HOST}:{self.server.get_port()}"
 
     def close(self) -> None:
-        self.server.stop()
+        with contextlib.redirect_stdout(io.StringIO()):
+            self.server.stop()
 
     # ------------------------------------------------------------ controls
 
@@ -207,7 +213,7 @@ class View:
         def _(event) -> None:
             if event.client_id is not None:
                 with self.lock:
-                    chosen = next((r for r in self.runs if r.label == self.run_choice.value), None)
+                    chosen = next((r for r in self.runs if r.title == self.run_choice.value), None)
                     if chosen is not None:
                         self.playback.follow = False
                         self.follow_box.value = False
@@ -256,14 +262,14 @@ class View:
         if run.object != previous:
             layout = self.layout = task_layout(self.store.protocol, run.object)
             self.drawer.set_layout(layout)
-            camera = self.camera or default_camera(layout, aspect=BROWSER_ASPECT)
+            camera = default_camera(layout, aspect=BROWSER_ASPECT)
             self.server.initial_camera.position = tuple(camera.eye)
             self.server.initial_camera.look_at = tuple(camera.target)
             self.server.initial_camera.fov = float(np.radians(camera.fov_deg))
             for client in self.server.get_clients().values():
                 client.camera.position, client.camera.look_at = tuple(camera.eye), tuple(camera.target)
         self.playback.seconds = min(seconds, self.track.duration)
-        self.run_choice.value = run.label
+        self.run_choice.value = run.title
 
     def start_at(self, task_index: int | None, seconds: float | None) -> None:
         """Open paused on task ``task_index`` (its last run), ``seconds`` into it."""
@@ -279,19 +285,19 @@ class View:
                 self.playback.seconds = min(max(seconds, 0.0), self.track.duration)
 
     def poll(self) -> None:
-        """Read what the session committed since the last poll; a view still waiting for its
-        session looks for it again."""
+        """Read what the session committed since the last poll. A view waiting for its session
+        looks for it again; a view of no particular session moves on to a newer running one."""
         with self.lock:
+            if self.session is None or (self.spec is None and self.session.status != "running"):
+                found = find_session(self.store, self.spec)
+                if found is not None and (self.session is None or found.id != self.session.id):
+                    self._show_session(found)
             if self.session is None:
-                self.session = find_session(self.store, self.spec)
-                if self.session is None:
-                    return
-                self.playback.follow = self.session.status == "running"
-                self.follow_box.value = self.playback.follow
+                return
             self.session = self.store.session(self.session.id)
             runs = session_runs(self.store, self.session.id)
-            if [r.label for r in runs] != [r.label for r in self.runs]:
-                self.run_choice.options = tuple(r.label for r in runs) or ("(none yet)",)
+            if [r.title for r in runs] != [r.title for r in self.runs]:
+                self.run_choice.options = tuple(r.title for r in runs) or ("(none yet)",)
             self.runs = runs
             if not runs:
                 return
@@ -302,6 +308,11 @@ class View:
                 self.select_run(runs[-1], 0.0)
             if self.track.run.status == "running":
                 self.track.refresh(self.store)
+
+    def _show_session(self, session: SessionRecord) -> None:
+        self.session, self.runs, self.track = session, [], None
+        self.playback = Playback(follow=session.status == "running", speed=self.playback.speed)
+        self.follow_box.value = self.playback.follow
 
     def tick(self, elapsed: float) -> None:
         """Move the cursor by ``elapsed`` seconds and draw; poll the database when it is time."""
@@ -325,12 +336,12 @@ class View:
     def _waiting_text(self) -> str:
         if self.session is None:
             return f"**{self.store.name}**: waiting for a session to start ({self.spec or 'any participant'})"
-        return (f"**{self.session.participant_id}**, session {self.session.id} ({self.session.status}): "
-                "no task has started yet")
+        doing = f"{self.track.run.title}: waiting for its first frames" if self.track else "no task has started yet"
+        return f"**{self.session.participant_id}**, session {self.session.id} ({self.session.status}): {doing}"
 
     def _hud(self, scene: FrameScene) -> str:
         run = self.track.run
-        mode = "live" if self.playback.follow else "replay"
+        mode = "live" if self.playback.follow and self.session.status == "running" else "replay"
         result = {"completed": f"completed in {run.time_s:.1f} s" if run.time_s is not None else "completed"}.get(
             run.status, run.status)
         lines = hud_lines(scene, self.layout.hold_s, len(self.layout.places))
@@ -349,9 +360,10 @@ class View:
 
 
 def serve(study_dir: str | Path, spec: str | None = None, port: int = 8080, hands: str = "rendered",
-          task_index: int | None = None, seconds: float | None = None, announce=print,
-          stop: threading.Event | None = None) -> None:
-    """Serve the view of ``study_dir`` until Ctrl-C (or ``stop`` is set)."""
+          task_index: int | None = None, seconds: float | None = None, announce=print) -> None:
+    """Serve the view of ``study_dir`` until Ctrl-C; ``announce`` gets the address and what is shown."""
+    if hands not in HAND_MODES:
+        raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
     store = open_readonly(study_dir)
     try:
         session = find_session(store, spec)
@@ -362,7 +374,7 @@ def serve(study_dir: str | Path, spec: str | None = None, port: int = 8080, hand
             announce(f"microg view: open {view.url} in a browser (this machine only)")
             announce(f"  {view.describe()}; Ctrl-C to stop")
             last = time.monotonic()
-            while stop is None or not stop.is_set():
+            while True:
                 time.sleep(FRAME_INTERVAL)
                 now = time.monotonic()
                 view.tick(now - last)

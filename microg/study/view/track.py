@@ -81,9 +81,15 @@ class RunInfo:
     attempts: int | None
 
     @property
-    def label(self) -> str:
+    def title(self) -> str:
+        """The task and run, e.g. ``task 2: stage1 long_cuboid (impulse_penetration)``."""
         return (f"task {self.task_index}" + (f" run {self.run}" if self.run > 1 else "")
-                + f": {self.phase} {self.object} ({self.system}), {self.status}")
+                + f": {self.phase} {self.object} ({self.system})")
+
+    @property
+    def label(self) -> str:
+        """The title and how the run ended (or ``running``)."""
+        return f"{self.title}, {self.status}"
 
 
 def session_runs(store: Store, session_id: int) -> list[RunInfo]:
@@ -135,17 +141,17 @@ class Track:
 
     def refresh(self, store: Store) -> int:
         """Read the frames committed since the last read, the run's status and its drops; returns
-        the number of new frames."""
+        the number of new frames. The status is read first: a run's last frames commit together
+        with its end, so frames read after a final status are all of them."""
+        status = store.db.execute("SELECT status, time_s, attempts FROM task_runs WHERE id = ?",
+                                  (self.run.id,)).fetchone()
+        self.run = replace(self.run, status=status[0], time_s=status[1], attempts=status[2])
         last = self.rows[-1][0] if self.rows else -1
         new = [tuple(r) for r in store.db.execute(_FRAME_QUERY, (self.run.id, last))]
         self.rows += new
         self.times += [r[1] for r in new]
         self.drops = sorted(e.data.get("frame_t", e.t) for e in store.events(self.run.session_id, self.run.id)
                             if e.kind == "drop")
-        status = store.db.execute("SELECT status, time_s, attempts FROM task_runs WHERE id = ?",
-                                  (self.run.id,)).fetchone()
-        if tuple(status) != (self.run.status, self.run.time_s, self.run.attempts):
-            self.run = replace(self.run, status=status[0], time_s=status[1], attempts=status[2])
         return len(new)
 
     def scene(self, index: int, n_places: int) -> FrameScene:

@@ -1,26 +1,91 @@
-"""Screenshots of a page with headless Chromium (Debian's ``chromium``), WebGL on SwiftShader."""
+"""Screenshots of a page in headless Chromium (Debian's ``chromium`` and ``chromium-driver``),
+driven by selenium, WebGL on SwiftShader (no GPU needed).
+
+A page that builds its scene over a websocket is ready when it says so and has stopped changing:
+``screenshot`` waits for a text on the page, then until two screenshots in a row are the same.
+"""
 
 from __future__ import annotations
 
+import contextlib
+import importlib.util
+import io
 import shutil
-import subprocess
-import tempfile
+import time
 from pathlib import Path
 
+import numpy as np
+from PIL import Image
+
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+CHROMEDRIVER = shutil.which("chromedriver")
+MISSING = ", ".join(name for name, found in (("chromium", CHROMIUM), ("chromium-driver", CHROMEDRIVER),
+                                             ("selenium", importlib.util.find_spec("selenium"))) if not found)
+"""What the browser tests lack on this machine ("" when they can run)."""
+FLAGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync", "--hide-scrollbars",
-         "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
+         "--disable-dev-shm-usage", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
 
 
-def screenshot(url: str, out: Path, size: tuple[int, int] = (1200, 800), settle_ms: int = 8000,
-               timeout_s: float = 90.0) -> Path:
-    """Load ``url`` and save what it shows after ``settle_ms`` of page time (the page builds its
-    scene over a websocket) as a PNG."""
-    if CHROMIUM is None:
-        raise FileNotFoundError("chromium is not installed (apt-get install chromium)")
-    with tempfile.TemporaryDirectory(prefix="microg-chromium-") as profile:
-        subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", f"--window-size={size[0]},{size[1]}",
-                        f"--virtual-time-budget={settle_ms}", f"--screenshot={out}", url],
-                       check=True, capture_output=True, timeout=timeout_s)
+@contextlib.contextmanager
+def chromium(size: tuple[int, int] = (1200, 800)):
+    """A headless Chromium under selenium with a ``size`` viewport; closed on leaving."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in FLAGS:
+        options.add_argument(flag)
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    try:
+        driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
+                               {"width": size[0], "height": size[1], "deviceScaleFactor": 1, "mobile": False})
+        yield driver
+    finally:
+        driver.quit()
+
+
+def page_text(driver) -> str:
+    from selenium.webdriver.common.by import By
+
+    return driver.find_element(By.TAG_NAME, "body").text
+
+
+def open_page(driver, url: str, wait_for: str, timeout_s: float = 60.0) -> None:
+    """Load ``url`` and wait until the page shows ``wait_for``."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    driver.set_page_load_timeout(timeout_s)
+    driver.get(url)
+    WebDriverWait(driver, timeout_s).until(lambda d: wait_for in page_text(d))
+
+
+def settled_picture(driver, timeout_s: float = 60.0) -> bytes:
+    """A PNG of the page once two screenshots in a row are the same."""
+    deadline, previous = time.monotonic() + timeout_s, None
+    while True:
+        picture = driver.get_screenshot_as_png()
+        pixels = np.asarray(Image.open(io.BytesIO(picture)))
+        if previous is not None and np.array_equal(pixels, previous):
+            return picture
+        if time.monotonic() > deadline:
+            raise TimeoutError(f"the page kept changing for {timeout_s:g} s")
+        previous = pixels
+        time.sleep(0.5)
+
+
+def screenshot(url: str, out: Path, size: tuple[int, int] = (1200, 800), wait_for: str = "",
+               dismiss_notices: bool = False, timeout_s: float = 60.0) -> Path:
+    """Load ``url`` in a ``size`` viewport; once the page shows ``wait_for`` and its picture has
+    settled, save it as a PNG. ``dismiss_notices`` closes pop-up notices first (the view warns
+    that WebGL runs without a GPU)."""
+    from selenium.webdriver.common.by import By
+
+    with chromium(size) as driver:
+        open_page(driver, url, wait_for, timeout_s)
+        if dismiss_notices:
+            for button in driver.find_elements(By.CSS_SELECTOR, ".mantine-Notification-closeButton"):
+                button.click()
+        out.write_bytes(settled_picture(driver, timeout_s))
     return out

@@ -1,0 +1,40 @@
+"""``microg demo``: the whole product at work, a simulated study from protocol to report."""
+
+from __future__ import annotations
+
+import click
+
+from microg.paths import DATA
+
+from .common import clear_errors
+
+
+@click.command()
+@click.option("--out", type=click.Path(file_okay=False), default=str(DATA / "demo"), show_default=True,
+              help="Folder for the study, its tables and its report.")
+@click.option("--participants", type=click.IntRange(1), default=30, show_default=True,
+              help="Simulated participants to enrol (the paper had 30).")
+@click.option("--seed", type=click.IntRange(0), default=1, show_default=True,
+              help="Seed of the study: who is enrolled with which demographics, and every session.")
+@click.option("--protocol", default="paper", show_default=True,
+              help="A shipped protocol name (paper, paper-microgravity) or a protocol file.")
+@click.option("--jobs", type=click.IntRange(1), default=None, help="Worker processes (default: one per core).")
+@click.option("--overwrite", is_flag=True, help="Replace what is in --out.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@clear_errors
+def demo(out: str, participants: int, seed: int, protocol: str, jobs: int | None, overwrite: bool,
+         quiet: bool) -> None:
+    """Run a complete simulated study: enrol participants with the paper's demographics, run every
+    session (simulated hands, real session runner and physics, logged to SQLite), answer the
+    questionnaires with the rating model (marked simulated), export the tables, write the report."""
+    from microg.study.demo import run_demo
+
+    result = run_demo(out, participants, seed, protocol, jobs, overwrite, progress=not quiet)
+    click.echo(f"{result.participants} simulated participants, {result.tasks} tasks in "
+               f"{result.seconds / 60:.1f} min")
+    click.echo(f"study (SQLite log store): {result.study}")
+    click.echo(f"tables: {result.tables}")
+    click.echo(f"report: {result.report}")
+
+
+COMMANDS = [demo]

@@ -1,0 +1,114 @@
+"""The main job end to end: a whole simulated study, from protocol to report.
+
+``run_demo`` creates a study from a protocol (the paper's by default), enrols simulated
+participants with the paper's demographics, runs every session through the real session runner
+and physics with simulated hands (``--input simulated``: the protocol's ``practice`` profile, so
+the veterans differ from the beginners only by the practice their training gave), answers the
+questionnaires with the rating model (``microg.study.ratings``; marked simulated), exports the
+tables (trials and questionnaire; the frames stay in the store, ``microg export`` writes them and
+Motion-BIDS) and writes the statistics report. Sessions run in parallel worker processes, each writing
+its own session to the study's SQLite store; every session is seeded from the study's seed, so the
+same seed gives the same tables whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from microg.paths import protocol_file
+
+from .assignment import paper_sample
+from .export import export_study
+from .inputs import open_inputs
+from .protocol import Protocol, load_protocol
+from .ratings import ModelRater
+from .session import SimulationClock, run_session
+from .store import FINAL_RUN, StoreError, create_study, open_study
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    study: Path
+    report: Path
+    tables: Path
+    participants: int
+    tasks: int
+    seconds: float
+
+
+def _inputs(store, participant_id: str):
+    return open_inputs("simulated", store.protocol.group(store.participant(participant_id).group).simulated_profile)
+
+
+def _run_session(study_dir: str, session_id: int) -> str:
+    """One simulated session (in a worker process)."""
+    with open_study(study_dir) as store:
+        session = store.session(session_id)
+        store.lock_session(session_id)
+        return run_session(store, session_id, _inputs(store, session.participant_id), clock=SimulationClock(),
+                           rater=ModelRater(store, session_id, session.seed), progress=False)
+
+
+def _tasks_finished(study_dir: Path) -> int:
+    with open_study(study_dir) as store:
+        return store.db.execute("SELECT COUNT(*) FROM task_runs WHERE status IN (%s)" % ",".join("?" * len(FINAL_RUN)),
+                                FINAL_RUN).fetchone()[0]
+
+
+def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: str | Path = "paper",
+             jobs: int | None = None, overwrite: bool = False, progress: bool = True) -> DemoResult:
+    """Run a whole simulated study into ``out`` (see the module docstring) and return where things are."""
+    from microg.analysis import write_report
+
+    started = time.monotonic()
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        if not overwrite:
+            raise StoreError(f"{out} exists and is not empty; choose another --out or allow --overwrite")
+        shutil.rmtree(out)
+    rules: Protocol = load_protocol(protocol_file(protocol))
+    if not 1 <= participants <= rules.total_participants:
+        raise StoreError(f"--participants {participants}: the protocol {rules.name!r} has room for "
+                         f"1 to {rules.total_participants}")
+    study_dir = out / "study"
+    with create_study(study_dir, rules, seed) as store:
+        for person in paper_sample(seed)[:participants]:
+            store.add_participant(person)
+        ids = [p.id for p in store.participants()]
+        sessions = []
+        for participant_id in ids:
+            inputs = _inputs(store, participant_id)
+            sessions.append(store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock).id)
+        total_tasks = sum(len(store.protocol.objects) * len(store.protocol.stages)
+                          + (len(store.protocol.training.objects) if store.protocol.training
+                             and store.participant(i).group in store.protocol.training.groups else 0)
+                          for i in ids)
+
+    jobs = max(1, min(jobs or os.cpu_count() or 1, participants))
+    bar = tqdm(total=total_tasks, unit="task", desc=f"{participants} simulated participants", disable=not progress,
+               bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} tasks [{elapsed}<{remaining}, {rate_fmt}] {postfix}")
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        pending = {pool.submit(_run_session, str(study_dir), session_id) for session_id in sessions}
+        done_participants = 0
+        while pending:
+            finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
+            for future in finished:
+                future.result()
+                done_participants += 1
+            bar.n = _tasks_finished(study_dir)
+            bar.set_postfix_str(f"participants {done_participants}/{participants}")
+            bar.refresh()
+    bar.close()
+
+    tables = out / "tables"
+    export_study(study_dir, tables, frames=False, bids=False, progress=False)
+    report = write_report(tables / "trials.csv", tables / "questionnaire.csv", out / "report",
+                          title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}")
+    return DemoResult(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)

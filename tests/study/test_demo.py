@@ -1,0 +1,94 @@
+"""The main job end to end, reduced: a simulated study from protocol to report, checked against its store."""
+
+from __future__ import annotations
+
+import sqlite3
+
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from microg.study.cli import main
+
+from .conftest import PROTOCOLS
+
+pytestmark = pytest.mark.slow
+
+REPORT_TABLES = ("anova_time.csv", "anova_attempts.csv", "posthoc_time.csv", "posthoc_attempts.csv", "systems.csv",
+                 "likert.csv")
+
+
+def run_demo(out, jobs):
+    result = CliRunner().invoke(main, ["demo", "--out", str(out), "--participants", "6", "--seed", "5", "--jobs",
+                                       str(jobs), "--protocol", str(PROTOCOLS / "demo-quick.toml"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    output = run_demo(out / "a", jobs=2)
+    return out, output
+
+
+def test_the_demo_ends_by_saying_where_the_report_is(demo):
+    out, output = demo
+    assert f"report: {out / 'a' / 'report' / 'report.html'}" in output
+    assert (out / "a" / "study" / "study.db").exists()
+
+
+def test_every_report_table_and_section_is_there(demo):
+    out, _ = demo
+    report = out / "a" / "report"
+    for name in REPORT_TABLES:
+        assert (report / name).exists(), name
+    html = (report / "report.html").read_text()
+    for heading in ("Mixed ANOVA", "Post hoc", "Likert", "simulated"):
+        assert heading.lower() in html.lower(), heading
+    assert "CLAP" not in html
+    assert html.count("data:image/png;base64") >= 3  # bar plots of time and attempts, rating distribution
+
+
+def test_tables_agree_with_the_store(demo):
+    out, _ = demo
+    db = sqlite3.connect(out / "a" / "study" / "study.db")
+    runs = pd.read_sql("""SELECT r.session_id, r.task_index, r.status, r.time_s, r.attempts, t.system, t.phase,
+                                 t.object_code AS object, s.participant_id AS participant
+                          FROM task_runs r JOIN tasks t ON t.session_id = r.session_id AND t.task_index = r.task_index
+                          JOIN sessions s ON s.id = r.session_id""", db)
+    trials = pd.read_csv(out / "a" / "tables" / "trials.csv")
+    assert len(trials) == len(runs) and set(trials.participant) == set(runs.participant)
+    # Table 1 recomputed from the store: each participant's mean over the three objects (those with
+    # all three in both systems: completed tasks for time, every task with a count for attempts),
+    # then the mean over participants
+    tested = runs[runs.phase != "training"]
+    usable = {"time_s": tested[tested.status == "completed"], "attempts": tested[tested.attempts.notna()]}
+    table = pd.read_csv(out / "a" / "report" / "systems.csv").set_index("measure")
+    assert "attempts" in table.index
+    for measure, row in table.iterrows():
+        rows = usable[measure]
+        complete = (rows.groupby(["participant", "system"]).object.nunique().unstack() == 3).all(axis=1)
+        paired = rows[rows.participant.isin(complete[complete].index)]
+        means = paired.groupby(["system", "participant"])[measure].mean().groupby("system").mean()
+        assert (row["system"], row["baseline"], row["n"]) == ("impulse_penetration", "soft_hand", complete.sum())
+        assert row["mean_system"] == pytest.approx(means["impulse_penetration"], rel=1e-9, abs=1e-12)
+        assert row["mean_baseline"] == pytest.approx(means["soft_hand"], rel=1e-9, abs=1e-12)
+    answers = pd.read_sql("SELECT * FROM answers", db)
+    questionnaire = pd.read_csv(out / "a" / "tables" / "questionnaire.csv")
+    assert len(questionnaire) == len(answers) == 6 * 2 * 2 and (questionnaire.source == "model").all()
+    assert questionnaire.simulated.all() and trials.simulated.all()
+
+
+def test_same_seed_same_tables_whatever_the_number_of_workers(demo):
+    out, _ = demo
+    run_demo(out / "b", jobs=1)
+    for name in ("trials.csv", "questionnaire.csv"):
+        a, b = pd.read_csv(out / "a" / "tables" / name), pd.read_csv(out / "b" / "tables" / name)
+        pd.testing.assert_frame_equal(a, b)
+
+
+def test_an_existing_demo_is_not_overwritten_unless_asked(demo):
+    out, _ = demo
+    result = CliRunner().invoke(main, ["demo", "--out", str(out / "a"), "--participants", "1", "--quiet"])
+    assert result.exit_code == 1 and "exists and is not empty" in result.output

@@ -1,0 +1,43 @@
+"""Project-wide rules: every verb of ``microg`` explains itself; dependencies point one way."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import click
+import pytest
+from click.testing import CliRunner
+
+from microg.study.cli import main
+
+
+def verbs(group: click.Group, prefix=()):
+    for name, command in group.commands.items():
+        yield prefix + (name,)
+        if isinstance(command, click.Group):
+            yield from verbs(command, prefix + (name,))
+
+
+@pytest.mark.parametrize("verb", list(verbs(main)), ids=" ".join)
+def test_every_verb_has_help(verb):
+    result = CliRunner().invoke(main, [*verb, "--help"], prog_name="microg")
+    assert result.exit_code == 0, result.output
+    assert f"Usage: microg {' '.join(verb)}" in result.output
+
+
+def test_the_main_verbs_are_there():
+    names = {" ".join(v) for v in verbs(main)}
+    assert {"demo", "sim demo", "hands import", "hands info", "hands filter-report", "hands record", "study init",
+            "participant add", "session run", "session resume", "export", "report", "view", "view export",
+            "bench accuracy", "bench peers", "bench throughput"} <= names
+
+
+def test_dependencies_point_one_way():
+    """import-linter's contracts in pyproject.toml: sim knows nothing of studies; analysis reads tables only."""
+    root = Path(__file__).resolve().parents[1]
+    result = subprocess.run([str(Path(sys.executable).with_name("lint-imports"))], cwd=root, capture_output=True,
+                            text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "2 kept, 0 broken" in result.stdout
