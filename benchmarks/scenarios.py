@@ -94,11 +94,6 @@ class Impact:
         """n^T K n for the hit (Eq. 12): 1/m + d^2 / I_zz for a vertical hit at x = d."""
         return 1.0 / self.box.mass + self.offset ** 2 / self.box.inertia[2]
 
-    @property
-    def expected_impulse(self) -> float:
-        """Newton's law (Eq. 14): j = (1 + e) u / (n^T K n)."""
-        return (1.0 + self.box.restitution) * self.speed / self.normal_mass
-
     def finger(self, t: float, frame_period: float) -> np.ndarray:
         top = self.centre[1] + self.box.half[1]
         touch = self.lead + self.phase * frame_period
@@ -187,12 +182,6 @@ class Shake:
     @property
     def duration(self) -> float:
         return self.shake_end + self.hold
-
-    @property
-    def friction_margin(self) -> float:
-        """Static friction capacity over the force the peak acceleration takes (>1: it can hold)."""
-        peak = (2 * math.pi * self.frequency) ** 2 * self.amplitude
-        return 2 * self.box.static_friction * 100.0 * self.depth / (self.box.mass * peak)
 
     def lateral(self, t: float) -> float:
         """The hand's true displacement along y."""

@@ -3,11 +3,8 @@
 The live scene is ``scenarios.LIVE`` (one hand, three objects, a 14-contact grasp carried to and
 fro). A batch runs N independent participants, each a world of the three objects driven by its
 own hand through the pick-and-carry of ``microg.sim.scripted.pinch_and_carry`` with a seeded
-variation of where it carries the cube and how fast.
-
-HOOK (simulated participant): when ``microg.sim.participant`` exports ``SimulatedParticipant``
-(a HandSource with ``next_frame(world)``, built from a plan, a skill profile and a seed), replace
-``scripted_participant`` by it in ``participant_run``; until then the batch uses scripted hands.
+variation of where it carries the cube and how fast. Scripted hands keep the batch a measure of
+the physics alone; ``microg demo`` measures whole simulated sessions.
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .rotation import cross
+from .contact import point_velocity
 from .wrench import add_point_force, add_point_matrix
 
 
@@ -27,7 +27,7 @@ from .wrench import add_point_force, add_point_matrix
 def add_compliant_contact(wrench, stiffness, damping, r, n, depth, other_velocity, velocity, angular_velocity,
                           spring, damper, friction, slip_velocity, h):
     """Accumulate one compliant contact at offset r; returns True when it slides."""
-    relative = other_velocity - (cross(angular_velocity, r) + velocity)
+    relative = other_velocity - point_velocity(velocity, angular_velocity, r)
     w_n = relative @ n
     press = spring * depth - damper * w_n
     if press <= 0.0:

@@ -29,7 +29,8 @@ from .rotation import cross, quat_to_matrix
 SEPARATING, RESTING, COLLIDING = 1, 0, -1
 
 
-def classify(normal_velocity: float, tolerance: float) -> int:
+@njit(cache=True)
+def classify(normal_velocity, tolerance):
     """Eq. 8's three cases, with resting inside +-tolerance (m/s)."""
     if normal_velocity > tolerance:
         return SEPARATING

@@ -12,6 +12,7 @@ its centroid with radius ``width / 2`` (paper, section 3.3).
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,6 +44,24 @@ def slot_name(index: int) -> str:
 
 SLOT_DIGIT = np.array([(i % BONES_PER_HAND) // N_BONES for i in range(SLOTS)], dtype=np.int64)
 SLOT_SIDE = np.array([i // BONES_PER_HAND for i in range(SLOTS)], dtype=np.int64)
+
+
+def bone_lengths(joints: np.ndarray) -> np.ndarray:
+    """(5, 4) bone lengths of a (5, 5, 3) joint array; NaN where an end is unknown."""
+    return np.linalg.norm(joints[:, 1:] - joints[:, :-1], axis=-1)
+
+
+def bone_centres(joints: np.ndarray) -> np.ndarray:
+    """(5, 4, 3) bone centroids of a (5, 5, 3) joint array: the phalanx sphere centres."""
+    return 0.5 * (joints[:, 1:] + joints[:, :-1])
+
+
+def phalanx_mask(joints: np.ndarray, widths: np.ndarray) -> np.ndarray:
+    """(5, 4) True where a bone is a contact sphere: known ends and width, length at least
+    ``MIN_PHALANX_LENGTH``."""
+    lengths = bone_lengths(joints)
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(lengths) & (lengths >= MIN_PHALANX_LENGTH) & (widths > 0)
 
 
 def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
@@ -90,18 +109,29 @@ class Hand:
     @property
     def bone_lengths(self) -> np.ndarray:
         """(5, 4) bone lengths; NaN where an end is unknown."""
-        return np.linalg.norm(self.joints[:, 1:] - self.joints[:, :-1], axis=-1)
+        return bone_lengths(self.joints)
 
     @property
     def bone_centres(self) -> np.ndarray:
         """(5, 4, 3) bone centroids: the phalanx sphere centres."""
-        return 0.5 * (self.joints[:, 1:] + self.joints[:, :-1])
+        return bone_centres(self.joints)
 
     @property
     def phalanx_mask(self) -> np.ndarray:
-        """(5, 4) True where the bone is a contact sphere: known ends and width, non-zero length."""
-        with np.errstate(invalid="ignore"):
-            return np.isfinite(self.bone_lengths) & (self.bone_lengths >= MIN_PHALANX_LENGTH) & (self.widths > 0)
+        """(5, 4) True where the bone is a contact sphere (``phalanx_mask``)."""
+        return phalanx_mask(self.joints, self.widths)
+
+    @property
+    def points(self) -> np.ndarray:
+        """(26, 3) palm and joints: the points a jump is measured on."""
+        return np.vstack([self.palm_position, self.joints.reshape(-1, 3)])
+
+    def renumbered(self, track_id: int) -> Hand:
+        """The same hand under another track id. It shares the (read-only, already validated) arrays,
+        so renumbering costs no validation: the tracking guard does it every frame."""
+        hand = copy.copy(self)
+        object.__setattr__(hand, "track_id", track_id)
+        return hand
 
     def moved(self, offset: np.ndarray) -> Hand:
         """The same hand translated by ``offset`` (m)."""

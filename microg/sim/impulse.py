@@ -32,14 +32,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .contact import COLLIDING, classify, point_velocity
 from .rotation import cross, quat_to_matrix, skew
 
 
 @njit(cache=True)
-def collision_matrix(mass, inverse_world_inertia, r):
-    """K of Eq. 12 for an object hit by a kinematic body at offset r."""
-    s = skew(r)
-    return np.eye(3) / mass - s @ inverse_world_inertia @ s
+def collision_matrix(mass, inverse_world_inertia, r_a, r_b):
+    """K_ab: the change of the object's velocity at offset r_a per unit impulse at offset r_b
+    from a kinematic body. K_aa is Eq. 12."""
+    return np.eye(3) / mass - skew(r_a) @ inverse_world_inertia @ skew(r_b)
 
 
 @njit(cache=True)
@@ -49,8 +50,7 @@ def _simultaneous_impulses(mass, inverse_inertia, arms, normals, u_init, restitu
     matrix = np.empty((count, count))
     for a in range(count):
         for b in range(count):
-            coupling = np.eye(3) / mass - skew(arms[a]) @ inverse_inertia @ skew(arms[b])
-            matrix[a, b] = normals[a] @ coupling @ normals[b]
+            matrix[a, b] = normals[a] @ collision_matrix(mass, inverse_inertia, arms[a], arms[b]) @ normals[b]
     target = -(1.0 + restitution) * u_init
     alone = target / np.diag(matrix)
     j = np.zeros(count)
@@ -85,8 +85,8 @@ def _apply_impulses(mass, inertia, restitution, position, orientation, velocity,
                 continue
             r = rot @ anchor[k, o]
             n = rot @ normal[k, o]
-            u = n @ (hand_velocity[k] - (cross(angular_velocity[o], r) + velocity[o]))
-            if u < -tolerance:
+            u = n @ (hand_velocity[k] - point_velocity(velocity[o], angular_velocity[o], r))
+            if classify(u, tolerance) == COLLIDING:
                 slots[count], arms[count], normals[count], u_init[count] = k, r, n, u
                 count += 1
         if count == 0:

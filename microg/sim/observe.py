@@ -47,7 +47,7 @@ def grasped(world: World) -> np.ndarray:
 def rendered_phalanges(world: World) -> np.ndarray:
     """(40, 3) centres of the rendered (god-object) phalanges: on the surface where a phalanx is
     in contact (its deepest contact), at the tracked position elsewhere; NaN where untracked."""
-    data, model = world.data, world.model
+    data = world.data
     rendered = np.where(data.valid[:, None], data.hand_position, np.nan)
     depth = np.where(data.active, data.depth, -np.inf)
     for k in np.flatnonzero(data.active.any(axis=1)):

@@ -26,8 +26,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .contact import project_to_surface
-from .rotation import cross, quat_to_matrix
+from .contact import point_velocity, project_to_surface
+from .rotation import quat_to_matrix
 from .wrench import add_point_force, add_point_matrix
 
 
@@ -86,7 +86,7 @@ def _penetration(gamma, friction, shape, half_size, position, orientation, veloc
             r = rot @ anchor[k, o]
             n_world = rot @ normal[k, o]
             on_object = -gamma * (rot @ offset)
-            separating = n_world @ (hand_velocity[k] - (cross(angular_velocity[o], r) + velocity[o]))
+            separating = n_world @ (hand_velocity[k] - point_velocity(velocity[o], angular_velocity[o], r))
             if delta <= h * separating:
                 add_point_force(wrench[o], r, delta / (2.0 * h * separating) * on_object)
                 continue

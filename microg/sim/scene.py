@@ -1,6 +1,6 @@
 """A scene: the objects, where they start, and exactly which physical effects act on them.
 
-The step is assembled from the effects a scene names and nothing else (see ``world.pipeline``).
+The step is assembled from the effects a scene names and nothing else (see ``world.substep_stages``).
 An interaction model is a named set of contact effects; the three models the toolkit compares:
 
 - ``impulse_penetration``: the paper's model, the impulse phase at contact onset (Eqs. 9-15) plus
@@ -202,12 +202,18 @@ def load_scene(path: str | Path) -> Scene:
         if "file" not in entry:
             raise SceneError(f"{where}: objects[{i}] has no 'file'")
         spec = load_object(path.parent / entry.pop("file"))
-        if "orientation_deg" in entry:
-            from .rotation import quat_from_euler_deg
-            entry["orientation"] = tuple(quat_from_euler_deg(*entry.pop("orientation_deg")))
-        unknown = set(entry) - {"position", "orientation", "velocity", "angular_velocity"}
+        unknown = set(entry) - {"position", "orientation", "orientation_deg", "velocity", "angular_velocity"}
         if unknown:
             raise SceneError(f"{where}: objects[{i}] has unknown field {sorted(unknown)[0]!r}")
+        for name, value in entry.items():
+            if not isinstance(value, list):
+                raise SceneError(f"{where}: objects[{i}].{name} = {value!r}: must be a list of numbers")
+        if "orientation_deg" in entry:
+            from .rotation import quat_from_euler_deg
+            angles = entry.pop("orientation_deg")
+            if len(angles) != 3:
+                raise SceneError(f"{where}: objects[{i}].orientation_deg = {angles!r}: must be [roll, pitch, yaw]")
+            entry["orientation"] = quat_from_euler_deg(*angles)
         objects.append(PlacedObject(spec, **{k: tuple(v) for k, v in entry.items()}))
     interaction = data.pop("interaction", None)
     effects = set(data.pop("effects", []))
@@ -215,17 +221,22 @@ def load_scene(path: str | Path) -> Scene:
         if interaction not in INTERACTION_MODELS:
             raise SceneError(f"{where}: interaction = {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
         effects |= INTERACTION_MODELS[interaction]
-    if "soft_hand" in data and isinstance(data["soft_hand"], dict):
-        data["soft_hand"] = SoftHandParameters(**data["soft_hand"])
-    if "table" in data and isinstance(data["table"], dict):
-        data["table"] = TableParameters(**data["table"])
-    renamed = {"tracking_rate_hz": "tracking_rate", "gravity": "gravity"}
-    options = {renamed.get(k, k): v for k, v in data.items()}
+    for name, settings in (("soft_hand", SoftHandParameters), ("table", TableParameters)):
+        if name in data:
+            section, allowed = data[name], sorted(settings.__dataclass_fields__)
+            if not isinstance(section, dict):
+                raise SceneError(f"{where}: {name} = {section!r}: must be a table with fields {allowed}")
+            if unknown := set(section) - set(allowed):
+                raise SceneError(f"{where}: unknown field {name}.{sorted(unknown)[0]} (known: {allowed})")
+            data[name] = settings(**section)
+    options = {"tracking_rate" if k == "tracking_rate_hz" else k: v for k, v in data.items()}
     known = {f for f in Scene.__dataclass_fields__} - {"objects", "effects"}
     unknown = set(options) - known
     if unknown:
         raise SceneError(f"{where}: unknown field {sorted(unknown)[0]!r}")
     if "gravity" in options:
+        if not isinstance(options["gravity"], list):
+            raise SceneError(f"{where}: gravity = {options['gravity']!r}: must be three numbers [x, y, z] (m/s^2)")
         options["gravity"] = tuple(options["gravity"])
     scene = Scene(objects=tuple(objects), effects=frozenset(effects), **options)
     scene.validate(where)

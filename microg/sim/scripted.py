@@ -11,7 +11,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .hand import BONES, DIGITS, N_BONES, N_DIGITS, Hand, HandFrame
+from .hand import BONES, DIGITS, N_BONES, N_DIGITS, Hand
+from .participant.motion import minimum_jerk
 
 PHALANX_LENGTH = 0.02
 """Length (m) of a scripted phalanx; only its centre and width matter for contact."""
@@ -36,17 +37,6 @@ def probe_hand(phalanges: Mapping[str, Sequence[float]], side: str = "right", wi
         widths[d, b] = width
     palm = np.mean([np.asarray(c, dtype=np.float64) for c in phalanges.values()], axis=0)
     return Hand(side, joints, widths, palm, track_id=track_id)
-
-
-def probe_frames(path, times: Sequence[float], side: str = "right", width: float = 0.016) -> list[HandFrame]:
-    """Frames at ``times`` of a probe hand whose phalanges follow ``path(t) -> {name: position}``."""
-    return [HandFrame(t, (probe_hand(path(t), side, width),)) for t in times]
-
-
-def minimum_jerk(s: float) -> float:
-    """The minimum-jerk profile from 0 to 1 over normalised time s in [0, 1]."""
-    s = min(max(s, 0.0), 1.0)
-    return s ** 3 * (10 - 15 * s + 6 * s * s)
 
 
 def pinch_and_carry(centre: Sequence[float], half_width: float, carry: Sequence[float], depth: float = 0.005,

@@ -21,7 +21,7 @@ import numpy as np
 from .bodies import SHAPES, SceneError
 from .contact import detect_contacts, sweep_contacts
 from .filter import WindowFilter
-from .hand import BONES_PER_HAND, MIN_PHALANX_LENGTH, N_BONES, N_DIGITS, SIDES, SLOTS, HandFrame
+from .hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, bone_centres, phalanx_mask
 from .impulse import apply_impulses
 from .integrate import (EXPLICIT_EULER, MIDPOINT, SEMI_IMPLICIT_EULER, apply_gravity, integrate_position,
                         integrate_velocity, rotate_free, rotate_without_gyroscopic)
@@ -243,21 +243,15 @@ def make_world(scene: Scene) -> World:
     return World(model, data)
 
 
-def _hand_points(hand) -> np.ndarray:
-    """Palm and joints of a hand, the points a jump is measured on."""
-    return np.vstack([hand.palm_position, hand.joints.reshape(-1, 3)])
-
-
-def _track_changes(model: Model, data: Data, frame: HandFrame) -> np.ndarray:
+def _track_changes(model: Model, data: Data, hands: tuple[Hand | None, ...]) -> np.ndarray:
     """Which sides start a new track this frame: the hand (re)appeared, changed id, or some point
     of it (palm or joint) moved ``jump_distance`` or more since the last frame."""
     new_track = np.zeros(2, dtype=bool)
-    for side, name in enumerate(SIDES):
-        hand = frame.hand(name)
+    for side, hand in enumerate(hands):
         if hand is None:
             data.present[side] = False
             continue
-        points = _hand_points(hand)
+        points = hand.points
         moved = np.linalg.norm(points - data.reference[side], axis=1)
         jumped = bool((moved[np.isfinite(moved)] >= model.scene.jump_distance).any())
         new_track[side] = not data.present[side] or hand.track_id != data.track_id[side] or jumped
@@ -267,7 +261,8 @@ def _track_changes(model: Model, data: Data, frame: HandFrame) -> np.ndarray:
     return new_track
 
 
-def _take_hand(data: Data, frame: HandFrame, joints: list, new_track: np.ndarray, interval: float) -> None:
+def _take_hand(data: Data, hands: tuple[Hand | None, ...], joints: list, new_track: np.ndarray,
+               interval: float) -> None:
     """Set each phalanx's path for the coming steps from the (filtered) joints.
 
     A phalanx whose track starts here (new track, or newly valid) has no velocity yet, and stays
@@ -275,19 +270,17 @@ def _take_hand(data: Data, frame: HandFrame, joints: list, new_track: np.ndarray
     """
     data.hand_from[:] = data.hand_to
     restart = np.zeros(SLOTS, dtype=bool)
-    for side, name in enumerate(SIDES):
+    for side, hand in enumerate(hands):
         slots = slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
         if joints[side] is None:
             data.valid[slots] = False
             data.joints[side] = np.nan
             data.hand_to[slots] = np.nan
             continue
-        widths = frame.hand(name).widths
-        lengths = np.linalg.norm(joints[side][:, 1:] - joints[side][:, :-1], axis=-1)
-        with np.errstate(invalid="ignore"):
-            valid = (np.isfinite(lengths) & (lengths >= MIN_PHALANX_LENGTH) & (widths > 0)).reshape(-1)
+        widths = hand.widths
+        valid = phalanx_mask(joints[side], widths).reshape(-1)
         data.joints[side] = joints[side]
-        data.hand_to[slots] = (0.5 * (joints[side][:, 1:] + joints[side][:, :-1])).reshape(-1, 3)
+        data.hand_to[slots] = bone_centres(joints[side]).reshape(-1, 3)
         data.radius[slots] = np.where(valid, widths.reshape(-1) / 2, 0.0)
         restart[slots] = valid & (new_track[side] | ~data.valid[slots])
         data.valid[slots] = valid
@@ -311,11 +304,12 @@ def step(world: World, frame: HandFrame) -> World:
     else:
         data.previous_frame_time = data.frame_time
     data.frame_time = frame.timestamp
-    new_track = _track_changes(model, data, frame)
-    joints = [None if (hand := frame.hand(side)) is None else hand.joints for side in SIDES]
+    hands = tuple(frame.hand(side) for side in SIDES)
+    new_track = _track_changes(model, data, hands)
+    joints = [None if hand is None else hand.joints for hand in hands]
     if model.filter_stage is not None:
         joints = model.filter_stage(model, data, joints, new_track)
-    _take_hand(data, frame, joints, new_track, data.frame_time - data.previous_frame_time)
+    _take_hand(data, hands, joints, new_track, data.frame_time - data.previous_frame_time)
     data.frames += 1
     h = model.dt
     target = math.floor((data.frame_time - data.start_time) / h + 1e-9)

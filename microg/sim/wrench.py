@@ -13,7 +13,6 @@ stiffness.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from .rotation import cross, skew

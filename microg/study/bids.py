@@ -88,7 +88,7 @@ def write_motion_bids(store: Store, out_dir: str | Path, overwrite: bool = False
     """Write the study's task runs as a Motion-BIDS dataset in ``out_dir``; returns the files."""
     out_dir = Path(out_dir)
     protocol = store.protocol
-    rate = float(protocol.scene_options.get("tracking_rate", 110.0))
+    rate = protocol.tracking_rate
     written = [
         _write(out_dir / "dataset_description.json", json.dumps({
             "Name": f"{store.name}: {protocol.title}" if protocol.title else store.name,

@@ -27,7 +27,7 @@ import pyarrow.parquet as pq
 from microg.sim import BONES, DIGITS, Hand, HandFrame
 from microg.sim.hand import SIDES
 
-from .store import DATABASE, FINAL_RUN, HAND_LAYOUT, HAND_VALUES, Store, open_study
+from .store import DATABASE, FINAL_RUN, HAND_VALUES, Store, hand_parts, hand_values, open_study
 
 TRIAL_COLUMNS = ["study", "participant", "group", "gender", "age", "handedness", "mr_experience", "stage", "system",
                  "object", "order_position", "completed", "time_s", "attempts", "started_at", "ended_at", "status",
@@ -102,15 +102,11 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
     return table.astype({"rating": "Int64", "simulated": "bool", "withdrawn": "bool"})
 
 
-def _decode(blob: bytes | None) -> np.ndarray:
-    return np.full(HAND_VALUES, np.nan) if blob is None else np.frombuffer(blob, dtype="<f8")
-
-
 def run_frames(store: Store, run_id: int) -> pd.DataFrame:
     """Every logged frame of one task run, hand channels flattened (NaN where not tracked)."""
     rows = store.db.execute("SELECT * FROM frames WHERE run_id = ? ORDER BY frame", (run_id,)).fetchall()
     state = pd.DataFrame([tuple(r[c] for c in FRAME_STATE_COLUMNS) for r in rows], columns=FRAME_STATE_COLUMNS)
-    hands = [pd.DataFrame(np.array([_decode(r[side]) for r in rows]).reshape(len(rows), HAND_VALUES),
+    hands = [pd.DataFrame(np.array([hand_values(r[side]) for r in rows]).reshape(len(rows), HAND_VALUES),
                           columns=hand_columns(side)) for side in SIDES]
     return pd.concat([state] + hands, axis=1)
 
@@ -124,10 +120,7 @@ def hand_frames(store: Store, run_id: int) -> list[HandFrame]:
         for side in SIDES:
             if row[side] is None:
                 continue
-            values, parts, start = _decode(row[side]), {}, 0
-            for name, size in HAND_LAYOUT:
-                parts[name] = values[start:start + size]
-                start += size
+            parts = hand_parts(hand_values(row[side]))
             hands.append(Hand(side, parts["joints"].reshape(5, 5, 3), parts["widths"].reshape(5, 4),
                               parts["palm_position"], parts["palm_orientation"]))
         frames.append(HandFrame(row["t"], tuple(hands)))

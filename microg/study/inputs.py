@@ -63,7 +63,7 @@ def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right")
                            start_orientation=start_orientation, places=rules.places,
                            place_radius=rules.place_radius, hold_s=rules.hold_s, timeout_s=rules.timeout_s,
                            gravity=protocol.gravity, table_height=protocol.table_height, system=task.system,
-                           phase=task.phase, tracking_rate=float(protocol.scene_options.get("tracking_rate", 110.0)),
+                           phase=task.phase, tracking_rate=protocol.tracking_rate,
                            hand=hand, tasks_done=task.index)
 
 

@@ -170,6 +170,11 @@ class Protocol:
         return tuple(dict.fromkeys(s.system for s in self.stages))
 
     @property
+    def tracking_rate(self) -> float:
+        """Nominal hand-frame rate (Hz): the protocol's scene option, else the physics' default."""
+        return float(self.scene_options.get("tracking_rate", Scene.tracking_rate))
+
+    @property
     def sha256(self) -> str:
         return hashlib.sha256(canonical_json(self.resolved).encode()).hexdigest()
 
@@ -240,7 +245,7 @@ def load_protocol(path: str | Path) -> Protocol:
         table = data.get(section)
         if isinstance(table, dict) and isinstance(table.get(key), list):
             names += table[key]
-    for i, name in enumerate(names):
+    for name in names:
         if not isinstance(name, str):
             continue  # reported by the validation below, with its key
         found = _object_file(name, path.parent)

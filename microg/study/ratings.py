@@ -31,10 +31,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from microg.sim.hand import BONES_PER_HAND, SIDES
+from microg.sim.hand import BONES_PER_HAND, SIDES, bone_centres
 
 from .protocol import Item, Questionnaire, Stage
-from .store import FINAL_RUN, HAND_LAYOUT, Store
+from .store import FINAL_RUN, Store, hand_parts, hand_values
 
 ANCHOR = 7.0
 LEANING_SD = 1.0
@@ -58,14 +58,6 @@ class Experience:
     shake_mm_s: float
 
 
-def _hand_parts(blob: bytes) -> dict[str, np.ndarray]:
-    values, parts, start = np.frombuffer(blob, dtype="<f8"), {}, 0
-    for name, size in HAND_LAYOUT:
-        parts[name] = values[start:start + size]
-        start += size
-    return parts
-
-
 def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
     """Penetration samples (mm) and relative object speeds while held (mm/s) of one task run."""
     rows = store.db.execute("SELECT t, held, touching, vx, vy, vz, left, right FROM frames WHERE run_id = ? "
@@ -77,9 +69,9 @@ def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
             if row[side] is None:
                 previous_palm.pop(side, None)
                 continue
-            parts = _hand_parts(row[side])
+            parts = hand_parts(hand_values(row[side]))
             joints = parts["joints"].reshape(5, 5, 3)
-            tracked = (0.5 * (joints[:, 1:] + joints[:, :-1])).reshape(-1, 3)
+            tracked = bone_centres(joints).reshape(-1, 3)
             rendered = parts["rendered"].reshape(-1, 3)
             bits = [(row["touching"] >> (side_index * BONES_PER_HAND + k)) & 1 for k in range(BONES_PER_HAND)]
             for k in np.flatnonzero(bits):

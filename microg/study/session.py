@@ -28,7 +28,7 @@ from typing import Callable, Protocol as Interface
 import numpy as np
 from tqdm import tqdm
 
-from microg.sim import HandFrame, PlacedObject, TableParameters, World, compose_scene, grasped, make_world, \
+from microg.sim import HandFrame, PlacedObject, Scene, TableParameters, World, compose_scene, grasped, make_world, \
     rendered_phalanges, step, touching
 from microg.sim.hand import BONES_PER_HAND, SIDES
 from microg.sim.participant import TaskDisplay
@@ -175,14 +175,14 @@ def frame_row(run_id: int, index: int, frame: HandFrame, world: World, state: Ta
             _hand_blob(frame, rendered, 0), _hand_blob(frame, rendered, 1))
 
 
-def guarded(source, protocol: Protocol):
+def guarded(source, scene: Scene):
     """``source`` behind the tracking guard (``microg.sim.tracking.guard``), which drops incomplete
-    hands and stale frames and bridges tracking glitches before the physics sees them."""
+    hands and stale frames and bridges tracking glitches before the physics sees them; it expects
+    the scene's frame rate and detects jumps as the scene's physics does."""
     from microg.sim.tracking.guard import GuardConfig, TrackingGuard
 
-    options = protocol.scene_options
-    return TrackingGuard(source, GuardConfig(nominal_rate=float(options.get("tracking_rate", 110.0)),
-                                             jump_distance=float(options.get("jump_distance", 0.10))))
+    return TrackingGuard(source, GuardConfig(nominal_rate=float(scene.tracking_rate),
+                                             jump_distance=float(scene.jump_distance)))
 
 
 def run_task(store: Store, session_id: int, run_id: int, world: World, source, rules: TaskRules, clock: Clock,
@@ -303,7 +303,8 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
         return TaskResult("skipped", None, None, 0)
     hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
     board = TaskBoard()
-    source = guarded(inputs.open(participant_plan(protocol, task, hand), seed, board.read), protocol)
+    world = task_world(protocol, task)
+    source = guarded(inputs.open(participant_plan(protocol, task, hand), seed, board.read), world.model.scene)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     if markers:
         markers("task_start", {"task": task.index, "phase": task.phase, "system": task.system, "object": task.object})
@@ -313,8 +314,8 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
         if frames % 110 == 0:
             bar.set_postfix_str(f"{label}: {frames} frames, {frames / max(time.monotonic() - started, 1e-9):.0f} fps")
 
-    return run_task(store, session.id, run_id, task_world(protocol, task), source, protocol.task, clock, markers,
-                    protocol.frame_batch, show, board)
+    return run_task(store, session.id, run_id, world, source, protocol.task, clock, markers, protocol.frame_batch,
+                    show, board)
 
 
 def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol) -> None:

@@ -51,6 +51,20 @@ HAND_LAYOUT = (("joints", 75), ("widths", 20), ("palm_position", 3), ("palm_orie
 position (3), palm orientation (w, x, y, z), rendered (god-object) phalanx centres (20 x 3)."""
 HAND_VALUES = sum(n for _, n in HAND_LAYOUT)
 
+
+def hand_values(blob: bytes | None) -> np.ndarray:
+    """The ``HAND_VALUES`` numbers of a logged hand blob; all NaN where the hand was not tracked (NULL)."""
+    return np.full(HAND_VALUES, np.nan) if blob is None else np.frombuffer(blob, dtype="<f8")
+
+
+def hand_parts(values: np.ndarray) -> dict[str, np.ndarray]:
+    """Hand values split by name as ``HAND_LAYOUT`` says (flat views)."""
+    parts, start = {}, 0
+    for name, size in HAND_LAYOUT:
+        parts[name] = values[start:start + size]
+        start += size
+    return parts
+
 SCHEMA = """
 CREATE TABLE study (
     id INTEGER PRIMARY KEY CHECK (id = 1),
@@ -169,6 +183,9 @@ CREATE TABLE frames (
     PRIMARY KEY (run_id, frame)
 );
 """
+
+_INSERT_FRAMES = f"INSERT INTO frames VALUES ({', '.join('?' * 25)})"
+"""A ``frames`` row has 25 columns (``microg.study.session.frame_row``)."""
 
 _APPEND_ONLY = ("study", "protocols", "tasks", "events", "answers", "frames")
 _GUARDS = "".join(
@@ -503,7 +520,7 @@ class Store:
         """Commit a batch of frame rows (see ``frame_row``)."""
         if rows:
             with self.transaction() as db:
-                db.executemany(f"INSERT INTO frames VALUES ({', '.join('?' * 25)})", rows)
+                db.executemany(_INSERT_FRAMES, rows)
 
     def end_run(self, run_id: int, status: str, t: float, *, time_s: float | None = None,
                 attempts: int | None = None, reason: str | None = None, frames: list[tuple] = (),
@@ -514,7 +531,7 @@ class Store:
         session_id, = self.db.execute("SELECT session_id FROM task_runs WHERE id = ?", (run_id,)).fetchone()
         with self.transaction() as db:
             if frames:
-                db.executemany(f"INSERT INTO frames VALUES ({', '.join('?' * 25)})", frames)
+                db.executemany(_INSERT_FRAMES, frames)
             count = db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (run_id,)).fetchone()[0]
             db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
                        "frames = ?, ended_wall = ? WHERE id = ?",

@@ -105,6 +105,22 @@ def test_scene_file_loads_objects_and_effects(tmp_path):
     assert scene.objects[0].spec.name == "cube" and scene.substeps == 2
 
 
+@pytest.mark.parametrize("line, message", [
+    ("[soft_hand]\nstiffnes = 300", "unknown field soft_hand.stiffnes"),
+    ("table = 0.1", "table = 0.1: must be a table"),
+    ("gravity = -9.81", "gravity = -9.81: must be three numbers"),
+    ("[[objects]]\nfile = 'CUBE'\nposition = 0.2", "objects[0].position = 0.2: must be a list"),
+    ("[[objects]]\nfile = 'CUBE'\norientation_deg = [0, 45]", "objects[0].orientation_deg = [0, 45]"),
+])
+def test_bad_scene_file_names_file_field_and_value(tmp_path, line, message):
+    from microg.paths import OBJECTS
+    path = tmp_path / "scene.toml"
+    path.write_text('interaction = "impulse_penetration"\n' + line.replace("CUBE", str(OBJECTS / "cube.toml")) + "\n")
+    with pytest.raises(SceneError) as error:
+        load_scene(path)
+    assert str(error.value).startswith(f"{path}: ") and message in str(error.value)
+
+
 def test_zero_width_bone_is_refused_with_its_name():
     joints = np.full((5, 5, 3), np.nan)
     joints[1, 3], joints[1, 4] = (0.0, 0.2, 0.0), (0.0, 0.22, 0.0)

@@ -32,7 +32,7 @@ def test_long_cuboid_spun_about_intermediate_axis_flips_and_conserves_L_and_ener
     L0, E0 = angular_momentum(world)[0], kinetic_energy(world)[0]
     times = np.arange(0.5, 60.0 + 1e-9, 0.5)
     body_y_along_L, omega_body, worst_L, worst_E = [], [], 0.0, 0.0
-    for t in times:
+    for _ in times:
         world = coast(world, 0.5)
         rot = quat_to_matrix(world.data.orientation[0])
         body_y_along_L.append(rot[:, 1] @ L0 / np.linalg.norm(L0))

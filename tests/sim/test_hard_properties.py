@@ -47,11 +47,15 @@ def test_a_still_hand_never_adds_energy_and_nothing_becomes_nan(size, mass, rest
     # each tip waits where the drifting object will be after its own delay, give or take 6 cm
     hand = probe_hand({name: np.asarray(velocity) * delay + offset for name, (delay, *offset) in zip(TIPS, tips)})
     start = kinetic_energy(world)[0]
+    # A contact is found up to one step late, so its spring may start up to v h deep, v the fastest a
+    # point of the object moves: each can store gamma (v h)^2 / 2 that no motion paid for.
+    fastest = np.linalg.norm(velocity) + np.linalg.norm(spin) * np.linalg.norm(size) / 2
+    onset = len(tips) * 0.5 * world.model.penetration_stiffness * (fastest * world.model.dt) ** 2
     touched = False
     for t in np.arange(0.0, 0.3, 1.0 / rate):
         world = step(world, HandFrame(float(t), (hand,)))
         touched |= bool(world.data.active.any())
         assert np.isfinite(world.data.velocity).all() and np.isfinite(world.data.angular_velocity).all()
         assert np.isfinite(world.data.position).all() and np.isfinite(world.data.orientation).all()
-        assert kinetic_energy(world)[0] + spring_energy(world) <= start * (1 + 1e-9) + 1e-12
+        assert kinetic_energy(world)[0] + spring_energy(world) <= start * (1 + 1e-9) + onset + 1e-12
     event("contact" if touched else "no contact")

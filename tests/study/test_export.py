@@ -45,7 +45,7 @@ def test_the_trials_table_has_the_tidy_schema(study):
     assert (trials.participant == "P01").all() and (trials.group == record.group).all()
     assert trials.simulated.all() and trials.completed.all()
     assert trials.time_s.dtype == np.float64 and str(trials.attempts.dtype) == "Int64"
-    assert np.allclose(trials.ended_at - trials.started_at >= trials.time_s, True)
+    assert (trials.ended_at - trials.started_at >= trials.time_s).all()
     assert set(SPEC_QUESTIONNAIRE) <= set(questionnaire.columns) and "simulated" in questionnaire.columns
     assert len(questionnaire) == 4 and questionnaire.rating.tolist() == [6, 7, 4, 3]  # sorted by system, item
 

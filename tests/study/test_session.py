@@ -27,7 +27,8 @@ def one_task(store, task_index=0, rules=None, **script):
     task = store.tasks(session.id)[task_index]
     source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task), **script))
     run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
-    result = run_task(store, session.id, run_id, task_world(store.protocol, task), guarded(source, store.protocol),
+    world = task_world(store.protocol, task)
+    result = run_task(store, session.id, run_id, world, guarded(source, world.model.scene),
                       rules or store.protocol.task, SimulationClock(), batch=store.protocol.frame_batch)
     return result, run_id, source
 

@@ -26,6 +26,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..hand import bone_centres
 from ..rotation import quat_to_matrix
 from .skeleton import (
     DIP_PER_PIP,
@@ -35,7 +36,6 @@ from .skeleton import (
     RADII,
     REST,
     UPPER,
-    bone_centres,
     local_joints,
 )
 

@@ -23,12 +23,6 @@ def minimum_jerk(tau: float | np.ndarray) -> float | np.ndarray:
     return tau ** 3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
 
 
-def minimum_jerk_velocity(tau: float | np.ndarray) -> float | np.ndarray:
-    """ds/dtau: multiply by (x1 - x0) / T for the velocity."""
-    tau = np.clip(tau, 0.0, 1.0)
-    return 30.0 * tau ** 2 * (1.0 - tau) ** 2
-
-
 def movement_time(distance: float, tolerance: float, intercept: float, slope: float) -> float:
     """Fitts' law, Shannon form: T = a + b log2(D / W + 1), with W the target's full width (2 x tolerance)."""
     return intercept + slope * math.log2(distance / (2.0 * tolerance) + 1.0)

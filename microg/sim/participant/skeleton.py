@@ -94,11 +94,6 @@ def local_joints(angles: np.ndarray) -> np.ndarray:
     return _local_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES)
 
 
-def bone_centres(joints: np.ndarray) -> np.ndarray:
-    """(5, 4, 3) phalanx sphere centres of a (5, 5, 3) joint array."""
-    return 0.5 * (joints[:, 1:] + joints[:, :-1])
-
-
 @njit(cache=True)
 def _to_world(local, position, orientation, mirror):
     rotation = quat_to_matrix(orientation)

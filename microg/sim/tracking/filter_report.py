@@ -88,10 +88,15 @@ def fingertips(frames, side: str | None = None, config: GuardConfig = GuardConfi
     return Fingertips(side, np.array(times), np.array(tips), np.array(track))
 
 
-def _position_in_track(track: np.ndarray) -> np.ndarray:
-    starts = np.r_[True, track[1:] != track[:-1]]
-    index = np.arange(len(track))
-    return index - np.maximum.accumulate(np.where(starts, index, 0))
+def _new_track(data: Fingertips) -> np.ndarray:
+    """(n,) True at the first frame of each track."""
+    return np.r_[True, data.track[1:] != data.track[:-1]]
+
+
+def _position_in_track(data: Fingertips) -> np.ndarray:
+    """(n,) how many frames of its track come before each frame."""
+    index = np.arange(len(data.track))
+    return index - np.maximum.accumulate(np.where(_new_track(data), index, 0))
 
 
 def jitter(data: Fingertips, filtered: np.ndarray, window: int, gap_factor: float = 1.5) -> float:
@@ -135,10 +140,6 @@ def alignment_lag(data: Fingertips, filtered: np.ndarray, usable: np.ndarray) ->
     return float(refined.x), float(refined.fun)
 
 
-def _new_track(data: Fingertips) -> np.ndarray:
-    return np.r_[True, data.track[1:] != data.track[:-1]]
-
-
 def filter_report(frames: list[HandFrame] | tuple[HandFrame, ...], windows=WINDOWS, side: str | None = None,
                   config: GuardConfig = GuardConfig()) -> pd.DataFrame:
     """One row per window size F: jitter, lag measured by alignment, nominal lag, residual misfit."""
@@ -147,7 +148,7 @@ def filter_report(frames: list[HandFrame] | tuple[HandFrame, ...], windows=WINDO
     rows = []
     for window in windows:
         filtered = filter_series(data.tips, data.times, window, period, _new_track(data))
-        usable = _position_in_track(data.track) >= window - 1
+        usable = _position_in_track(data) >= window - 1
         lag, residual = alignment_lag(data, filtered, usable)
         rows.append({"window": window, "jitter_mm": 1e3 * jitter(data, filtered, window),
                      "lag_ms": 1e3 * lag, "lag_frames": lag / period,

@@ -35,6 +35,7 @@ Output timestamps strictly increase. While a jump is being decided every output 
 
 from __future__ import annotations
 
+import statistics
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
@@ -104,7 +105,8 @@ class GuardCounts:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     def add(self, **increments: int) -> GuardCounts:
-        return replace(self, **{k: getattr(self, k) + v for k, v in increments.items()})
+        changed = {k: getattr(self, k) + v for k, v in increments.items() if v}
+        return replace(self, **changed) if changed else self
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,20 +156,24 @@ class GuardState:
     counts: GuardCounts = GuardCounts()
 
     def period(self, config: GuardConfig) -> float:
-        return float(np.median(self.intervals)) if self.intervals else 1.0 / config.nominal_rate
+        """The typical frame period: the median recent interval (``statistics.median``: a few floats,
+        every frame, where numpy's call overhead would dominate)."""
+        return float(statistics.median(self.intervals)) if self.intervals else 1.0 / config.nominal_rate
 
 
-def is_complete(hand: Hand, delivered: np.ndarray) -> bool:
+def known_joints(hand: Hand) -> np.ndarray:
+    """(5, 5) True where the hand's joint is known."""
+    return np.isfinite(hand.joints).all(axis=-1)
+
+
+def is_complete(hand: Hand, known: np.ndarray, delivered: np.ndarray) -> bool:
     """True when the palm and every joint the tracker normally delivers are known."""
-    known = np.isfinite(hand.joints).all(axis=-1)
     return bool(np.isfinite(hand.palm_position).all() and known[delivered].all())
 
 
 def displacement(a: Hand, b: Hand) -> float:
     """The largest distance any point known in both hands (palm, joints) moved from ``b`` to ``a``."""
-    points_a = np.vstack([a.palm_position, a.joints.reshape(-1, 3)])
-    points_b = np.vstack([b.palm_position, b.joints.reshape(-1, 3)])
-    distances = np.linalg.norm(points_a - points_b, axis=1)
+    distances = np.linalg.norm(a.points - b.points, axis=1)
     distances = distances[np.isfinite(distances)]
     return float(distances.max()) if distances.size else 0.0
 
@@ -187,14 +193,13 @@ def _time(config: GuardConfig, state: GuardState, raw: float) -> tuple[GuardStat
     t = raw + state.offset
     if state.last_time is None:
         return state, t, False
-    period = state.period(config)
     if t <= state.last_time:
         run = state.stale_run + 1 if (state.stale_run and raw > state.stale_raw) else 1
         if run < config.resync_after:
             counts = state.counts.add(**{"duplicate_timestamps" if t == state.last_time else "out_of_order": 1})
             return replace(state, stale_run=run, stale_raw=raw, counts=counts), None, False
     if t <= state.last_time or t - state.last_time > config.max_gap:
-        t = state.last_time + period
+        t = state.last_time + state.period(config)
         state = replace(state, offset=t - raw, stale_run=0, counts=state.counts.add(clock_resyncs=1))
         return state, t, True
     intervals = (state.intervals + (t - state.last_time,))[-RECENT_INTERVALS:]
@@ -223,11 +228,12 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
         sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
         return replace(state, slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
 
-    if hand is not None and not is_complete(hand, memory.delivered):
+    known = None if hand is None else known_joints(hand)
+    if hand is not None and not is_complete(hand, known, memory.delivered):
         counts, hand = counts.add(hands_incomplete=1), None
     if hand is None:
         return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
-    delivered = memory.delivered | np.isfinite(hand.joints).all(axis=-1)
+    delivered = memory.delivered | known
     last = memory.last
 
     def new_track(starts: list[int], **increments: int) -> GuardState:
@@ -235,13 +241,13 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
         counts = counts.add(new_tracks=1, **increments)
         track, next_track = next_track, next_track + 1
         decisions = dict.fromkeys(open_slots)
-        decisions.update({i: replace(slots[i].hands[side], track_id=track) for i in starts})
+        decisions.update({i: slots[i].hands[side].renumbered(track) for i in starts})
         return settle(decisions, SideState(decisions[current], now, hand.track_id, False, delivered))
 
     if restart or last is None or hand.track_id != memory.source_id:
         return new_track([current])
     if displacement(hand, last) < config.jump_distance:
-        out = replace(hand, track_id=last.track_id)
+        out = hand.renumbered(last.track_id)
         counts = counts.add(bridged_hands=len(earlier), jumps_rejected=int(memory.holding))
         decisions = {i: bridge(last, memory.last_time, out, now, slots[i].time) for i in earlier}
         return settle(decisions | {current: out}, SideState(out, now, hand.track_id, False, delivered))

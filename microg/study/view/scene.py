@@ -22,7 +22,7 @@ import numpy as np
 
 from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
-from microg.study.store import HAND_LAYOUT, HAND_VALUES
+from microg.study.store import HAND_VALUES, hand_parts
 
 HAND_MODES = ("rendered", "tracked", "both")
 """Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
@@ -88,10 +88,7 @@ def split_hand(values: np.ndarray) -> HandValues:
     values = np.asarray(values, dtype=np.float64)
     if values.shape != (HAND_VALUES,):
         raise ValueError(f"a hand blob has {HAND_VALUES} values, got shape {values.shape}")
-    parts, start = {}, 0
-    for name, size in HAND_LAYOUT:
-        parts[name] = values[start:start + size]
-        start += size
+    parts = hand_parts(values)
     return HandValues(parts["joints"].reshape(N_DIGITS, N_BONES + 1, 3), parts["widths"].reshape(N_DIGITS, N_BONES),
                       parts["palm_position"], parts["palm_orientation"], parts["rendered"].reshape(BONES_PER_HAND, 3))
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microg.study.store import DATABASE, HAND_VALUES, SessionRecord, Store, StoreError
+from microg.study.store import DATABASE, SessionRecord, Store, StoreError, hand_values
 
 from .scene import FrameScene, both_sides, place_states, rendered_bones, split_hand, touching_slots, tracked_bones
 
@@ -158,8 +158,7 @@ class Track:
         """What frame ``index`` shows."""
         row = self.rows[index]
         _frame, t, stage, place, lit, timer, _grasped, held, mask = row[:9]
-        hands = [split_hand(np.full(HAND_VALUES, np.nan) if blob is None else np.frombuffer(blob, dtype="<f8"))
-                 for blob in row[16:18]]
+        hands = [split_hand(hand_values(blob)) for blob in row[16:18]]
         return FrameScene(
             t=t - self.start, stage=stage, place=place, place_lit=bool(lit), place_timer=timer, held=bool(held),
             attempts=bisect.bisect_right(self.drops, t + 1e-9), object_position=np.array(row[9:12]),

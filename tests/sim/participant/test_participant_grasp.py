@@ -12,7 +12,8 @@ from microg.sim import load_object
 from microg.sim.bodies import SHAPES
 from microg.sim.contact import closest_surface_point
 from microg.sim.participant.grasp import plan_grasp
-from microg.sim.participant.skeleton import RADII, bone_centres, local_joints
+from microg.sim.hand import bone_centres
+from microg.sim.participant.skeleton import RADII, local_joints
 from microg.sim.rotation import quat_from_euler_deg
 
 OBJECTS = ("cube", "flat_cuboid", "long_cuboid", "ball")

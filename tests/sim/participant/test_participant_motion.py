@@ -7,7 +7,6 @@ import pytest
 
 from microg.sim.participant.motion import (
     minimum_jerk,
-    minimum_jerk_velocity,
     movement_time,
     slerp,
 )
@@ -31,7 +30,6 @@ def test_minimum_jerk_peak_speed_is_1_875_times_the_mean_at_mid_time():
     speed = np.gradient(minimum_jerk(tau), tau)
     assert tau[np.argmax(speed)] == pytest.approx(0.5, abs=1e-4)
     assert speed.max() / np.mean(speed) == pytest.approx(1.875, rel=1e-4)
-    np.testing.assert_allclose(minimum_jerk_velocity(tau)[1:-1], speed[1:-1], atol=1e-4)
 
 
 def test_minimum_jerk_is_the_quintic_that_flash_and_hogan_derived():

@@ -1,7 +1,5 @@
 """The kinematic hand: Leap-shaped, rigid bones, mirrored left hand, and faithful to real recordings."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.optimize import least_squares

@@ -11,7 +11,7 @@ from microg.sim import HandFrame
 from microg.sim.tracking import GuardConfig, TrackingGuard
 from microg.sim.tracking.guard import displacement
 from microg.sim.tracking.source import HandSource
-from tests.sim.tracking.synthetic import RATE, ListSource, flat_hand, run_guard, sweep, with_joints, with_nan
+from tests.sim.tracking.synthetic import RATE, ListSource, run_guard, sweep, with_joints, with_nan
 
 PERIOD = 1 / RATE
 
