@@ -6,7 +6,12 @@ centroid p moved by the radius against the normal, so a sphere that only touches
     f = gamma (c - s)                                  (Eq. 16, gamma = 100 N/m)
     f_n = (f . n) n,  f_t = f - f_n                    (Eqs. 17-18)
 
-f pulls the rendered hand out of the object; the object receives -f at c, as force and torque.
+f pulls the rendered hand out of the object; the object receives -f, as force and torque. Since
+c - s = (c + rho n) - p, f is a spring between the tracked phalanx centre and the god-object
+phalanx centre c + rho n, a point fixed in the object: the torque is taken there. For a point
+phalanx (the paper's, rho = 0) that is c itself; for a sphere the normal part has the same torque
+at either point, and only there does the spring's energy add up (applied at c, the friction part
+would turn with a torque off by rho n x f_t and a still hand could spin an object up).
 The velocity update treats the spring implicitly on the *relative* motion of hand and object over
 the step (both move; see ``wrench``), and a spring only pushes: a contact predicted to release
 within the step (depth < h times its separating speed, Eq. 8) acts with its mean force until the
@@ -16,7 +21,7 @@ Two stages. ``friction_cone`` (Eqs. 19-20) runs first: inside the cone, f . n > 
 |f_t| <= mu (f . n), the contact sticks and the anchor stays; outside it the anchor slides along
 the surface until the tangential pull is the dynamic friction, |f_t| = phi (f . n) (Eq. 20 read
 as Coulomb's law: kinetic friction is phi times the normal force, so a fast tangential jerk cannot
-pull harder than friction allows). ``penetration_forces`` then applies f at the anchor. In a scene
+pull harder than friction allows). ``penetration_forces`` then applies f. In a scene
 without friction the surface is frictionless: the anchor follows the phalanx's projection on the
 face and only f_n acts.
 """
@@ -67,8 +72,9 @@ def friction_cone(model, data, h: float) -> None:
 
 
 @njit(cache=True)
-def _penetration(gamma, friction, shape, half_size, position, orientation, velocity, angular_velocity,
-                 hand_position, hand_velocity, radius, active, anchor, normal, depth, sliding, wrench, stiffness, h):
+def _penetration(gamma, friction, dynamic_friction, shape, half_size, position, orientation, velocity,
+                 angular_velocity, hand_position, hand_velocity, radius, active, anchor, normal, depth, sliding,
+                 wrench, stiffness, h):
     n_slots, n_objects = active.shape
     for o in range(n_objects):
         rot = quat_to_matrix(orientation[o])
@@ -83,8 +89,15 @@ def _penetration(gamma, friction, shape, half_size, position, orientation, veloc
                 offset, delta, tangential = _spring_offset(rot, position[o], hand_position[k], radius[k],
                                                            anchor[k, o], normal[k, o])
             depth[k, o] = delta
-            r = rot @ anchor[k, o]
+            if delta <= 0.0:  # off the face it pressed on: nothing presses, nothing pulls
+                continue
+            if not friction or sliding[k, o]:  # an anchor held at a face's edge cannot pull past the cone
+                limit = dynamic_friction[o] * delta if friction else 0.0
+                length = np.sqrt(tangential @ tangential)
+                if length > limit:
+                    offset = delta * normal[k, o] + limit / length * tangential
             n_world = rot @ normal[k, o]
+            r = rot @ anchor[k, o] + radius[k] * n_world
             on_object = -gamma * (rot @ offset)
             separating = n_world @ (hand_velocity[k] - point_velocity(velocity[o], angular_velocity[o], r))
             if delta <= h * separating:
@@ -96,8 +109,8 @@ def _penetration(gamma, friction, shape, half_size, position, orientation, veloc
 
 
 def penetration_forces(model, data, h: float) -> None:
-    """Eqs. 16-18: the spring force of every contact, applied to the object at its anchor."""
-    _penetration(model.penetration_stiffness, "friction" in model.effects, model.shape, model.half_size,
-                 data.position, data.orientation, data.velocity, data.angular_velocity, data.hand_position,
-                 data.hand_velocity, data.radius, data.active, data.anchor, data.normal, data.depth, data.sliding,
-                 data.wrench, data.stiffness, h)
+    """Eqs. 16-18: the spring force of every contact, applied to the object at its god-object phalanx."""
+    _penetration(model.penetration_stiffness, "friction" in model.effects, model.dynamic_friction, model.shape,
+                 model.half_size, data.position, data.orientation, data.velocity, data.angular_velocity,
+                 data.hand_position, data.hand_velocity, data.radius, data.active, data.anchor, data.normal,
+                 data.depth, data.sliding, data.wrench, data.stiffness, h)

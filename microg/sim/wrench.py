@@ -8,7 +8,10 @@ another body whose surface point moves at w pushes, at the end of the next step,
 
 (spring K and damper D acting on the relative motion of the two surfaces). It contributes
 J^T (f0 + (D + h K) w) to the generalised force, J^T D J to the damping and J^T K J to the
-stiffness.
+stiffness: symmetric and positive semi-definite, so the velocity update stays well posed for any
+mass. (The torque's change as r turns with the body, the geometric stiffness [f]x [r]x, is left
+out on purpose: it is not symmetric, can be negative, and for a gram-light object it would rule the
+update and make it explode.)
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ what the paper's springs hold, gamma delta^2 / 2 each) can only stay or fall; an
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from microg.sim import HandFrame, Material, ObjectSpec, PlacedObject, kinetic_energy, step
@@ -40,6 +40,11 @@ def spring_energy(world) -> float:
 )
 def test_a_still_hand_never_adds_energy_and_nothing_becomes_nan(size, mass, restitution, quaternion, velocity, spin,
                                                                  tips, rate, substeps, interaction):
+    # Physics steps of 1/240 s or finer (the default is 1/440 s). Coarser steps find an impact up
+    # to v dt late: at 1/180 s a 1 kg bar hitting a fingertip at 0.9 m/s leaves 0.7 % faster than
+    # it came, and at 1/60 s a 1 m/s impact on a 1.5 cm bar is found past its far side. The
+    # benchmarks chart what such steps cost in accuracy.
+    assume(rate * substeps >= 240)
     spec = ObjectSpec("box", "box", size, mass, Material(restitution, 0.8, 0.5))
     q = tuple(quat_normalize(np.asarray(quaternion, dtype=float)))
     world = world_of([PlacedObject(spec, (0.0, 0.0, 0.0), q, velocity, spin)], interaction=interaction,
