@@ -121,6 +121,8 @@ class Scene:
             raise SceneError(f"{where}: effects names 'friction' without a contact force ('penetration' or 'soft_hand')")
         if {"penetration", "soft_hand"} <= self.effects:
             raise SceneError(f"{where}: effects names both 'penetration' and 'soft_hand'; a scene has one hand model")
+        if "continuous_collision" in self.effects and not self.effects & {"impulse", "penetration", "soft_hand"}:
+            raise SceneError(f"{where}: effects names 'continuous_collision' without a contact model")
         gravity = np.asarray(self.gravity, dtype=float)
         if gravity.shape != (3,) or not np.isfinite(gravity).all():
             raise SceneError(f"{where}: gravity = {list(self.gravity)}: must be three finite numbers (m/s^2)")
@@ -152,6 +154,10 @@ class Scene:
                                      f"{'finite' if name == 'height' else 'positive'} number")
         if not self.objects:
             raise SceneError(f"{where}: objects is empty; a scene needs at least one object")
+        names = [placed.spec.name for placed in self.objects]
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if twice:
+            raise SceneError(f"{where}: objects has two objects named {twice[0]!r}")
         for i, placed in enumerate(self.objects):
             label = f"{where}: objects[{i}] ({placed.spec.name})"
             placed.spec.validate(label)

@@ -199,12 +199,8 @@ def substep_stages(effects: frozenset[str]) -> tuple[str, ...]:
 def make_world(scene: Scene) -> World:
     """Validate the scene and build the world at rest at its initial state."""
     scene.validate()
-    if "continuous_collision" in scene.effects and not scene.effects & CONTACT_EFFECTS:
-        raise SceneError("scene: effects names 'continuous_collision' without a contact model")
     specs = [p.spec for p in scene.objects]
     names = tuple(s.name for s in specs)
-    if len(set(names)) != len(names):
-        raise SceneError(f"scene: objects has two objects named {next(n for n in names if names.count(n) > 1)!r}")
     stage_names = substep_stages(scene.effects)
     model = Model(
         scene=scene, names=names, effects=scene.effects,

@@ -75,6 +75,9 @@ def good_scene(**changes):
     (good_scene(spec=ObjectSpec("cube", "box", (0.06, 0.06, 0.06), 0.15, Material(0.4, 0.5, 0.8))),
      "dynamic_friction = 0.8"),
     (good_scene(substeps=0), "substeps = 0"),
+    (good_scene(effects={"continuous_collision"}), "'continuous_collision' without a contact model"),
+    (Scene(objects=(PlacedObject(ObjectSpec("cube", "box", (0.06, 0.06, 0.06), 0.15)),) * 2,
+           effects=frozenset({"penetration"})), "two objects named 'cube'"),
 ])
 def test_bad_scenes_name_the_field_and_value(scene, message):
     with pytest.raises(SceneError) as error:
