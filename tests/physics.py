@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from microg.sim import HandFrame, PlacedObject, compose_scene, load_object, make_world, step
-from microg.sim.scripted import probe_hand
+from microg.participant.scripted import probe_hand
 from microg.paths import object_file
 
 RATE = 110.0

@@ -64,6 +64,20 @@ def phalanx_mask(joints: np.ndarray, widths: np.ndarray) -> np.ndarray:
         return np.isfinite(lengths) & (lengths >= MIN_PHALANX_LENGTH) & (widths > 0)
 
 
+def displacement(points: np.ndarray, previous: np.ndarray) -> float:
+    """The largest distance (m) any point known in both (palm, joints: ``Hand.points``) moved."""
+    distances = np.linalg.norm(points - previous, axis=1)
+    distances = distances[np.isfinite(distances)]
+    return float(distances.max()) if distances.size else 0.0
+
+
+def is_jump(points: np.ndarray, previous: np.ndarray, jump_distance: float) -> bool:
+    """The jump rule: a hand whose palm or some joint moved ``jump_distance`` or more between two
+    frames did not get there by moving; it is a new track (no velocity, no filter history). The
+    tracking guard and the world both ask this, here."""
+    return displacement(points, previous) >= jump_distance
+
+
 def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=True))
 

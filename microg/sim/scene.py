@@ -30,7 +30,6 @@ EFFECTS: dict[str, str] = {
     "friction": "Coulomb cone with static mu and dynamic phi on contact forces (Eqs. 19-20)",
     "soft_hand": "compliant penalty coupling of a soft hand (comparison baseline)",
     "gyroscopic": "torque-free rotation obeys Euler's equations (angular momentum conserved)",
-    "tracking_filter": "moving-average window filter on the tracked hand (Eq. 1)",
     "continuous_collision": "swept-sphere onset test: fast phalanges cannot pass thin objects",
     "table": "a static horizontal table the objects rest on (the scene's table settings)",
 }
@@ -41,7 +40,7 @@ INTERACTION_MODELS: dict[str, frozenset[str]] = {
     "soft_hand": frozenset({"soft_hand", "friction"}),
 }
 
-ENVIRONMENT_EFFECTS = frozenset({"gyroscopic", "tracking_filter", "continuous_collision"})
+ENVIRONMENT_EFFECTS = frozenset({"gyroscopic", "continuous_collision"})
 """What every study scene adds to its interaction model (plus gravity when it is not zero)."""
 
 ANGULAR_INTEGRATORS = ("midpoint", "semi_implicit_euler", "explicit_euler")
@@ -99,8 +98,6 @@ class Scene:
     """Physics steps per nominal tracking frame; dt = 1 / (tracking_rate * substeps)."""
     penetration_stiffness: float = 100.0
     """gamma in Eq. 16 (N/m); the paper's value."""
-    filter_window: int = 3
-    """F in Eq. 1; the paper found 3 best."""
     angular_integrator: str = "midpoint"
     resting_tolerance: float = 1e-3
     """|v| below this (m/s) classifies a contact as resting (Eq. 8)."""
@@ -132,10 +129,8 @@ class Scene:
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")
-        for name in ("substeps", "filter_window"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise SceneError(f"{where}: {name} = {value!r}: must be a positive integer")
+        if not isinstance(self.substeps, int) or isinstance(self.substeps, bool) or self.substeps < 1:
+            raise SceneError(f"{where}: substeps = {self.substeps!r}: must be a positive integer")
         if self.angular_integrator not in ANGULAR_INTEGRATORS:
             raise SceneError(f"{where}: angular_integrator = {self.angular_integrator!r}: "
                              f"must be one of {ANGULAR_INTEGRATORS}")

@@ -4,9 +4,9 @@
     world = step(world, hand_frame)
 
 ``make_world`` validates the scene once and assembles the step from exactly the stages the scene's
-effects call for. ``step`` takes one hand frame, runs the frame-level stages (track changes, the
-window filter), then as many fixed physics steps of ``scene.dt`` as fit up to the frame's
-timestamp, moving the hand linearly from the previous frame to this one. It returns a new World
+effects call for. ``step`` takes one hand frame (already filtered: ``microg.hands.filter``), notes
+which hands start a new track, then runs as many fixed physics steps of ``scene.dt`` as fit up to
+the frame's timestamp, moving the hand linearly from the previous frame to this one. It returns a new World
 and leaves its argument untouched; inside, the stages update one private copy in place.
 """
 
@@ -20,8 +20,7 @@ import numpy as np
 
 from .bodies import SHAPES, SceneError
 from .contact import detect_contacts, sweep_contacts
-from .filter import WindowFilter
-from .hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, bone_centres, phalanx_mask
+from .hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, bone_centres, is_jump, phalanx_mask
 from .impulse import apply_impulses
 from .integrate import (EXPLICIT_EULER, MIDPOINT, SEMI_IMPLICIT_EULER, apply_gravity, integrate_position,
                         integrate_velocity, rotate_free, rotate_without_gyroscopic)
@@ -60,7 +59,6 @@ class Model:
     dt: float
     stage_names: tuple[str, ...]
     stages: tuple[Callable, ...]
-    filter_stage: Callable | None
 
     @property
     def n_objects(self) -> int:
@@ -103,12 +101,11 @@ class Data:
     fresh: np.ndarray
     # per hand side
     joints: np.ndarray
-    """(2, 5, 5, 3) the tracked (filtered) skeleton of each side; NaN when absent."""
+    """(2, 5, 5, 3) the tracked skeleton of each side; NaN when absent."""
     present: np.ndarray
     track_id: np.ndarray
     reference: np.ndarray
-    """(2, 26, 3) palm and joints of each side's last raw hand, for the jump test."""
-    filters: tuple[WindowFilter, WindowFilter]
+    """(2, 26, 3) palm and joints of each side's last hand, for the jump rule."""
     # contacts (K, N, ...); anchors and normals in the object's body frame
     active: np.ndarray
     ghost: np.ndarray
@@ -135,21 +132,6 @@ class World:
         return self.data.time
 
 
-def filter_hands(model: Model, data: Data, joints: list, new_track: np.ndarray) -> list:
-    """Eq. 1 on each tracked side's joints; a new track empties its window first."""
-    filters = list(data.filters)
-    filtered = []
-    for side, sample in enumerate(joints):
-        if sample is None:
-            filtered.append(None)
-            continue
-        window = filters[side].reset() if new_track[side] else filters[side]
-        filters[side] = window.push(sample, data.frame_time)
-        filtered.append(filters[side].value)
-    data.filters = tuple(filters)
-    return filtered
-
-
 def move_hand(model: Model, data: Data, h: float) -> None:
     """Place the phalanges for the end of this step, on the line from the last frame to this one;
     a new step starts with no contact onsets."""
@@ -161,7 +143,6 @@ def move_hand(model: Model, data: Data, h: float) -> None:
 
 
 STAGES: dict[str, Callable] = {
-    "tracking_filter": filter_hands,
     "move_hand": move_hand,
     "detect_contacts": detect_contacts,
     "continuous_collision": sweep_contacts,
@@ -216,7 +197,6 @@ def make_world(scene: Scene) -> World:
         resting_tolerance=float(scene.resting_tolerance),
         angular_method=_METHODS[scene.angular_integrator],
         dt=scene.dt, stage_names=stage_names, stages=tuple(STAGES[n] for n in stage_names),
-        filter_stage=STAGES["tracking_filter"] if "tracking_filter" in scene.effects else None,
     )
     n = len(specs)
     nan_slots = np.full((SLOTS, 3), np.nan)
@@ -232,8 +212,6 @@ def make_world(scene: Scene) -> World:
         valid=np.zeros(SLOTS, dtype=bool), fresh=np.zeros(SLOTS, dtype=bool),
         joints=np.full((2, N_DIGITS, N_BONES + 1, 3), np.nan), present=np.zeros(2, dtype=bool),
         track_id=np.zeros(2, dtype=np.int64), reference=np.full((2, 1 + N_DIGITS * (N_BONES + 1), 3), np.nan),
-        filters=tuple(WindowFilter.empty(scene.filter_window, 1.0 / scene.tracking_rate, (N_DIGITS, N_BONES + 1, 3))
-                      for _ in SIDES),
         active=np.zeros((SLOTS, n), dtype=bool), ghost=np.zeros((SLOTS, n), dtype=bool),
         onset=np.zeros((SLOTS, n), dtype=bool), sliding=np.zeros((SLOTS, n), dtype=bool),
         anchor=np.zeros((SLOTS, n, 3)), normal=np.zeros((SLOTS, n, 3)), depth=np.zeros((SLOTS, n)),
@@ -243,16 +221,15 @@ def make_world(scene: Scene) -> World:
 
 
 def _track_changes(model: Model, data: Data, hands: tuple[Hand | None, ...]) -> np.ndarray:
-    """Which sides start a new track this frame: the hand (re)appeared, changed id, or some point
-    of it (palm or joint) moved ``jump_distance`` or more since the last frame."""
+    """Which sides start a new track this frame: the hand (re)appeared, changed id, or jumped
+    (``hand.is_jump``: a caller that skips the tracking guard is protected too)."""
     new_track = np.zeros(2, dtype=bool)
     for side, hand in enumerate(hands):
         if hand is None:
             data.present[side] = False
             continue
         points = hand.points
-        moved = np.linalg.norm(points - data.reference[side], axis=1)
-        jumped = bool((moved[np.isfinite(moved)] >= model.scene.jump_distance).any())
+        jumped = is_jump(points, data.reference[side], model.scene.jump_distance)
         new_track[side] = not data.present[side] or hand.track_id != data.track_id[side] or jumped
         data.present[side] = True
         data.track_id[side] = hand.track_id
@@ -306,8 +283,6 @@ def step(world: World, frame: HandFrame) -> World:
     hands = tuple(frame.hand(side) for side in SIDES)
     new_track = _track_changes(model, data, hands)
     joints = [None if hand is None else hand.joints for hand in hands]
-    if model.filter_stage is not None:
-        joints = model.filter_stage(model, data, joints, new_track)
     _take_hand(data, hands, joints, new_track, data.frame_time - data.previous_frame_time)
     data.frames += 1
     h = model.dt

@@ -14,13 +14,12 @@ from .inputs import InputError, ParticipantPlan, ScriptedInputs, open_inputs, pa
 from .protocol import Protocol, ProtocolError, load_protocol
 from .questionnaire import RatingError, TerminalRater, parse_rating
 from .session import SimulationClock, WallClock, resume_session, run_session, run_task, task_world
-from .stages import Observation, TaskState, advance
 from .store import Store, StoreError, create_study, open_study, plan_tasks
 
 __all__ = [
-    "InputError", "Observation", "Participant", "ParticipantError", "ParticipantPlan", "Protocol", "ProtocolError",
-    "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TaskState", "TerminalRater",
-    "WallClock", "advance", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
+    "InputError", "Participant", "ParticipantError", "ParticipantPlan", "Protocol", "ProtocolError",
+    "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TerminalRater",
+    "WallClock", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
     "hand_frames", "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",
     "plan_tasks", "questionnaire_table", "read_tables", "resume_session", "run_frames", "run_session", "run_task",
     "task_world", "trials_table",

@@ -4,7 +4,7 @@
 participants with the paper's demographics, runs every session through the real session runner
 and physics with simulated hands (``--input simulated``: the protocol's ``practice`` profile, so
 the veterans differ from the beginners only by the practice their training gave), answers the
-questionnaires with the rating model (``microg.study.ratings``; marked simulated), exports the
+questionnaires with the rating model (``microg.participant.ratings``; marked simulated), exports the
 tables (trials and questionnaire; the frames stay in the store, ``microg export`` writes them and
 Motion-BIDS) and writes the statistics report. Sessions run in parallel worker processes, each writing
 its own session to the study's SQLite store; every session is seeded from the study's seed, so the
@@ -28,7 +28,7 @@ from .assignment import paper_sample
 from .export import export_study
 from .inputs import open_inputs
 from .protocol import Protocol, load_protocol
-from .ratings import ModelRater
+from microg.study.questionnaire import ModelRater
 from .session import SimulationClock, run_session
 from .store import FINAL_RUN, StoreError, create_study, open_study
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from typing import Callable, Protocol as Interface
 
 from microg.sim import HandFrame, ObjectSpec, World
-from microg.sim.participant import TaskDisplay
-from microg.sim.tracking.source import HandSource
+from microg.participant import TaskDisplay
+from microg.hands.source import HandSource
 
 from .protocol import Protocol
 from .store import PlannedTask
@@ -129,7 +129,7 @@ class ReplayInputs:
 
 
 class SimulatedInputs:
-    """A simulated participant (``microg.sim.participant``) plays each task. Profile ``practice``
+    """A simulated participant (``microg.participant``) plays each task. Profile ``practice``
     starts every participant new to the system and lets each task done (training included) improve
     the skill by the power law of practice; ``veteran`` and ``beginner`` are fixed skills."""
 
@@ -140,7 +140,7 @@ class SimulatedInputs:
         self.spec, self.profile = spec, profile
 
     def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
-        from microg.sim.participant import PickPlacePlan, SimulatedParticipant
+        from microg.participant import PickPlacePlan, SimulatedParticipant
 
         skill = f"practised:{plan.tasks_done}" if self.profile == PRACTICE else self.profile
         task = PickPlacePlan(object_name=plan.object, places=plan.places, hold_s=plan.hold_s,
@@ -167,7 +167,7 @@ class ScriptedInputs:
 
 def _open_tracking(spec: str) -> HandSource:
     try:
-        from microg.sim.tracking import open_source
+        from microg.hands import open_source
 
         return open_source(spec)
     except (ValueError, OSError, ImportError, RuntimeError) as error:
@@ -189,7 +189,7 @@ def open_inputs(spec: str, group_profile: str | None = None) -> Inputs:
     profile plays ``group_profile``."""
     kind, argument = parse_input(spec)
     if kind == "simulated":
-        from microg.sim.participant import skill_profile
+        from microg.participant import skill_profile
 
         profile = argument or group_profile
         if not profile:

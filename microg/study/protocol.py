@@ -27,14 +27,17 @@ from microg.paths import OBJECTS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
+from microg.task.rules import TaskRules
 
 PHASES_INFO = ("orientation", "instructions")
 """Timeline phases that show text and log their start and end."""
 ORDER_SCHEMES = ("latin_square", "permutation")
 BALANCING = ("gender", "none")
-SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "filter_window", "angular_integrator",
-                 "resting_tolerance", "jump_distance")
-"""Scene settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
+SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_integrator", "resting_tolerance",
+                 "jump_distance")
+"""Physics settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
+FILTER_WINDOW = 3
+"""F in Eq. 1 unless the protocol's ``scene.filter_window`` says otherwise; the paper found 3 best."""
 
 
 class ProtocolError(ValueError):
@@ -60,22 +63,6 @@ class StudyObject:
     spec: ObjectSpec
     source: str = field(repr=False)
     """The object file's text, kept with the study so a session can be re-simulated exactly."""
-
-
-@dataclass(frozen=True)
-class TaskRules:
-    """The pick-and-place task (see ``microg.study.stages`` for how the rules are applied)."""
-
-    start: tuple[float, float, float]
-    start_orientation: tuple[float, float, float, float]
-    places: tuple[tuple[float, float, float], ...]
-    place_radius: float
-    hold_s: float
-    timeout_s: float
-    grasp_settle_s: float
-    drop_grace_s: float
-    workspace_min: tuple[float, float, float]
-    workspace_max: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -130,6 +117,8 @@ class Protocol:
     table_height: float | None
     """y of the table the object starts on (m); None: no table (microgravity)."""
     scene_options: dict
+    filter_window: int
+    """F of the window filter on the tracked hand (Eq. 1, ``microg.hands.filter``)."""
     total_participants: int
     balance: str
     age_range: tuple[int, int] | None
@@ -383,6 +372,7 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
     for key in SCENE_OPTIONS:
         if key in scene.data:
             options[key] = scene.raw(key)
+    filter_window = scene.integer("filter_window", FILTER_WINDOW)
     scene.done()
 
     people = top.table("participants")
@@ -538,7 +528,7 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
     top.raw("sources", None)
     top.done()
     return Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
-                    gravity=gravity, table_height=table_height, scene_options=options, total_participants=total, balance=balance,
+                    gravity=gravity, table_height=table_height, scene_options=options, filter_window=filter_window, total_participants=total, balance=balance,
                     age_range=age_range, groups=tuple(groups), objects=objects, order=order, task=task,
                     training=training, stages=tuple(stages), questionnaire=questionnaire, timeline=tuple(timeline),
                     frame_batch=frame_batch, resolved=resolved)

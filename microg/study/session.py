@@ -11,7 +11,7 @@ Each task gets its own world holding only the task's object at its start pose, u
 protocol's gravity and the stage's interaction model; with a ``table_height`` the object stands
 on a table (the physics' ``table`` effect) and falls back onto it when dropped. Frames come from
 the task's hand source; each one steps the physics, then the task's state machine
-(``microg.study.stages``); an object that leaves the workspace while not held (drifting away in
+(``microg.task.stages``); an object that leaves the workspace while not held (drifting away in
 microgravity, or off the table) goes back to its start, as the researcher would put it back.
 Events are committed as they happen, frames every ``frame_batch``.
 
@@ -30,13 +30,16 @@ from tqdm import tqdm
 
 from microg.sim import HandFrame, PlacedObject, Scene, TableParameters, World, compose_scene, grasped, make_world, \
     rendered_phalanges, step, touching
+from microg.hands.filter import HandFilter
 from microg.sim.hand import BONES_PER_HAND, SIDES
-from microg.sim.participant import TaskDisplay
+from microg.participant import TaskDisplay
 
 from .inputs import Inputs, participant_plan
-from .protocol import Phase, Protocol, TaskRules
+from microg.task.rules import TaskRules
+
+from .protocol import FILTER_WINDOW, Phase, Protocol
 from .questionnaire import Rater
-from .stages import COMPLETED, Observation, TaskState, advance
+from microg.task.stages import COMPLETED, Observation, TaskState, advance
 from .store import Event, PlannedTask, Store, derived_seed
 
 Markers = Callable[[str, dict], None]
@@ -176,10 +179,10 @@ def frame_row(run_id: int, index: int, frame: HandFrame, world: World, state: Ta
 
 
 def guarded(source, scene: Scene):
-    """``source`` behind the tracking guard (``microg.sim.tracking.guard``), which drops incomplete
+    """``source`` behind the tracking guard (``microg.hands.guard``), which drops incomplete
     hands and stale frames and bridges tracking glitches before the physics sees them; it expects
     the scene's frame rate and detects jumps as the scene's physics does."""
-    from microg.sim.tracking.guard import GuardConfig, TrackingGuard
+    from microg.hands.guard import GuardConfig, TrackingGuard
 
     return TrackingGuard(source, GuardConfig(nominal_rate=float(scene.tracking_rate),
                                              jump_distance=float(scene.jump_distance)))
@@ -187,12 +190,13 @@ def guarded(source, scene: Scene):
 
 def run_task(store: Store, session_id: int, run_id: int, world: World, source, rules: TaskRules, clock: Clock,
              markers: Markers | None = None, batch: int = 64, on_frame: Callable[[int], None] | None = None,
-             board: TaskBoard | None = None) -> TaskResult:
+             board: TaskBoard | None = None, filter_window: int = FILTER_WINDOW) -> TaskResult:
     """Drive one task from ``source`` until it completes, times out or the source ends; log it all.
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
     state = TaskState()
+    smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
     start = (world.data.position[0].copy(), world.data.orientation[0].copy())
     buffer: list[tuple] = []
     index, last_t = 0, None
@@ -201,7 +205,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
             frame = source.next_frame(world)
             if frame is None:
                 break
-            world = step(world, frame)
+            world = step(world, smooth(frame))
             is_grasped = bool(grasped(world)[0])
             clock.elapse(0.0 if last_t is None else frame.timestamp - last_t)
             last_t = frame.timestamp
@@ -315,7 +319,7 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
             bar.set_postfix_str(f"{label}: {frames} frames, {frames / max(time.monotonic() - started, 1e-9):.0f} fps")
 
     return run_task(store, session.id, run_id, world, source, protocol.task, clock, markers, protocol.frame_batch,
-                    show, board)
+                    show, board, protocol.filter_window)
 
 
 def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol) -> None:

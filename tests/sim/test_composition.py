@@ -31,7 +31,7 @@ def test_stages_not_named_never_run(counted):
     world = world_of([placed("cube")], effects={"penetration"})
     world = drive(world, pinch_path, t_end=0.5)
     assert world.data.active.any()
-    for absent in ("gravity", "friction", "impulse", "soft_hand", "continuous_collision", "tracking_filter", "gyroscopic"):
+    for absent in ("gravity", "friction", "impulse", "soft_hand", "continuous_collision", "gyroscopic"):
         assert counted[absent] == 0, absent
     assert counted["penetration"] == counted["integrate_velocity"] == world.data.steps > 0
 
@@ -42,7 +42,6 @@ def test_named_stages_run_once_per_step(counted):
     steps = world.data.steps
     for present in ("gravity", "friction", "impulse", "penetration", "continuous_collision", "gyroscopic"):
         assert counted[present] == steps, present
-    assert counted["tracking_filter"] == world.data.frames
 
 
 def test_interaction_models_are_the_documented_compositions():

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from microg.study.cli import main
+from microg.cli import main
 
 pytestmark = pytest.mark.slow
 
@@ -29,11 +29,3 @@ def test_quick_accuracy_benchmark_writes_every_metric_and_the_chart(tmp_path):
     drift = table[table["metric"] == "L_drift"].groupby("angular_integrator")["error"].max()
     assert drift["midpoint"] < 1e-9 < drift["explicit_euler"]
     assert (tmp_path / "bench-accuracy.png").stat().st_size > 10_000
-
-
-def test_bench_says_where_it_looked_when_the_benchmarks_are_missing(tmp_path, monkeypatch):
-    from microg.study.cli import bench
-    monkeypatch.setattr(bench, "BENCHMARKS", tmp_path / "nowhere")
-    result = CliRunner().invoke(main, ["bench", "accuracy", "--quick", "--out", str(tmp_path)])
-    assert result.exit_code != 0
-    assert "nowhere" in result.output

@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 from microg.sim import (HandFrame, Material, ObjectSpec, PlacedObject, angular_momentum, kinetic_energy, slot,
                         step)
 from microg.sim.rotation import quat_to_matrix
-from microg.sim.scripted import probe_hand
+from microg.participant.scripted import probe_hand
 from tests.physics import coast, drive, placed, world_of
 
 pytestmark = pytest.mark.hard
@@ -121,7 +121,7 @@ def test_tap_gives_light_objects_at_least_newtons_speed(mass):
 
 @pytest.mark.parametrize("mass", MASSES)
 def test_pinch_and_carry_is_stable_from_1_g_to_10_kg(mass):
-    from microg.sim.scripted import pinch_and_carry
+    from microg.participant.scripted import pinch_and_carry
     path, released = pinch_and_carry((0.0, 0.2, 0.0), 0.03, carry=(0.15, 0.10, 0.0), depth=0.005)
     world = world_of([cube_of(mass)])
     fastest_hand, worst = 0.0, 0.0

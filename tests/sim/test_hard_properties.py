@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from microg.sim import HandFrame, Material, ObjectSpec, PlacedObject, kinetic_energy, step
 from microg.sim.rotation import quat_normalize
-from microg.sim.scripted import probe_hand
+from microg.participant.scripted import probe_hand
 from tests.physics import world_of
 
 pytestmark = pytest.mark.hard

@@ -8,7 +8,7 @@ import time
 import numpy as np
 
 from microg.sim import HandFrame
-from microg.sim.scripted import probe_hand
+from microg.participant.scripted import probe_hand
 
 RATE = 110.0
 RADIUS = 0.008

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 from click.testing import CliRunner
 
-from microg.sim.tracking.recording import RecordingInfo, write_recording
-from microg.study.cli import main
+from microg.hands.recording import RecordingInfo, write_recording
+from microg.cli import main
 from microg.study.export import read_tables
 from microg.study.inputs import participant_plan
 from microg.study.protocol import load_protocol

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from microg.study.cli import main
+from microg.cli import main
 
 from .conftest import PROTOCOLS
 

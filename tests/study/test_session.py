@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from microg.hands.filter import HandFilter
 from microg.sim import step
 from microg.sim.rotation import quat_to_matrix
 from microg.study.export import hand_frames, run_frames, trials_table
@@ -115,8 +116,9 @@ def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study
     assert result.status == "completed"
     task = store.tasks(store.session_of("P01").id)[0]
     world, positions = task_world(store.protocol, task), []
+    smooth = HandFilter(store.protocol.filter_window, 1 / store.protocol.tracking_rate)
     for frame in hand_frames(store, run_id):
-        world = step(world, frame)
+        world = step(world, smooth(frame))
         positions.append(world.data.position[0].copy())
     logged = run_frames(store, run_id)[["px", "py", "pz"]].to_numpy()
     assert np.array_equal(np.array(positions), logged)

@@ -1,0 +1,174 @@
+"""``microg hands``: import, inspect, record hand recordings and measure the window filter on them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import numpy as np
+
+from microg.sim.hand import BONES, DIGITS, SIDES
+from microg.hands import RecordingError, load_recording, write_recording
+from microg.hands.recording import SUFFIX, UNKNOWN, RecordingInfo, record
+
+
+def _default_output(path: Path) -> Path:
+    name = path.name
+    for ending in (".gz", ".json", ".lz"):
+        name = name.removesuffix(ending)
+    return Path.cwd() / f"{name}{SUFFIX}"
+
+
+def _load(path: Path):
+    try:
+        return load_recording(path)
+    except RecordingError as error:
+        raise click.ClickException(str(error)) from None
+
+
+def _windows(text: str) -> list[int]:
+    try:
+        if "-" in text:
+            low, high = (int(v) for v in text.split("-"))
+            windows = list(range(low, high + 1))
+        else:
+            windows = [int(v) for v in text.split(",")]
+    except ValueError:
+        windows = []
+    if not windows or min(windows) < 1:
+        raise click.BadParameter(f"{text!r}: give a range like 1-7 or a list like 1,3,5 of window sizes >= 1")
+    return windows
+
+
+@click.group()
+def hands() -> None:
+    """Hand recordings: import LeapJS JSON, inspect, record a Leap Motion, report the window filter."""
+
+
+@hands.command("import")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help=f"Recording to write (default: ./NAME{SUFFIX}).")
+@click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
+def import_command(file: Path, output: Path | None, force: bool) -> None:
+    """Convert a LeapJS v2 recording (JSON, plain or .gz) to the project's recording format."""
+    recording = _load(file)
+    output = output or _default_output(file)
+    try:
+        written = write_recording(output, recording.info, recording.frames, overwrite=force)
+    except FileExistsError as error:
+        raise click.ClickException(f"{error} (use --force to overwrite)") from None
+    click.echo(f"{file} -> {output}: {written} frames, {recording.info.source}")
+
+
+@hands.command()
+@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+def info(recording: Path) -> None:
+    """Show a recording's metadata, timing, hands and bone lengths (either format)."""
+    rec = _load(recording)
+    frames = rec.frames
+    click.echo(f"file          {rec.path}")
+    for name in ("source", "device", "frame_rate", "start_time", "units", "coordinates", "notes", "software"):
+        value = getattr(rec.info, name)
+        if name == "frame_rate":
+            value = f"{value:.1f} Hz (as the device reported it)"
+        if value != "":
+            click.echo(f"{name:<13} {value}")
+    status = f"TRUNCATED: {rec.problem}; all {len(frames)} complete frames kept" if rec.truncated else "complete"
+    click.echo(f"{'file status':<13} {status}")
+    click.echo(f"{'frames':<13} {len(frames)}")
+    if len(frames) < 2:
+        return
+    times = np.array([f.timestamp for f in frames])
+    intervals = np.diff(times)
+    typical = float(np.median(intervals[intervals > 0])) if (intervals > 0).any() else float("nan")
+    gaps = intervals > 1.5 * typical
+    click.echo(f"{'duration':<13} {times[-1] - times[0]:.3f} s")
+    click.echo(f"{'intervals':<13} median {1e3 * typical:.2f} ms ({1 / typical:.1f} Hz), "
+               f"min {1e3 * intervals.min():.2f} ms, max {1e3 * intervals.max():.2f} ms")
+    click.echo(f"{'gaps':<13} {int(gaps.sum())} intervals over 1.5x the median "
+               f"(about {int(np.maximum(np.round(intervals[gaps] / typical) - 1, 1).sum())} frames missing)")
+    click.echo(f"{'order':<13} " + ("timestamps strictly increase" if (intervals > 0).all() else
+                                    f"{int((intervals <= 0).sum())} timestamps do not increase "
+                                    "(the tracking guard drops those frames)"))
+    for side in SIDES:
+        seen = [f.hand(side) for f in frames if f.hand(side) is not None]
+        if not seen:
+            click.echo(f"{side:<13} not tracked")
+            continue
+        tracks = len({h.track_id for h in seen})
+        click.echo(f"{side:<13} tracked in {len(seen)} frames, {tracks} track(s)")
+        lengths = np.array([h.bone_lengths for h in seen]) * 1e3
+        with np.errstate(invalid="ignore"):
+            known = np.isfinite(lengths).all(axis=0)
+        click.echo("  bone lengths, mm (median +- SD over frames)")
+        click.echo(f"  {'':<8}" + "".join(f"{b:>16}" for b in BONES))
+        for d, digit in enumerate(DIGITS):
+            cells = [f"{np.median(lengths[:, d, b]):.1f} +- {np.std(lengths[:, d, b]):.2f}" if known[d, b]
+                     else "unknown" for b in range(len(BONES))]
+            click.echo(f"  {digit:<8}" + "".join(f"{c:>16}" for c in cells))
+
+
+@hands.command("filter-report")
+@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--windows", default="1-7", show_default=True, help="Window sizes F: a range (1-7) or a list (1,3,5).")
+@click.option("--side", type=click.Choice(SIDES), help="Hand to measure (default: the one tracked most).")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), help="Save the trade-off plot here (PNG).")
+@click.option("--csv", "csv_path", type=click.Path(dir_okay=False, path_type=Path), help="Save the table as CSV.")
+def filter_report_command(recording: Path, windows: str, side: str | None, plot: Path | None,
+                          csv_path: Path | None) -> None:
+    """Measure the window filter's jitter and lag for each window size F on a recording.
+
+    The filter is Eq. 1 of the paper, applied to the frames that arrived. Jitter: RMS second
+    difference of the fingertips (mm), over gap-free stretches. Lag: the time shift that best
+    aligns filtered with raw fingertips (ms; also in frames); sample age: the lag from the
+    timestamps alone for a constant velocity. See docs/hand-input.md.
+    """
+    from microg.hands.filter_report import filter_report, plot_filter_report
+
+    rec = _load(recording)
+    try:
+        table = filter_report(rec.frames, _windows(windows), side)
+    except ValueError as error:
+        raise click.ClickException(f"{recording}: {error}") from None
+    attrs = table.attrs
+    click.echo(f"{rec.path.name}: {attrs['side']} hand, {attrs['frames']} frames in {attrs['tracks']} track(s), "
+               f"median period {attrs['period_ms']:.2f} ms")
+    click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    if csv_path:
+        table.to_csv(csv_path, index=False)
+        click.echo(f"table -> {csv_path}")
+    if plot:
+        plot_filter_report(table, rec.frames, plot, title=f"window filter on {rec.path.name}")
+        click.echo(f"plot -> {plot}")
+
+
+@hands.command("record")
+@click.argument("output", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--duration", type=click.FloatRange(min=0, min_open=True),
+              help="Seconds to record (default: until Ctrl-C).")
+@click.option("--frames", "max_frames", type=click.IntRange(min=1), help="Frames to record at most.")
+@click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
+def record_command(output: Path, duration: float | None, max_frames: int | None, force: bool) -> None:
+    """Record a live Leap Motion to a recording file (needs Ultraleap's SDK, bindings and a device)."""
+    from microg.hands.leap_device import LeapSource, LeapUnavailable
+
+    if output.exists() and not force:
+        raise click.ClickException(f"{output}: already exists (use --force to overwrite)")
+    try:
+        source = LeapSource()
+    except LeapUnavailable as error:
+        raise click.ClickException(str(error)) from None
+    try:
+        info = RecordingInfo(source="leap", device=source.device, frame_rate=source.frame_rate, start_time=UNKNOWN)
+        click.echo(f"recording {source.device} at {source.frame_rate:.0f} Hz to {output}; Ctrl-C stops")
+        summary = record(source, output, info, duration=duration, max_frames=max_frames, overwrite=force)
+    except LeapUnavailable as error:
+        raise click.ClickException(f"{error}; the frames recorded so far are in {output}") from None
+    finally:
+        source.close()
+    dropped = f" ({source.frames_dropped} frames dropped: the writer fell behind)" if source.frames_dropped else ""
+    click.echo(f"{summary.frames} frames, {summary.seconds:.2f} s -> {summary.path}{dropped}")
+
+
+COMMANDS = [hands]

@@ -1,0 +1,65 @@
+"""``microg study init``: create a study from a protocol; ``microg study status``: where it stands."""
+
+from __future__ import annotations
+
+import secrets
+from collections import Counter
+
+import click
+
+from microg.paths import protocol_file
+
+from microg.study.protocol import load_protocol
+from microg.study.store import create_study, open_study
+from .common import clear_errors, study_dir_argument
+
+
+@click.group("study")
+def study() -> None:
+    """Create a study and see where it stands."""
+
+
+@study.command("init")
+@study_dir_argument
+@click.option("--protocol", "protocol_name", default="paper", show_default=True,
+              help="Protocol file, or the name of a shipped protocol (paper, paper-microgravity).")
+@click.option("--seed", type=click.IntRange(min=0), default=None,
+              help="Seed of every random choice in the study (default: the protocol's, else a fresh one).")
+@clear_errors
+def init(study_dir: str, protocol_name: str, seed: int | None) -> None:
+    """Create a study in STUDY_DIR from a protocol: one SQLite database holding everything."""
+    protocol = load_protocol(protocol_file(protocol_name))
+    seed = seed if seed is not None else protocol.seed if protocol.seed is not None else secrets.randbelow(2**31)
+    with create_study(study_dir, protocol, seed) as store:
+        click.echo(f"created study {store.name!r} in {study_dir} (seed {seed}, protocol sha256 {protocol.sha256[:12]})")
+        click.echo(f"  {protocol.total_participants} participants in groups "
+                   + ", ".join(f"{g.code} ({g.name}, {g.size})" for g in protocol.groups)
+                   + f"; objects {', '.join(o.code for o in protocol.objects)} in {protocol.order} order")
+        click.echo(f"next: microg participant add {study_dir} --id P01 --gender female --age 24 "
+                   "--handedness right --mr-experience yes")
+
+
+@study.command("status")
+@study_dir_argument
+@clear_errors
+def status(study_dir: str) -> None:
+    """Participants per group and gender, and each session's progress."""
+    with open_study(study_dir) as store:
+        people = store.participants()
+        active = [p for p in people if p.status == "active"]
+        click.echo(f"study {store.name!r}: {len(active)} active, {len(people) - len(active)} withdrawn")
+        for group in store.protocol.groups:
+            counts = Counter(p.participant.gender for p in active if p.group == group.code)
+            click.echo(f"  {group.code} ({group.name}): {sum(counts.values())}/{group.size}  "
+                       + ", ".join(f"{g} {n}" for g, n in sorted(counts.items())))
+        for p in people:
+            session = store.session_of(p.id)
+            if session is None:
+                state = "no session"
+            else:
+                done = len(store.finished_tasks(session.id))
+                state = f"session {session.id} {session.status}, {done}/{len(store.tasks(session.id))} tasks ({session.input})"
+            click.echo(f"  {p.id:>6} {p.group} {p.participant.gender:<11} {p.status:<9} {state}")
+
+
+COMMANDS = [study]

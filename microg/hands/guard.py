@@ -1,0 +1,320 @@
+"""The tracking guard: bad tracking is handled here, never passed on to the physics.
+
+Every session puts a ``TrackingGuard`` between its hand source and the world. The logic is pure:
+``admit(config, state, frame)`` returns the next state and the frames to pass on (none, one, or
+several), ``finish`` releases what is still waiting when the source ends. What it does:
+
+- **Incomplete hand** (NaN in the palm position, or in a joint the tracker normally delivers): the
+  hand is left out of the frame, as if lost. "Normally delivers" is learned: every joint this
+  side has delivered before. So a recording without metacarpal bases, or a scripted hand that
+  tracks two fingertips, passes whole, while a Leap hand that loses a fingertip is dropped.
+- **Missing hand**: passes as absent. When it is seen again it starts a new track.
+- **Stale timestamp** (equal to or before the last frame's): the frame is dropped and counted as a
+  duplicate or as out of order. If ``resync_after`` frames in a row are stale but advance among
+  themselves, the tracker's clock went back (a restart): the guard re-anchors its time offset so
+  frames continue one period after the last one, and every hand starts a new track.
+- **Clock jump** (more than ``max_gap`` seconds ahead): re-anchored the same way, so the physics
+  never integrates an invented pause.
+- **Dropped frames** (an interval over ``gap_factor`` typical periods): counted and passed on as
+  they arrived. The window filter (Eq. 1, ``microg.hands.filter``) is defined on arrived frames and
+  keeps its lag constant across a gap, so no frame is invented here.
+- **Jump** (some point of the hand, palm or joint, is ``jump_distance`` or more from where it was
+  in the last frame): the frames wait, for at most ``confirm_frames - 1`` frames. If the hand
+  comes back near where it was, it was a glitch: the waiting frames get the hand bridged linearly
+  from before the glitch to after it. If it stays at the new place for ``confirm_frames`` frames in
+  a row, it is a new track there, from the frame it arrived. If it keeps jumping for more than
+  ``max_hold`` frames, it is lost. Nothing jumps, nothing freezes and catches up.
+- **Track ids**: the guard numbers tracks itself (1, 2, 3, ...): a new number whenever the source's
+  id changes, a hand reappears, a jump is accepted or the clock is re-anchored. The world starts a
+  new track (filter reset, zero velocity) exactly then.
+
+Output timestamps strictly increase. While a jump is being decided every output waits (at most
+``confirm_frames - 1`` frames, about 18 ms at the defaults); otherwise each frame passes at once.
+``GuardCounts`` counts everything the guard did.
+"""
+
+from __future__ import annotations
+
+import statistics
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, is_jump
+from microg.sim.world import World
+from .source import HandSource
+
+RECENT_INTERVALS = 31
+
+
+@dataclass(frozen=True)
+class GuardConfig:
+    jump_distance: float = 0.10
+    """m: the same threshold the world uses (``Scene.jump_distance``)."""
+    confirm_frames: int = 3
+    """Frames in a row at a jumped-to place before it is accepted as a new track."""
+    max_hold: int = 10
+    """Frames a hand may keep jumping around before it is marked lost."""
+    resync_after: int = 5
+    """Stale frames in a row, advancing among themselves, that mean the tracker's clock went back."""
+    max_gap: float = 5.0
+    """s: a frame further ahead than this is a clock jump, not a pause."""
+    nominal_rate: float = 110.0
+    """Hz: the frame period assumed until enough intervals have been seen."""
+    gap_factor: float = 1.5
+    """An interval longer than this many typical periods is a gap (frames missing)."""
+
+    def __post_init__(self) -> None:
+        for name in ("jump_distance", "max_gap", "nominal_rate", "gap_factor"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"GuardConfig.{name} = {getattr(self, name)!r}: must be positive")
+        for name in ("confirm_frames", "max_hold", "resync_after"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                raise ValueError(f"GuardConfig.{name} = {getattr(self, name)!r}: must be a positive integer")
+
+
+@dataclass(frozen=True)
+class GuardCounts:
+    """Everything the guard did, for the session log."""
+
+    frames_in: int = 0
+    frames_out: int = 0
+    duplicate_timestamps: int = 0
+    """Frames dropped because their timestamp equals the last one."""
+    out_of_order: int = 0
+    """Frames dropped because their timestamp is before the last one."""
+    clock_resyncs: int = 0
+    """Times time was re-anchored (clock went back, or jumped ahead by more than max_gap)."""
+    hands_incomplete: int = 0
+    """Hands left out for NaN in the palm or in a joint the tracker normally delivers."""
+    gaps: int = 0
+    """Intervals longer than gap_factor typical periods (frames the tracker dropped)."""
+    jumps: int = 0
+    """Jumps detected (each makes the frames wait for a decision)."""
+    jumps_rejected: int = 0
+    """Jumps where the hand came back: glitches bridged over, never seen by the physics."""
+    jumps_accepted: int = 0
+    """Jumps where the hand stayed at the new place: a new track there."""
+    jumps_lost: int = 0
+    """Jumps where the hand kept jumping for max_hold frames: marked lost."""
+    bridged_hands: int = 0
+    """Hands placed on the line between two good hands, over glitches."""
+    new_tracks: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def add(self, **increments: int) -> GuardCounts:
+        changed = {k: getattr(self, k) + v for k, v in increments.items() if v}
+        return replace(self, **changed) if changed else self
+
+
+@dataclass(frozen=True, eq=False)
+class Slot:
+    """One output frame in the making: per side, the decided hand (None: absent) or, while
+    undecided, the raw hand seen there."""
+
+    time: float
+    hands: tuple[Hand | None, Hand | None]
+    decided: tuple[bool, bool]
+
+    def decide(self, side: int, hand: Hand | None) -> Slot:
+        hands, decided = list(self.hands), list(self.decided)
+        hands[side], decided[side] = hand, True
+        return Slot(self.time, tuple(hands), tuple(decided))
+
+
+@dataclass(frozen=True, eq=False)
+class SideState:
+    """The guard's memory of one hand side."""
+
+    last: Hand | None = None
+    """The last decided hand on this side (guard track id); None when it was absent."""
+    last_time: float = float("nan")
+    source_id: int | None = None
+    """The source's track id behind ``last``."""
+    holding: bool = False
+    """A jump is waiting for a decision."""
+    delivered: np.ndarray = field(default_factory=lambda: np.zeros((N_DIGITS, N_BONES + 1), dtype=bool))
+    """(5, 5) joints this side has delivered before."""
+
+
+@dataclass(frozen=True, eq=False)
+class GuardState:
+    last_time: float | None = None
+    """Output timestamp of the latest slot."""
+    offset: float = 0.0
+    """Added to source timestamps; changes only when the clock is re-anchored."""
+    stale_run: int = 0
+    stale_raw: float = float("-inf")
+    intervals: tuple[float, ...] = ()
+    """The most recent intervals between arrived frames (s), for the typical period."""
+    next_track: int = 1
+    sides: tuple[SideState, SideState] = (SideState(), SideState())
+    slots: tuple[Slot, ...] = ()
+    """Frames waiting for a side's decision, oldest first."""
+    counts: GuardCounts = GuardCounts()
+
+    def period(self, config: GuardConfig) -> float:
+        """The typical frame period: the median recent interval (``statistics.median``: a few floats,
+        every frame, where numpy's call overhead would dominate)."""
+        return float(statistics.median(self.intervals)) if self.intervals else 1.0 / config.nominal_rate
+
+
+def known_joints(hand: Hand) -> np.ndarray:
+    """(5, 5) True where the hand's joint is known."""
+    return np.isfinite(hand.joints).all(axis=-1)
+
+
+def is_complete(hand: Hand, known: np.ndarray, delivered: np.ndarray) -> bool:
+    """True when the palm and every joint the tracker normally delivers are known."""
+    return bool(np.isfinite(hand.palm_position).all() and known[delivered].all())
+
+
+def bridge(a: Hand, t_a: float, b: Hand, t_b: float, t: float) -> Hand:
+    """The hand on the straight line from ``a`` (at ``t_a``) to ``b`` (at ``t_b``) at time ``t``; ``b``'s id."""
+    s = (t - t_a) / (t_b - t_a)
+    qa, qb = a.palm_orientation, b.palm_orientation
+    qb = qb if np.dot(qa, qb) >= 0 else -qb
+    q = (1 - s) * qa + s * qb
+    return Hand(b.side, (1 - s) * a.joints + s * b.joints, b.widths,
+                (1 - s) * a.palm_position + s * b.palm_position, q / np.linalg.norm(q), b.track_id)
+
+
+def _time(config: GuardConfig, state: GuardState, raw: float) -> tuple[GuardState, float | None, bool]:
+    """The output time of a frame stamped ``raw``, or None to drop it; and whether time was re-anchored."""
+    t = raw + state.offset
+    if state.last_time is None:
+        return state, t, False
+    if t <= state.last_time:
+        run = state.stale_run + 1 if (state.stale_run and raw > state.stale_raw) else 1
+        if run < config.resync_after:
+            counts = state.counts.add(**{"duplicate_timestamps" if t == state.last_time else "out_of_order": 1})
+            return replace(state, stale_run=run, stale_raw=raw, counts=counts), None, False
+    if t <= state.last_time or t - state.last_time > config.max_gap:
+        t = state.last_time + state.period(config)
+        state = replace(state, offset=t - raw, stale_run=0, counts=state.counts.add(clock_resyncs=1))
+        return state, t, True
+    intervals = (state.intervals + (t - state.last_time,))[-RECENT_INTERVALS:]
+    return replace(state, stale_run=0, intervals=intervals), t, False
+
+
+def _count_gap(config: GuardConfig, state: GuardState, t: float) -> GuardState:
+    """Count the interval before ``t`` as a gap when frames are missing in it."""
+    if state.last_time is None or t - state.last_time <= config.gap_factor * state.period(config):
+        return state
+    return replace(state, counts=state.counts.add(gaps=1))
+
+
+def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) -> GuardState:
+    """Decide this side's open slots, given the raw hand in the newest slot."""
+    slots = list(state.slots)
+    memory = state.sides[side]
+    open_slots = [i for i, slot in enumerate(slots) if not slot.decided[side]]
+    current, earlier = open_slots[-1], open_slots[:-1]
+    now, hand = slots[current].time, slots[current].hands[side]
+    counts, next_track = state.counts, state.next_track
+
+    def settle(decisions: dict[int, Hand | None], memory: SideState) -> GuardState:
+        for i, decided in decisions.items():
+            slots[i] = slots[i].decide(side, decided)
+        sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
+        return replace(state, slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
+
+    known = None if hand is None else known_joints(hand)
+    if hand is not None and not is_complete(hand, known, memory.delivered):
+        counts, hand = counts.add(hands_incomplete=1), None
+    if hand is None:
+        return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
+    delivered = memory.delivered | known
+    last = memory.last
+
+    def new_track(starts: list[int], **increments: int) -> GuardState:
+        nonlocal counts, next_track
+        counts = counts.add(new_tracks=1, **increments)
+        track, next_track = next_track, next_track + 1
+        decisions = dict.fromkeys(open_slots)
+        decisions.update({i: slots[i].hands[side].renumbered(track) for i in starts})
+        return settle(decisions, SideState(decisions[current], now, hand.track_id, False, delivered))
+
+    if restart or last is None or hand.track_id != memory.source_id:
+        return new_track([current])
+    if not is_jump(hand.points, last.points, config.jump_distance):
+        out = hand.renumbered(last.track_id)
+        counts = counts.add(bridged_hands=len(earlier), jumps_rejected=int(memory.holding))
+        decisions = {i: bridge(last, memory.last_time, out, now, slots[i].time) for i in earlier}
+        return settle(decisions | {current: out}, SideState(out, now, hand.track_id, False, delivered))
+    raw = [slots[i].hands[side] for i in open_slots]
+    streak = 1
+    while streak < len(raw) and raw[-streak - 1] is not None and \
+            not is_jump(raw[-streak].points, raw[-streak - 1].points, config.jump_distance):
+        streak += 1
+    if streak >= config.confirm_frames:
+        return new_track(open_slots[-streak:], jumps_accepted=1)
+    counts = counts.add(jumps=int(not memory.holding))
+    if len(open_slots) > config.max_hold:
+        counts = counts.add(jumps_lost=1)
+        return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
+    return settle({}, replace(memory, holding=True, delivered=delivered))
+
+
+def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
+    """Pass on the oldest slots that every side has decided."""
+    ready = 0
+    while ready < len(state.slots) and all(state.slots[ready].decided):
+        ready += 1
+    frames = tuple(HandFrame(slot.time, tuple(h for h in slot.hands if h is not None))
+                   for slot in state.slots[:ready])
+    return replace(state, slots=state.slots[ready:], counts=state.counts.add(frames_out=ready)), frames
+
+
+def admit(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
+    """The guard's step: the next state, and the frames now ready for the world, oldest first."""
+    state = replace(state, counts=state.counts.add(frames_in=1))
+    state, t, restart = _time(config, state, frame.timestamp)
+    if t is None:
+        return state, ()
+    if not restart:
+        state = _count_gap(config, state, t)
+    slot = Slot(t, tuple(frame.hand(name) for name in SIDES), (False, False))
+    state = replace(state, last_time=t, slots=state.slots + (slot,))
+    for side in range(len(SIDES)):
+        state = _decide(config, state, side, restart)
+    return _release(state)
+
+
+def finish(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
+    """The source has ended: hands still waiting for a decision are marked lost; pass the rest."""
+    slots = tuple(Slot(s.time, tuple(h if d else None for h, d in zip(s.hands, s.decided)), (True, True))
+                  for s in state.slots)
+    return _release(replace(state, slots=slots))
+
+
+class TrackingGuard:
+    """A ``HandSource`` that passes another source's frames through ``admit``."""
+
+    def __init__(self, source: HandSource, config: GuardConfig = GuardConfig()):
+        self.source = source
+        self.config = config
+        self.state = GuardState()
+        self.description = source.description
+        self._ready: list[HandFrame] = []
+        self._ended = False
+
+    @property
+    def counts(self) -> GuardCounts:
+        return self.state.counts
+
+    def next_frame(self, world: World | None = None) -> HandFrame | None:
+        while not self._ready and not self._ended:
+            frame = self.source.next_frame(world)
+            if frame is None:
+                self.state, ready = finish(self.state)
+                self._ended = True
+            else:
+                self.state, ready = admit(self.config, self.state, frame)
+            self._ready.extend(ready)
+        return self._ready.pop(0) if self._ready else None
+
+    def close(self) -> None:
+        self.source.close()

@@ -1,0 +1,263 @@
+"""Grasp planning: where the hand goes around an object, and how its digits close.
+
+Two grasps cover the shipped objects:
+
+- ``side``: palm over the object, thumb on the near face and the pressing fingers on the far face
+  (a precision grip across the object's narrowest horizontal extent): the cube (index, middle),
+  the ball (index, middle), the long bar across its 2.5 cm (index, middle, ring).
+- ``flat``: a thin plate (thinnest extent at most 2 cm, lying flat) is clamped palm up: it lies on
+  the extended fingers and the thumb reaches round its near edge onto its top. Its weight rests on
+  the fingers, so it does not tip out of the grip as a plate hanging from a palm-down pinch does.
+
+A grasp is planned in the object's frame from its current pose: which body axis is up, which
+one the digits squeeze along. It is a *template*: the object's centre in the hand frame, the
+hand's orientation relative to the object, and joint angles at a ladder of closures q (m):
+q < 0 leaves each pressing phalanx |q| short of its face (the pre-shape), q = 0 touches, q > 0
+presses q into it. The participant interpolates the ladder, so closing costs nothing per frame;
+the inverse kinematics (``scipy.optimize.least_squares``) runs once per grasp shape.
+"""
+
+from __future__ import annotations
+
+import bisect
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from microg.sim.hand import bone_centres
+from microg.sim.rotation import quat_to_matrix
+from .skeleton import (
+    DIP_PER_PIP,
+    KNUCKLES,
+    LOWER,
+    PHALANGES,
+    RADII,
+    REST,
+    UPPER,
+    local_joints,
+)
+
+CLOSURES = np.array([-0.012, -0.008, -0.004, 0.0, 0.006, 0.012, 0.018, 0.024])
+"""The closure ladder (m) at which postures are solved."""
+_LADDER = [float(q) for q in CLOSURES]
+MAX_APERTURE = 0.085
+"""Widest object extent (m) squeezed in a side grasp."""
+FLAT_THICKNESS = 0.02
+"""Objects no thicker than this (m), and wide both ways, are clamped flat."""
+PALM_CLEARANCE = 0.016
+"""Gap (m) kept between the palm's contact spheres and the object's top in a side grasp."""
+FLAT_CLEARANCE = 0.004
+"""Gap (m) between the palm's contact spheres and a clamped plate (only its near edge is under them)."""
+PALM_BOTTOM = float(np.max(RADII[1:] - KNUCKLES[1:, 1]))
+"""Depth (m) of the metacarpal spheres below the palm plane (their centres lie at knuckle height)."""
+INTERMEDIATE, DISTAL = 2, 3
+FLAT_EDGE = -0.006
+"""Hand-frame z of a clamped plate's near edge (m): the thumb passes round it behind the knuckles."""
+FLAT_THUMB_INSET = 0.004
+"""How far in from a clamped plate's near edge the thumb's distal phalanx presses (m)."""
+CLEARANCE = 0.003
+"""Gap (m) the planner keeps between the object and the phalanges that are not meant to press; an
+intrusion weighs three times a miss of the pressing phalanx's target."""
+FLAT_APPROACH = 0.11
+"""A flat clamp starts this far (m) behind the grasp, so the extended fingers begin clear of the plate."""
+OPEN_LIFT = 0.6
+"""In a side grasp an opening digit also rises (m per m of opening): it uncurls along an arc."""
+
+RELAXED_FINGER = np.radians([0.0, 5.0, 10.0, 7.0])
+"""Fingers that do not press in a side grasp stay nearly straight, above the object; under a
+clamped plate they lie straight."""
+
+
+@dataclass(frozen=True, eq=False)
+class GraspTemplate:
+    """A grasp of one object shape in one orientation class (see module doc)."""
+
+    kind: str
+    digits: tuple[int, ...]
+    """Digits that press: the thumb (0) and the fingers opposing it."""
+    hand_in_object: np.ndarray
+    """(3, 3) the hand's axes (columns) in the object's body frame."""
+    object_in_hand: np.ndarray
+    """(3,) the object's centre in the hand frame at the grasp (m)."""
+    approach: np.ndarray
+    """(3,) hand-frame offset of the pre-grasp palm position from the grasp position (m)."""
+    postures: np.ndarray
+    """(len(CLOSURES), 5, 4) joint angles along the closure ladder."""
+
+    def posture(self, closure: float) -> np.ndarray:
+        """Joint angles at closure ``closure`` (m), interpolated on the ladder."""
+        q = min(max(float(closure), _LADDER[0]), _LADDER[-1])
+        i = min(bisect.bisect_right(_LADDER, q) - 1, len(_LADDER) - 2)
+        w = (q - _LADDER[i]) / (_LADDER[i + 1] - _LADDER[i])
+        return (1.0 - w) * self.postures[i] + w * self.postures[i + 1]
+
+    def hand_pose(self, object_position: np.ndarray, object_rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Palm position and hand rotation matrix that put the object where the template holds it."""
+        rotation = object_rotation @ self.hand_in_object
+        return object_position - rotation @ self.object_in_hand, rotation
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """The object in the hand frame while its grasp is planned: the digits' other phalanges keep clear."""
+
+    centre: np.ndarray
+    half: np.ndarray
+    round_object: bool
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Signed distance (m) of points (..., 3) from the object's surface, negative inside."""
+        offset = points - self.centre
+        if self.round_object:
+            return np.linalg.norm(offset, axis=-1) - self.half[0]
+        excess = np.abs(offset) - self.half
+        outside = np.linalg.norm(np.maximum(excess, 0.0), axis=-1)
+        return outside + np.minimum(excess.max(axis=-1), 0.0)
+
+
+def _digit_ik(digit: int, targets: dict[int, np.ndarray], start: np.ndarray, obstacle: Obstacle,
+              clearance: float) -> np.ndarray:
+    """Joint angles of one digit putting the given bones' centres on their hand-frame targets,
+    its other moving phalanges ``clearance`` clear of the object where they can be."""
+    bones = sorted(targets)
+    goal = np.array([targets[b] for b in bones])
+    others = [b for b in (1, 2, 3) if b not in bones]
+    coupled = digit != 0
+
+    def expand(x):
+        angles = REST.copy()
+        angles[digit] = [x[0], x[1], x[2], DIP_PER_PIP * x[2]] if coupled else x
+        return angles
+
+    def residual(x):
+        centres = bone_centres(local_joints(expand(x)))[digit]
+        intrusion = np.maximum(RADII[digit] + clearance - obstacle.distance(centres[others]), 0.0)
+        return np.concatenate([((centres[bones] - goal) * 1e3).ravel(), 3.0 * intrusion * 1e3, 0.5 * (x - x0)])
+
+    x0 = start[digit, :3] if coupled else start[digit]
+    lower = LOWER[digit, :3] if coupled else LOWER[digit]
+    upper = UPPER[digit, :3] if coupled else UPPER[digit]
+    solution = least_squares(residual, np.clip(x0, lower + 1e-6, upper - 1e-6), bounds=(lower, upper), xtol=1e-8)
+    return expand(solution.x)[digit]
+
+
+def _ladder(digit_targets, free_fingers, obstacle: Obstacle, free_posture: np.ndarray) -> np.ndarray:
+    """Postures along CLOSURES; ``digit_targets(q)`` gives {digit: {bone: target}}; the other
+    fingers keep ``free_posture`` (flexions) at their rest spread. The touching posture (q = 0) is
+    solved first and each neighbour starts from it, so opening and squeezing stay on one branch."""
+    postures = np.empty((len(CLOSURES), 5, 4))
+    touch = int(np.argmin(np.abs(CLOSURES)))
+    order = [touch] + list(range(touch - 1, -1, -1)) + list(range(touch + 1, len(CLOSURES)))
+    for i in order:
+        q = CLOSURES[i]
+        start = REST if i == touch else postures[i + 1 if i < touch else i - 1]
+        posture = REST.copy()
+        for finger in free_fingers:
+            posture[finger] = free_posture + [REST[finger, 0], 0.0, 0.0, 0.0]
+        for digit, targets in digit_targets(q).items():
+            posture[digit] = _digit_ik(digit, targets, start, obstacle, CLEARANCE + max(-q, 0.0))
+        postures[i] = posture
+    return postures
+
+
+@lru_cache(maxsize=64)
+def side_template(half: tuple[float, float, float], fingers: tuple[int, ...], round_object: bool
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Object centre in the hand frame and the closure ladder of a side grasp; ``half`` are the
+    object's half extents along the hand's x, y, z. The pressing phalanges touch the near and
+    far faces a little above the object's middle (on a sphere: at 20 degrees of latitude)."""
+    hx, hy, hz = half
+    x_centre = float(np.mean(KNUCKLES[list(fingers), 0]))
+    if round_object:
+        latitude = np.radians(20.0)
+        reach = hz * np.cos(latitude)
+        centre = np.array([x_centre, -(PALM_BOTTOM + PALM_CLEARANCE + hy), -(0.004 + reach)])
+        height = centre[1] + hy * np.sin(latitude)
+    else:
+        reach = hz
+        centre = np.array([x_centre, -(PALM_BOTTOM + PALM_CLEARANCE + hy), -(0.012 + hz)])
+        height = centre[1] + 0.35 * hy
+
+    def targets(q):
+        lift = OPEN_LIFT * max(-q, 0.0)
+        out = {0: {DISTAL: np.array([x_centre, height + lift, centre[2] + reach + RADII[0] - q])}}
+        for f in fingers:
+            x = float(np.clip(KNUCKLES[f, 0], x_centre - hx + 0.004, x_centre + hx - 0.004))
+            out[f] = {DISTAL: np.array([x, height + lift, centre[2] - reach - RADII[f] + q])}
+        return out
+
+    free = [f for f in range(1, 5) if f not in fingers]
+    return centre, _ladder(targets, free, Obstacle(centre, np.array(half), round_object), RELAXED_FINGER)
+
+
+@lru_cache(maxsize=64)
+def flat_template(half: tuple[float, float, float], fingers: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Object centre in the hand frame and the closure ladder of a flat clamp: the plate lies on
+    the palmar side of the extended fingers, its near edge ``FLAT_EDGE`` ahead of the palm, and
+    the thumb reaches round that edge onto its other face."""
+    hx, hy, hz = half
+    x_centre = float(np.mean(KNUCKLES[list(fingers), 0]))
+    face = -(PALM_BOTTOM + FLAT_CLEARANCE)
+    centre = np.array([x_centre, face - hy, FLAT_EDGE - hz])
+    far_edge = FLAT_EDGE - 2 * hz
+
+    def targets(q):
+        out = {0: {DISTAL: np.array([x_centre, face - 2 * hy - RADII[0] + q, FLAT_EDGE - FLAT_THUMB_INSET])}}
+        for f in fingers:
+            x = float(np.clip(KNUCKLES[f, 0], x_centre - hx + 0.004, x_centre + hx - 0.004))
+            # A straight finger lying along the plate: intermediate and distal centres on its face.
+            along = KNUCKLES[f, 2] - np.cumsum(PHALANGES[f]) + 0.5 * PHALANGES[f]
+            lying = [bone for bone in (INTERMEDIATE, DISTAL) if along[bone - 1] > far_edge]
+            out[f] = {bone: np.array([x, face + RADII[f] - q, along[bone - 1]]) for bone in lying}
+        return out
+
+    free = [f for f in range(1, 5) if f not in fingers]
+    return centre, _ladder(targets, free, Obstacle(centre, np.array(half), False), np.zeros(4))
+
+
+def plan_grasp(shape: str, half_extents: np.ndarray, orientation: np.ndarray, side: str = "right") -> GraspTemplate:
+    """The grasp for an object of ``shape`` ("box" or "sphere") in its current orientation.
+
+    The hand's y axis follows the object's most vertical body axis (palm down for a side grasp,
+    palm up under a clamped plate), its z axis the squeezed axis (side) or the plate's axis that
+    points most toward the user (flat), signed so the fingers point away from the user.
+    """
+    half_extents = np.asarray(half_extents, dtype=np.float64)
+    up = np.array([0.0, 1.0, 0.0])
+    toward_user = np.array([0.3, 0.0, 1.0])
+    axes = np.eye(3) if shape == "sphere" else quat_to_matrix(np.asarray(orientation, dtype=np.float64))
+    up_axis = int(np.argmax(np.abs(axes.T @ up)))
+    others = [a for a in range(3) if a != up_axis]
+    flat = (shape == "box" and 2 * half_extents[up_axis] <= FLAT_THICKNESS
+            and all(2 * half_extents[a] > 2.5 * FLAT_THICKNESS for a in others))
+    if flat:
+        candidates = others
+    else:
+        narrow = min(half_extents[a] for a in others)
+        candidates = [a for a in others if half_extents[a] <= narrow + 1e-9]
+    along = max(candidates, key=lambda a: abs(axes[:, a] @ toward_user))
+    hand_y = (-1.0 if flat else 1.0) * np.sign(axes[:, up_axis] @ up) * np.eye(3)[up_axis]
+    hand_z = np.sign(axes[:, along] @ toward_user) * np.eye(3)[along]
+    if shape == "sphere":
+        # A ball has no faces to align with: the hand keeps the world's axes (palm down, fingers ahead).
+        rotation = quat_to_matrix(np.asarray(orientation, dtype=np.float64))
+        hand_y, hand_z = rotation.T @ up, rotation.T @ np.array([0.0, 0.0, 1.0])
+    hand_in_object = np.column_stack([np.cross(hand_y, hand_z), hand_y, hand_z])
+    if shape == "sphere":
+        half = (float(half_extents[0]),) * 3
+    else:
+        half = tuple(float(v) for v in np.abs(hand_in_object.T @ half_extents))
+    if not flat and 2 * half[2] > MAX_APERTURE:
+        raise ValueError(f"plan_grasp: object extent {2 * half[2]:.3f} m across the grip exceeds {MAX_APERTURE} m")
+    fingers = (1, 2, 3) if flat or max(half[0], half[2]) > 0.06 else (1, 2)
+    if flat:
+        centre, postures = flat_template(half, fingers)
+        approach = np.array([0.0, 0.0, FLAT_APPROACH])
+    else:
+        centre, postures = side_template(half, fingers, shape == "sphere")
+        approach = np.array([0.0, 0.05, 0.0])
+    if side == "left":
+        centre = centre * np.array([-1.0, 1.0, 1.0])
+    return GraspTemplate("flat" if flat else "side", (0, *fingers), hand_in_object, centre, approach, postures)

@@ -1,0 +1,120 @@
+"""The participant's kinematic hand: a canonical Leap skeleton posed by palm pose and joint angles.
+
+Measured on the shared Leap recordings (medians over all 1080 frames of grab, pinch, HandSplay and
+wave; ``python -m microg.participant.calibration``), in the hand frame of a right hand
+(LeapC's palm basis: x from the thumb side to the little finger, y out of the back of the hand,
+z toward the wrist; origin at the palm position):
+
+=======  =====================  ==========================  =========
+digit    knuckle (mm)           phalanges (mm)              width (mm)
+=======  =====================  ==========================  =========
+thumb    (-26.1, -0.9, 54.6)    42.0, 33.1, 21.0            19.7
+index    (-26.7,  2.1, -15.4)   43.6, 26.9, 18.2            18.8
+middle   ( -1.4,  3.0, -21.0)   46.9, 27.6, 18.3            18.5
+ring     ( 20.5,  3.3, -17.4)   43.4, 26.9, 18.2            17.6
+little   ( 39.1, -3.1,  -8.6)   33.6, 19.0, 16.8            15.6
+=======  =====================  ==========================  =========
+
+The thumb's knuckle is its carpometacarpal joint and its bones are Leap's proximal, intermediate
+and distal (its metacarpal has zero length, as Leap reports it). LeapJS v2 gives one width per
+digit, used for all its bones. The recordings have no metacarpal bases: they are *estimated*
+on a carpal row 45 mm behind the palm position, at half the knuckles' spread, which gives
+metacarpals of 62, 66, 63 and 57 mm (index to little), close to anatomical means.
+
+Posture: ``angles`` (5, 4) in radians. A finger (index..little) has [abduction toward the little
+finger, MCP flexion, PIP flexion, DIP flexion]; flexion curls toward the palm. The thumb has
+[azimuth of its metacarpal from straight ahead toward the thumb side, elevation below the palm
+plane (palmar abduction, opposition), MCP flexion, IP flexion]; its phalanges bend toward the
+fingers. A left hand is the mirror image (hand-frame x negated).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from microg.sim.hand import N_BONES, Hand
+from microg.sim.rotation import quat_to_matrix
+
+KNUCKLES = np.array([[-26.1, -0.9, 54.6], [-26.7, 2.1, -15.4], [-1.4, 3.0, -21.0],
+                     [20.5, 3.3, -17.4], [39.1, -3.1, -8.6]]) * 1e-3
+PHALANGES = np.array([[42.0, 33.1, 21.0], [43.6, 26.9, 18.2], [46.9, 27.6, 18.3],
+                      [43.4, 26.9, 18.2], [33.6, 19.0, 16.8]]) * 1e-3
+DIGIT_WIDTHS = np.array([19.7, 18.8, 18.5, 17.6, 15.6]) * 1e-3
+CARPAL_ROW_Z = 0.045
+"""Hand-frame z of the estimated metacarpal bases (m)."""
+CARPALS = np.column_stack([0.5 * KNUCKLES[1:, 0], KNUCKLES[1:, 1], np.full(4, CARPAL_ROW_Z)])
+
+WIDTHS = np.repeat(DIGIT_WIDTHS[:, None], N_BONES, axis=1)
+RADII = DIGIT_WIDTHS / 2
+DIP_PER_PIP = 2.0 / 3.0
+"""DIP flexion follows PIP flexion at this ratio (the tendon coupling of the long fingers)."""
+
+REST = np.radians([[28.0, 5.0, 10.0, 10.0],
+                   [5.0, 10.0, 15.0, 10.0],
+                   [9.0, 10.0, 15.0, 10.0],
+                   [10.0, 10.0, 15.0, 10.0],
+                   [20.0, 10.0, 15.0, 10.0]])
+"""A relaxed open hand: finger spread between the recordings' splay and grab medians, thumb as in splay."""
+
+LOWER = np.radians([[0.0, -15.0, -15.0, -20.0]] + [[-20.0, -20.0, 0.0, 0.0]] * 4)
+UPPER = np.radians([[75.0, 75.0, 60.0, 80.0]] + [[20.0, 90.0, 105.0, 70.0]] * 4)
+"""Joint limits of the posture angles (rows as ``REST``)."""
+
+
+@njit(cache=True)
+def _local_joints(angles, knuckles, carpals, phalanges):
+    joints = np.empty((5, 5, 3))
+    for d in range(1, 5):
+        abduction = angles[d, 0]
+        forward = np.array([np.sin(abduction), 0.0, -np.cos(abduction)])
+        joints[d, 0] = carpals[d - 1]
+        joints[d, 1] = knuckles[d]
+        bend = 0.0
+        for b in range(3):
+            bend += angles[d, b + 1]
+            direction = np.cos(bend) * forward
+            direction[1] -= np.sin(bend)
+            joints[d, b + 2] = joints[d, b + 1] + phalanges[d, b] * direction
+    azimuth, elevation, mcp, ip = angles[0, 0], angles[0, 1], angles[0, 2], angles[0, 3]
+    metacarpal = np.array([-np.sin(azimuth) * np.cos(elevation), -np.sin(elevation), -np.cos(azimuth) * np.cos(elevation)])
+    across = -metacarpal[0] * metacarpal
+    across[0] += 1.0
+    across /= np.sqrt(across[0] ** 2 + across[1] ** 2 + across[2] ** 2)
+    joints[0, 0] = knuckles[0]
+    joints[0, 1] = knuckles[0]
+    bends = (0.0, mcp, mcp + ip)
+    for b in range(3):
+        joints[0, b + 2] = joints[0, b + 1] + phalanges[0, b] * (np.cos(bends[b]) * metacarpal + np.sin(bends[b]) * across)
+    return joints
+
+
+def local_joints(angles: np.ndarray) -> np.ndarray:
+    """(5, 5, 3) joints of a right hand in the hand frame for a posture ``angles`` (5, 4)."""
+    return _local_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES)
+
+
+@njit(cache=True)
+def _to_world(local, position, orientation, mirror):
+    rotation = quat_to_matrix(orientation)
+    out = np.empty_like(local)
+    for d in range(local.shape[0]):
+        for j in range(local.shape[1]):
+            x = mirror * local[d, j, 0]
+            for i in range(3):
+                out[d, j, i] = position[i] + rotation[i, 0] * x + rotation[i, 1] * local[d, j, 1] + rotation[i, 2] * local[d, j, 2]
+    return out
+
+
+def to_world(local: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray, side: str) -> np.ndarray:
+    """Hand-frame points (..., 5, 3) of a right hand to the world, mirrored for a left hand."""
+    return _to_world(np.ascontiguousarray(local, dtype=np.float64), np.asarray(palm_position, dtype=np.float64),
+                     np.asarray(palm_orientation, dtype=np.float64), -1.0 if side == "left" else 1.0)
+
+
+def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray,
+              side: str = "right", track_id: int = 1) -> Hand:
+    """The full Leap-shaped hand for a posture and palm pose (world frame, m)."""
+    joints = to_world(local_joints(angles), palm_position, palm_orientation, side)
+    return Hand(side, joints, WIDTHS, np.asarray(palm_position, dtype=np.float64),
+                np.asarray(palm_orientation, dtype=np.float64), track_id)
