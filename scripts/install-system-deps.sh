@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# System packages some tests use: Chromium and its driver (the 3D view's browser test) and R with afex and
-# emmeans (the live cross-check of the statistics). Installed with apt when this machine allows;
-# otherwise the tests that need them skip and say why.
+# System packages some tests use: Chromium and its driver (the 3D view's browser test) and R with afex,
+# emmeans, car, rstatix, effectsize and geepack (the live cross-check of the statistics). Installed with
+# apt when this machine allows; otherwise the tests that need them skip and say why.
 set -u
-packages=(chromium chromium-driver r-base-core r-cran-afex r-cran-emmeans)
+packages=(chromium chromium-driver r-base-core r-cran-afex r-cran-emmeans r-cran-car r-cran-rstatix r-cran-effectsize
+          r-cran-geepack)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

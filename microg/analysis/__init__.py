@@ -1,19 +1,33 @@
-"""Statistics and reports for microg studies: reads exported tidy tables (trials, questionnaire),
-never the simulation. Functions take a tidy DataFrame and column names and return a tidy DataFrame,
-like pingouin; numbers match R's afex and emmeans."""
+"""Statistics and reports for microg studies: reads tidy tables (trials, questionnaire), never the
+simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
+returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack)."""
 
 from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_systems
-from microg.analysis.anova import ANOVA_COLUMNS, mixed_anova, sphericity_correction
+from microg.analysis.anova import (
+    ANOVA_COLUMNS,
+    mixed_anova,
+    partial_eta_squared_ci,
+    sphericity_correction,
+)
+from microg.analysis.assumptions import assumption_checks
+from microg.analysis.counts import count_model
+from microg.analysis.describe import cell_means
 from microg.analysis.figures import plot_bars, plot_ratings
-from microg.analysis.likert import likert_summary, likert_tests
-from microg.analysis.paired import compare_systems, paired_means, signed_rank
-from microg.analysis.posthoc import POSTHOC_COLUMNS, posthoc
+from microg.analysis.likert import likert_summary, likert_tests, unpaired_raters
+from microg.analysis.paired import (
+    compare_systems,
+    paired_means,
+    signed_rank,
+    unpaired_participants,
+)
+from microg.analysis.posthoc import POSTHOC_COLUMNS, posthoc, simple_effects
 from microg.analysis.report import write_report
 from microg.analysis.tables import (
     AnalysisInputError,
     check_questionnaire,
     check_trials,
     complete_cases,
+    incomplete_cases,
     participant_cells,
     read_questionnaire,
     read_trials,
@@ -25,15 +39,20 @@ __all__ = [
     "AnalysisInputError",
     "StudyAnalysis",
     "analyse_study",
+    "assumption_checks",
+    "cell_means",
     "check_questionnaire",
     "check_trials",
     "choose_systems",
     "compare_systems",
     "complete_cases",
+    "count_model",
+    "incomplete_cases",
     "likert_summary",
     "likert_tests",
     "mixed_anova",
     "paired_means",
+    "partial_eta_squared_ci",
     "participant_cells",
     "plot_bars",
     "plot_ratings",
@@ -41,6 +60,9 @@ __all__ = [
     "read_questionnaire",
     "read_trials",
     "signed_rank",
+    "simple_effects",
     "sphericity_correction",
+    "unpaired_participants",
+    "unpaired_raters",
     "write_report",
 ]

@@ -1,4 +1,5 @@
-"""The whole analysis of one study's exported tables (the paper's section 4.3 and Table 1)."""
+"""The whole analysis of one study's tables (the paper's section 4.3 and Table 1), as one bundle of
+tidy DataFrames."""
 
 from __future__ import annotations
 
@@ -6,20 +7,43 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from microg.analysis.anova import SPHERICITY_ALPHA, mixed_anova, sphericity_correction
-from microg.analysis.likert import likert_summary, likert_tests, unpaired_raters
-from microg.analysis.paired import compare_systems, paired_means
-from microg.analysis.posthoc import posthoc
+from microg.analysis.anova import (
+    ANOVA_COLUMNS,
+    CORRECTION_COLUMNS,
+    mixed_anova,
+    sphericity_correction,
+)
+from microg.analysis.assumptions import ASSUMPTION_COLUMNS, assumption_checks
+from microg.analysis.counts import COUNT_MODEL_COLUMNS, count_model
+from microg.analysis.describe import CELL_MEANS_COLUMNS, cell_means
+from microg.analysis.likert import (
+    LIKERT_TEST_COLUMNS,
+    likert_summary,
+    likert_tests,
+    unpaired_raters,
+)
+from microg.analysis.paired import (
+    SYSTEMS_COLUMNS,
+    compare_systems,
+    unpaired_participants,
+)
+from microg.analysis.posthoc import (
+    POSTHOC_COLUMNS,
+    SIMPLE_EFFECT_COLUMNS,
+    posthoc,
+    simple_effects,
+)
 from microg.analysis.tables import (
-    MEASURES,
     AnalysisInputError,
     check_questionnaire,
     check_same_groups,
     check_trials,
     complete_cases,
     exclude_stages,
+    incomplete_cases,
     is_simulated,
     participant_cells,
     read_questionnaire,
@@ -30,43 +54,110 @@ from microg.analysis.tables import (
 DEFAULT_SYSTEM = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
 EXCLUDED_STAGES = ("training",)
-NORMALITY_ALPHA = 0.05
+ALPHA = 0.05
+"""Significance level of every test the report words as significant or not (Box's M: .001)."""
 MIN_PAIRS = 3
-_NOBODY = pd.DataFrame(columns=["analysis", "participant", "reason"])
-WITHIN, BETWEEN, SUBJECT = "object", "group", "participant"
+KEYS = ("system", "measure")
 
 
 @dataclass(frozen=True)
 class StudyAnalysis:
-    """Every table of the report, keyed by (system, measure) where the analysis is per system."""
+    """Every table of a study's analysis, each a tidy DataFrame.
+
+    Tables computed per system and measure start with the columns ``system`` and ``measure`` (the
+    system's code and the measure's column name); :meth:`table` selects one. ``sample`` holds the
+    number of participants per group in the data (analysis "data") and in each analysis (the
+    effective N); ``dropped`` who was left out of which analysis and why; ``conditions`` each
+    system's label and role. A table with no rows means the analysis did not apply (no baseline, no
+    questionnaire); ``warnings`` says why.
+    """
 
     system: str
     baseline: str | None
     systems: tuple[str, ...]
     objects: tuple[str, ...]
+    measures: tuple[str, ...]
+    counts: tuple[str, ...]
+    subject: str
+    group: str
+    within: str
     ss_type: int
-    group_sizes: dict[str, int]
-    anova: dict[tuple[str, str], pd.DataFrame]
-    corrections: dict[tuple[str, str], pd.DataFrame]
-    posthoc: dict[tuple[str, str], pd.DataFrame]
-    cells: dict[tuple[str, str], pd.DataFrame]
-    comparison: pd.DataFrame | None
-    likert_summary: pd.DataFrame | None
-    likert_tests: pd.DataFrame | None
-    dropped: pd.DataFrame
-    warnings: tuple[str, ...]
+    alpha: float
+    excluded_stages: tuple[str, ...]
     simulated_trials: bool
     simulated_ratings: bool
-    excluded_stages: tuple[str, ...]
+    conditions: pd.DataFrame
+    sample: pd.DataFrame
+    cells: pd.DataFrame
+    cell_means: pd.DataFrame
+    anova: pd.DataFrame
+    corrections: pd.DataFrame
+    posthoc: pd.DataFrame
+    simple_effects: pd.DataFrame
+    simple_pairs: pd.DataFrame
+    assumptions: pd.DataFrame
+    count_model: pd.DataFrame
+    comparison: pd.DataFrame
+    likert_summary: pd.DataFrame
+    likert_tests: pd.DataFrame
+    dropped: pd.DataFrame
+    warnings: tuple[str, ...]
+
+    def table(self, name: str, system: str, measure: str) -> pd.DataFrame:
+        """The rows of table ``name`` (e.g. "anova") for one system and measure, without the keys."""
+        frame = getattr(self, name)
+        rows = frame[(frame["system"] == system) & (frame["measure"] == measure)]
+        return rows.drop(columns=list(KEYS)).reset_index(drop=True)
+
+    def label(self, system: str) -> str:
+        """How a reader sees a system: its label when the tables give one, else its code."""
+        return self.conditions.set_index("system")["label"].get(system, system)
+
+    def analysed(self) -> list[tuple[str, str]]:
+        """The (system, measure) pairs that have an ANOVA, in the report's order."""
+        keys = self.anova[list(KEYS)].drop_duplicates()
+        return list(keys.itertuples(index=False, name=None))
 
 
-def choose_systems(systems: Sequence[str], system: str | None, baseline: str | None) -> tuple[str, str | None]:
-    """The system under test and its baseline: as asked, else impulse_penetration and soft_hand when
-    present, else the first listed and the next one."""
+def choose_systems(
+    systems: Sequence[str], system: str | None, baseline: str | None, column: str = "system"
+) -> tuple[str, str | None]:
+    """The system under test and its baseline.
+
+    As asked; else impulse_penetration and soft_hand when present; else the first listed and the
+    next one (no baseline when there is a single system).
+
+    Parameters
+    ----------
+    systems : sequence of str
+        The systems in the data, in order of appearance.
+    system, baseline : str, optional
+        The user's choice.
+    column : str
+        The system column's name, for the error message.
+
+    Returns
+    -------
+    tuple of (str, str or None)
+        The system under test and the baseline.
+
+    Raises
+    ------
+    AnalysisInputError
+        When a chosen system is not in the data, or system and baseline are the same.
+
+    Examples
+    --------
+    >>> from microg.analysis import choose_systems
+    >>> choose_systems(["soft_hand", "impulse_penetration"], None, None)
+    ('impulse_penetration', 'soft_hand')
+    >>> choose_systems(["a", "b", "c"], "c", None)
+    ('c', 'a')
+    """
     listed = list(dict.fromkeys(systems))
     for name in (system, baseline):
         if name is not None and name not in listed:
-            raise AnalysisInputError(f"column 'system' has no value {name!r} (values: {', '.join(listed)})")
+            raise AnalysisInputError(f"column {column!r} has no value {name!r} (values: {', '.join(listed)})")
     if system is None:
         system = DEFAULT_SYSTEM if DEFAULT_SYSTEM in listed else listed[0]
     others = [name for name in listed if name != system]
@@ -84,139 +175,319 @@ def analyse_study(
     baseline: str | None = None,
     ss_type: int = 3,
     excluded_stages: Sequence[str] = EXCLUDED_STAGES,
+    *,
+    subject: str = "participant",
+    group: str = "group",
+    within: str = "object",
+    system_column: str = "system",
+    dv: Sequence[str] = ("time_s", "attempts"),
+    counts: Sequence[str] = ("attempts",),
+    completed: str = "completed",
+    stage: str = "stage",
+    label: str = "system_label",
+    item: str = "item",
+    rating: str = "rating",
+    alpha: float = ALPHA,
 ) -> StudyAnalysis:
-    """Mixed ANOVA and post hoc per system and measure, system vs baseline, and the Likert analysis.
+    """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per system and
+    measure; system vs baseline; the Likert analysis.
 
-    The tables (DataFrames, or CSV/Parquet files) are checked here; errors name the file, column and
-    value. Trials of ``excluded_stages`` (training, which only one group does) and withdrawn
-    participants are left out.
+    Parameters
+    ----------
+    trials : pandas.DataFrame, str or Path
+        One row per task (a table, or a CSV/Parquet file); checked by :func:`check_trials`.
+    questionnaire : pandas.DataFrame, str or Path, optional
+        One row per participant, system and item.
+    system, baseline : str, optional
+        The system under test and its baseline (see :func:`choose_systems`).
+    ss_type : {3, 2}
+        Sums-of-squares type of the ANOVA.
+    excluded_stages : sequence of str
+        Trials of these stages are left out (training, which only one group does).
+    subject, group, within, system_column : str
+        Columns of the participant, the between factor, the within factor and the system.
+    dv : sequence of str
+        The measures. A measure that is not in ``counts`` uses completed tasks only (when the
+        ``completed`` column exists); a count uses every task with a value.
+    counts : sequence of str
+        Measures that count events: whole numbers, analysed also with :func:`count_model`.
+    completed, stage, label, item, rating : str
+        Columns of the finished-task flag, the stage, each system's label for readers (optional),
+        the questionnaire item and the rating.
+    alpha : float
+        Level at which a test counts as significant (and simple effects are read).
+
+    Returns
+    -------
+    StudyAnalysis
+        Every table; withdrawn participants (flag ``withdrawn``) are left out and listed.
+
+    Examples
+    --------
+    >>> import pingouin as pg
+    >>> from microg.analysis import analyse_study
+    >>> data = pg.read_dataset("mixed_anova").assign(tool="s", done=True)
+    >>> study = analyse_study(data, subject="Subject", group="Group", within="Time", system_column="tool",
+    ...                       dv=["Scores"], counts=[], completed="done")
+    >>> study.table("anova", "s", "Scores")[["source", "F", "p_unc"]].round(3)
+           source      F  p_unc
+    0       Group  5.052  0.028
+    1        Time  4.027  0.020
+    2  Group:Time  2.728  0.070
     """
-    trials = exclude_stages(_checked(trials, read_trials, check_trials), excluded_stages)
+    columns = {"subject": subject, "group": group, "within": within, "system": system_column}
+    trials = _checked(trials, read_trials, check_trials, **columns, dv=dv, counts=counts, completed=completed,
+                      label=label)  # fmt: skip
+    trials = exclude_stages(trials, excluded_stages, stage)
     if questionnaire is not None:
-        questionnaire = _checked(questionnaire, read_questionnaire, check_questionnaire)
-        check_same_groups(trials, questionnaire)
-    gone = sorted(withdrawn(trials) | withdrawn(questionnaire))
-    trials = trials[~trials[SUBJECT].isin(gone)]
+        questionnaire = _checked(questionnaire, read_questionnaire, check_questionnaire, subject=subject,
+                                 group=group, system=system_column, item=item, rating=rating, label=label)  # fmt: skip
+        check_same_groups(trials, questionnaire, subject, group)
+    gone = sorted(withdrawn(trials, subject) | withdrawn(questionnaire, subject))
+    trials = trials[~trials[subject].isin(gone)]
     if questionnaire is not None:
-        questionnaire = questionnaire[~questionnaire[SUBJECT].isin(gone)]
-    system, baseline = choose_systems(trials["system"], system, baseline)
-    systems = tuple(dict.fromkeys([system, *([baseline] if baseline else []), *trials["system"]]))
-    all_cells = {dv: participant_cells(trials, dv, WITHIN, SUBJECT) for dv in MEASURES}
-    withdrew = pd.DataFrame({"analysis": "all", "participant": gone, "reason": "withdrew from the study"})
-    per_system = _per_system(trials, all_cells, systems, ss_type)
-    comparison = _versus_baseline(all_cells, system, baseline)
-    likert = _likert(questionnaire, system, baseline)
-    anova, corrections, post, cells = per_system.tables
-    summary, tests = likert.tables
-    parts = (per_system, comparison, likert)
-    dropped = pd.concat([withdrew, *(part.dropped for part in parts)], ignore_index=True)
-    notes = [note for part in parts for note in part.notes]
+        questionnaire = questionnaire[~questionnaire[subject].isin(gone)]
+    system, baseline = choose_systems(trials[system_column], system, baseline, system_column)
+    systems = tuple(dict.fromkeys([system, *([baseline] if baseline else []), *trials[system_column]]))
+    conditions = _conditions(systems, system, baseline, [trials, questionnaire], system_column, label)
+    names = dict(zip(conditions["system"], conditions["label"]))
+    design = _Design(subject, group, within, system_column, tuple(dv), tuple(counts), completed, ss_type, alpha, names)
 
-    group_sizes = trials.drop_duplicates(SUBJECT)[BETWEEN].value_counts().sort_index()
+    per_system = _per_system(trials, systems, design)
+    pairs = _versus_baseline(trials, system, baseline, design)
+    likert = _likert(questionnaire, system, baseline, design, item, rating)
+    withdrew = pd.DataFrame({"analysis": "all", "system": "", "measure": "", subject: gone,
+                             "reason": "withdrew from the study"})  # fmt: skip
+    parts = (per_system, pairs, likert)
+    in_data = trials.drop_duplicates(subject).groupby(group, observed=True).size()
+    data_sample = pd.DataFrame({"analysis": "data", "system": "", "measure": "", group: in_data.index,
+                                "n": in_data.to_numpy()})  # fmt: skip
     return StudyAnalysis(
         system=system,
         baseline=baseline,
         systems=systems,
-        objects=tuple(sorted(trials[WITHIN].unique())),
+        objects=tuple(sorted(trials[within].unique())),
+        measures=tuple(dv),
+        counts=tuple(m for m in dv if m in counts),
+        subject=subject,
+        group=group,
+        within=within,
         ss_type=ss_type,
-        group_sizes={str(g): int(n) for g, n in group_sizes.items()},
-        anova=anova,
-        corrections=corrections,
-        posthoc=post,
-        cells=cells,
-        comparison=comparison.tables,
-        likert_summary=summary,
-        likert_tests=tests,
-        dropped=dropped[["analysis", "participant", "reason"]],
-        warnings=tuple(notes),
+        alpha=alpha,
+        excluded_stages=tuple(excluded_stages),
         simulated_trials=is_simulated(trials),
         simulated_ratings=is_simulated(questionnaire),
-        excluded_stages=tuple(excluded_stages),
+        conditions=conditions,
+        sample=pd.concat([data_sample, *(part.tables["sample"] for part in parts)], ignore_index=True),
+        dropped=pd.concat([withdrew, *(part.dropped for part in parts)], ignore_index=True)[
+            ["analysis", "system", "measure", subject, "reason"]
+        ],
+        warnings=tuple(note for part in parts for note in part.notes),
+        **{name: per_system.tables[name] for name in PER_SYSTEM},
+        comparison=pairs.tables["comparison"],
+        likert_summary=likert.tables["likert_summary"],
+        likert_tests=likert.tables["likert_tests"],
     )
+
+
+PER_SYSTEM = ("cells", "cell_means", "anova", "corrections", "posthoc", "simple_effects", "simple_pairs", "assumptions",
+              "count_model")  # fmt: skip
+"""The tables computed per system and measure."""
+
+
+@dataclass(frozen=True)
+class _Design:
+    subject: str
+    group: str
+    within: str
+    system: str
+    measures: tuple[str, ...]
+    counts: tuple[str, ...]
+    completed: str
+    ss_type: int
+    alpha: float
+    labels: dict[str, str]
+
+    def cells(self, trials: pd.DataFrame, dv: str) -> pd.DataFrame:
+        """Participant-level cells of ``dv`` by the rules for counts and for measures of finished tasks."""
+        finished = self.completed if dv not in self.counts and self.completed in trials.columns else None
+        return participant_cells(trials, dv, self.subject, self.group, self.system, self.within, finished)
 
 
 @dataclass(frozen=True)
 class _Part:
     """One part of the analysis: its tables, who it left out and why, and what the reader must know."""
 
-    tables: object
+    tables: dict[str, pd.DataFrame]
     dropped: pd.DataFrame
     notes: list[str]
 
 
-def _per_system(trials: pd.DataFrame, all_cells: dict, systems: Sequence[str], ss_type: int) -> _Part:
-    anova, corrections, post, cells = {}, {}, {}, {}
+def _per_system(trials: pd.DataFrame, systems: Sequence[str], design: _Design) -> _Part:
+    d = design
+    tables: dict[str, list[pd.DataFrame]] = {name: [] for name in (*PER_SYSTEM, "sample")}
     notes, dropped = [], []
     for name in systems:
-        objects = sorted(trials.loc[trials["system"] == name, WITHIN].unique())
-        for dv in MEASURES:
-            rows = all_cells[dv][all_cells[dv]["system"] == name]
-            complete, missing = complete_cases(rows, dv, WITHIN, SUBJECT, objects)
-            absent = sorted(set(trials.loc[trials["system"] == name, SUBJECT]) - set(rows[SUBJECT]))
-            missing = pd.concat([missing, pd.DataFrame({"participant": absent, "reason": f"no {dv} at all"})])
-            dropped.append(missing.assign(analysis=f"ANOVA {dv}, {name}"))
-            key = (name, dv)
+        rows = trials[trials[d.system] == name]
+        levels = sorted(rows[d.within].unique())
+        for dv in d.measures:
+            cells = d.cells(rows, dv)
+            missing = incomplete_cases(cells, dv, d.within, d.subject, levels)
+            absent = sorted(set(rows[d.subject]) - set(cells[d.subject]))
+            missing = pd.concat([missing, pd.DataFrame({d.subject: absent, "reason": f"no {dv} at all"})])
+            dropped.append(missing.assign(analysis="ANOVA", system=name, measure=dv))
+            complete = complete_cases(cells, dv, d.within, d.subject, levels)
             try:
-                anova[key] = mixed_anova(complete, dv, WITHIN, BETWEEN, SUBJECT, ss_type)
+                anova = mixed_anova(complete, dv, d.within, d.group, d.subject, d.ss_type)
             except AnalysisInputError as error:
-                notes.append(f"No {dv} ANOVA for {name}: {error}.")
+                notes.append(f"No {dv} ANOVA for {d.labels[name]}: {error}.")
                 continue
-            cells[key] = complete
-            corrections[key] = sphericity_correction(anova[key], SPHERICITY_ALPHA)
-            post[key] = posthoc(complete, dv, WITHIN, BETWEEN, SUBJECT)
-            notes.extend(_anova_notes(name, dv, complete, anova[key], ss_type))
-    return _Part((anova, corrections, post, cells), pd.concat(dropped, ignore_index=True), notes)
+            keys = {"system": name, "measure": dv}
+            post = posthoc(complete, dv, d.within, d.group, d.subject, within_by_group=True)
+            by_group = post["at"].notna() & (post["factor"] == d.within)
+            results = {
+                "cells": complete.drop(columns=[d.system]).rename(columns={dv: "value"}),
+                "cell_means": cell_means(complete, dv, d.within, d.group),
+                "anova": anova,
+                "corrections": sphericity_correction(anova, d.alpha),
+                "posthoc": post[~by_group],
+                "simple_effects": simple_effects(complete, dv, d.within, d.group, d.subject),
+                "simple_pairs": post[by_group],
+                "assumptions": assumption_checks(complete, dv, d.within, d.group, d.subject, d.alpha),
+                "sample": _group_sizes(complete, d, "ANOVA"),
+            }
+            if dv in d.counts:
+                tasks = rows[rows[d.subject].isin(complete[d.subject]) & rows[d.within].isin(levels)]
+                results["count_model"] = count_model(tasks, dv, d.within, d.group, d.subject)
+            for piece, frame in results.items():
+                tables[piece].append(_keyed(frame.reset_index(drop=True), keys))
+            notes.extend(_anova_notes(d.labels[name], dv, complete, anova, d))
+    empty = {  # the columns of a table no system has
+        "cells": (d.subject, d.group, d.within, "value"),
+        "cell_means": (d.group, d.within, *CELL_MEANS_COLUMNS),
+        "anova": ANOVA_COLUMNS,
+        "corrections": CORRECTION_COLUMNS,
+        "posthoc": POSTHOC_COLUMNS,
+        "simple_effects": SIMPLE_EFFECT_COLUMNS,
+        "simple_pairs": POSTHOC_COLUMNS,
+        "assumptions": ASSUMPTION_COLUMNS,
+        "count_model": COUNT_MODEL_COLUMNS,
+        "sample": ("analysis", d.group, "n"),
+    }
+    frames = {piece: _concat(found, empty[piece]) for piece, found in tables.items()}
+    return _Part(frames, pd.concat(dropped, ignore_index=True), notes)
 
 
-def _versus_baseline(all_cells: dict, system: str, baseline: str | None) -> _Part:
+def _versus_baseline(trials: pd.DataFrame, system: str, baseline: str | None, design: _Design) -> _Part:
+    d = design
+    nobody = pd.DataFrame(columns=["analysis", "system", "measure", d.subject, "reason"])
+    sample_columns = ("analysis", d.group, "n")
     if baseline is None:
-        return _Part(None, _NOBODY, [])
-    rows, notes, dropped = [], [], []
-    for dv in MEASURES:
-        pairs, missing = paired_means(all_cells[dv], dv, system, baseline, WITHIN, SUBJECT)
-        dropped.append(missing.assign(analysis=f"{system} vs {baseline}, {dv}"))
-        if len(pairs) < MIN_PAIRS:
-            notes.append(f"No {system} vs {baseline} comparison of {dv}: {len(pairs)} complete pair(s).")
+        return _Part({"comparison": pd.DataFrame(columns=SYSTEMS_COLUMNS), "sample": _concat([], sample_columns)},
+                     nobody, [])  # fmt: skip
+    rows, notes, dropped, sample = [], [], [], []
+    versus = f"{d.labels[system]} vs {d.labels[baseline]}"
+    for dv in d.measures:
+        cells = d.cells(trials, dv)
+        named = cells.assign(**{d.system: cells[d.system].map(d.labels)})  # the reasons name labels
+        missing = unpaired_participants(named, dv, d.labels[system], d.labels[baseline], d.within, d.subject, d.system)
+        dropped.append(missing.assign(analysis="pairs", system=system, measure=dv))
+        paired = cells[~cells[d.subject].isin(missing[d.subject])]
+        if paired[d.subject].nunique() < MIN_PAIRS:
+            notes.append(f"No {versus} comparison of {dv}: {paired[d.subject].nunique()} complete pair(s).")
             continue
-        paired = all_cells[dv][~all_cells[dv][SUBJECT].isin(missing[SUBJECT])]
-        row = compare_systems(paired, dv, system, baseline, WITHIN, SUBJECT)
+        row = compare_systems(paired, dv, system, baseline, d.within, d.subject, d.system)
         rows.append(row)
+        sample.append(_keyed(_group_sizes(paired[paired[d.system] == system], d, "pairs"),
+                             {"system": system, "measure": dv}))  # fmt: skip
         p_shapiro = row["p_shapiro"].iloc[0]
-        if p_shapiro < NORMALITY_ALPHA:
+        if p_shapiro < d.alpha:
             notes.append(
-                f"The paired differences of {dv} ({system} - {baseline}) are far from normal "
+                f"The paired differences of {dv} ({d.labels[system]} - {d.labels[baseline]}) are far from normal "
                 f"(Shapiro-Wilk p = {p_shapiro:.3g}): read the Wilcoxon signed-rank test, not the t-test."
             )
-    table = pd.concat(rows, ignore_index=True) if rows else None
-    return _Part(table, pd.concat(dropped, ignore_index=True), notes)
+    comparison = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=SYSTEMS_COLUMNS)
+    tables = {"comparison": comparison, "sample": _concat(sample, sample_columns)}
+    return _Part(tables, pd.concat(dropped, ignore_index=True), notes)
 
 
-def _likert(questionnaire: pd.DataFrame | None, system: str, baseline: str | None) -> _Part:
+def _likert(questionnaire, system: str, baseline: str | None, design: _Design, item: str, rating: str) -> _Part:
+    d = design
+    nobody = pd.DataFrame(columns=["analysis", "system", "measure", d.subject, "reason"])
+    no_tests = pd.DataFrame(columns=LIKERT_TEST_COLUMNS)
+    sample_columns = ("analysis", d.group, "n")
+    no_sample = _concat([], sample_columns)
     if questionnaire is None:
-        return _Part((None, None), _NOBODY, [])
-    summary = likert_summary(questionnaire)
-    if baseline is None or not {system, baseline} <= set(questionnaire["system"]):
-        note = f"The questionnaire does not rate both {system} and {baseline}: no Likert test."
-        return _Part((summary, None), _NOBODY, [note])
-    tests = likert_tests(questionnaire, system, baseline, SUBJECT)
-    dropped = unpaired_raters(questionnaire, system, baseline).assign(analysis="Likert")
-    return _Part((summary, tests), dropped, [])
+        return _Part({"likert_summary": pd.DataFrame(), "likert_tests": no_tests, "sample": no_sample}, nobody, [])
+    summary = likert_summary(questionnaire, item, d.system, rating)
+    if baseline is None or not {system, baseline} <= set(questionnaire[d.system]):
+        note = f"The questionnaire does not rate both {d.labels[system]} and {d.labels.get(baseline)}: no Likert test."
+        return _Part({"likert_summary": summary, "likert_tests": no_tests, "sample": no_sample}, nobody, [note])
+    tests = likert_tests(questionnaire, system, baseline, d.subject, item, d.system, rating)
+    named = questionnaire.assign(**{d.system: questionnaire[d.system].map(lambda code: d.labels.get(code, code))})
+    unpaired = unpaired_raters(named, d.labels[system], d.labels[baseline], d.subject, item, d.system)
+    sample = []
+    for name, answers in questionnaire.groupby(item, sort=True):
+        raters = answers[answers[d.system].isin([system, baseline])]
+        both = raters.groupby(d.subject)[d.system].nunique() == 2
+        rated = raters[raters[d.subject].isin(both[both].index) & (raters[d.system] == system)]
+        if d.group not in rated.columns:
+            rated = rated.assign(**{d.group: "all"})
+        sample.append(_keyed(_group_sizes(rated, d, "Likert"), {"system": system, "measure": name}))
+    tables = {"likert_summary": summary, "likert_tests": tests, "sample": _concat(sample, sample_columns)}
+    return _Part(tables, unpaired.assign(analysis="Likert", system=system, measure=""), [])
 
 
-def _checked(table, read, check) -> pd.DataFrame:
-    return check(table) if isinstance(table, pd.DataFrame) else read(table)
+def _conditions(systems, system, baseline, tables, system_column: str, label: str) -> pd.DataFrame:
+    labels: dict[str, str] = {}
+    for table in tables:
+        if table is None or label not in table.columns:
+            continue
+        for code, name in table.drop_duplicates(system_column)[[system_column, label]].itertuples(index=False):
+            if labels.setdefault(code, name) != name:
+                raise AnalysisInputError(
+                    f"{system_column} {code!r} is labelled {labels[code]!r} in one table and {name!r} in another "
+                    f"(column {label!r})"
+                )
+    roles = {system: "system under test", baseline: "baseline"}
+    return pd.DataFrame(
+        {
+            "system": list(systems),
+            "label": [labels.get(name, name) for name in systems],
+            "role": [roles.get(name, "also analysed") for name in systems],
+        }
+    )
 
 
-def _anova_notes(system: str, dv: str, complete: pd.DataFrame, anova: pd.DataFrame, ss_type: int) -> list[str]:
+def _group_sizes(cells: pd.DataFrame, design: _Design, analysis: str) -> pd.DataFrame:
+    sizes = cells.drop_duplicates(design.subject).groupby(design.group, observed=True).size()
+    return pd.DataFrame({"analysis": analysis, design.group: sizes.index, "n": sizes.to_numpy()})
+
+
+def _keyed(frame: pd.DataFrame, keys: dict) -> pd.DataFrame:
+    return frame.assign(**keys)[[*keys, *frame.columns]]
+
+
+def _concat(frames: list[pd.DataFrame], columns) -> pd.DataFrame:
+    if frames:
+        return pd.concat(frames, ignore_index=True)
+    return pd.DataFrame(columns=[*KEYS, *columns])
+
+
+def _checked(table, read, check, **columns) -> pd.DataFrame:
+    return check(table, **columns) if isinstance(table, pd.DataFrame) else read(table, **columns)
+
+
+def _anova_notes(system: str, dv: str, complete: pd.DataFrame, anova: pd.DataFrame, design: _Design) -> list[str]:
     notes = []
-    sizes = complete.drop_duplicates(SUBJECT)[BETWEEN].value_counts().sort_index()
+    sizes = complete.drop_duplicates(design.subject)[design.group].value_counts().sort_index()
     if sizes.nunique() > 1:
         listed = ", ".join(f"{g}: {n}" for g, n in sizes.items())
         notes.append(
-            f"Unbalanced design in the {dv} ANOVA of {system} ({listed}): type {ss_type} sums of squares"
-            + (" (afex's default; equal weight per group)." if ss_type == 3 else " (groups weighted by size).")
+            f"Unbalanced design in the {dv} ANOVA of {system} ({listed}): type {design.ss_type} sums of squares"
+            + (" (afex's default; equal weight per group)." if design.ss_type == 3 else " (groups weighted by size).")
         )
-    violated = anova[anova["p_mauchly"] < SPHERICITY_ALPHA]
+    violated = anova[anova["p_mauchly"] < design.alpha]
     if len(violated):
         row = violated.iloc[0]
         notes.append(
@@ -224,4 +495,6 @@ def _anova_notes(system: str, dv: str, complete: pd.DataFrame, anova: pd.DataFra
             f"(Mauchly W = {row['W_mauchly']:.3f}, p = {row['p_mauchly']:.3g}): Greenhouse-Geisser correction "
             f"applied (epsilon = {row['eps_GG']:.3f})."
         )
+    if np.isclose(complete[dv].std(), 0):
+        notes.append(f"The {dv} of {system} does not vary (every value is {complete[dv].iloc[0]:g}): nothing to test.")
     return notes

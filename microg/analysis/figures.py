@@ -1,5 +1,5 @@
-"""The report's figures: bars per object and group with significance marks (the paper's Fig. 11) and
-the diverging stacked rating distribution (the paper's Fig. 12)."""
+"""The report's figures: bars per object and group with every participant's value and significance
+marks (the paper's Fig. 11) and the diverging stacked rating distribution (the paper's Fig. 12)."""
 
 from __future__ import annotations
 
@@ -26,9 +26,36 @@ def plot_bars(
     ylabel: str | None = None,
     title: str | None = None,
 ) -> Figure:
-    """Mean +- SE of ``dv`` per ``within`` level and group, one bar per group; brackets with stars
-    mark the Bonferroni-significant post hoc comparisons (groups at a level, and levels)."""
-    summary = cells.groupby([within, between], observed=True)[dv].agg(["mean", "sem", "count"])
+    """Bars of the mean +- SE of ``dv`` per ``within`` level and group, every participant's value a dot.
+
+    Brackets with stars mark the Bonferroni-significant post hoc comparisons (groups at a level,
+    and levels); the legend gives n per group.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        One row per participant and ``within`` level (the cells the ANOVA used).
+    dv, within, between : str
+        Columns of the measure, the within factor and the between factor.
+    posthoc : pandas.DataFrame
+        :func:`microg.analysis.posthoc` of the same cells.
+    ylabel, title : str, optional
+        Axis label (default ``dv``) and title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pingouin as pg
+    >>> from microg.analysis import plot_bars, posthoc
+    >>> data = pg.read_dataset("mixed_anova")
+    >>> fig = plot_bars(data, "Scores", posthoc(data, "Scores", "Time", "Group", "Subject"), "Time", "Group")
+    >>> [text.get_text() for text in fig.axes[0].get_legend().get_texts()]
+    ['Control (n = 30)', 'Meditation (n = 30)']
+    """
+    summary = cells.groupby([within, between], observed=True)[dv].agg(["mean", "sem", "count", "max"])
     levels = sorted(cells[within].unique())
     groups = sorted(cells[between].unique())
     width = 0.8 / len(groups)
@@ -36,14 +63,18 @@ def plot_bars(
     ax = fig.subplots()
     tops, centres = {}, {}
     for g_index, group in enumerate(groups):
+        colour = GROUP_COLOURS[g_index % len(GROUP_COLOURS)]
         for l_index, level in enumerate(levels):
             x = l_index + (g_index - (len(groups) - 1) / 2) * width
-            mean, sem = summary.loc[(level, group), ["mean", "sem"]]
+            mean, sem, count, highest = summary.loc[(level, group), ["mean", "sem", "count", "max"]]
             sem = 0.0 if np.isnan(sem) else sem
-            label = f"{group} (n = {int(summary.loc[(level, group), 'count'])})" if l_index == 0 else None
-            ax.bar(x, mean, width * 0.95, yerr=sem, capsize=3, color=GROUP_COLOURS[g_index % 5], label=label)
+            label = f"{group} (n = {int(count)})" if l_index == 0 else None
+            ax.bar(x, mean, width * 0.95, yerr=sem, capsize=3, color=colour, alpha=0.55, label=label, zorder=1)
+            values = np.sort(cells.loc[(cells[within] == level) & (cells[between] == group), dv].to_numpy(float))
+            ax.scatter(x + _spread(len(values), width * 0.6), values, s=9, color=colour, edgecolor="black",
+                       linewidth=0.4, zorder=2)  # fmt: skip
             centres[(level, group)] = x
-            tops[(level, group)] = mean + sem
+            tops[(level, group)] = max(mean + sem, highest)
     span = max(max(tops.values()), 1e-9)
     step = 0.07 * span
     level_tops = {level: max(tops[(level, g)] for g in groups) for level in levels}
@@ -53,7 +84,7 @@ def plot_bars(
         _bracket(ax, centres[(row.at, row.A)], centres[(row.at, row.B)], height, step, row.stars)
         level_tops[row.at] = height + 2 * step
     ceiling = max(level_tops.values())
-    for row in marks[marks["factor"] == within].itertuples(index=False):
+    for row in marks[(marks["factor"] == within) & marks["at"].isna()].itertuples(index=False):
         a, b = levels.index(row.A), levels.index(row.B)
         height = max(level_tops[lv] for lv in levels[min(a, b) : max(a, b) + 1]) + step
         height = max(height, ceiling)
@@ -70,12 +101,34 @@ def plot_bars(
     return fig
 
 
-def plot_ratings(summary: pd.DataFrame, title: str | None = None) -> Figure:
+def plot_ratings(summary: pd.DataFrame, title: str | None = None, item: str = "item", system: str = "system") -> Figure:
     """Diverging stacked bars of the ratings per item and system: shares below the neutral 5 to the
-    left, above it to the right, the neutral share split across zero."""
+    left, above it to the right, the neutral share split across zero.
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        :func:`microg.analysis.likert_summary`: columns ``item``, ``system``, ``count_0`` ... ``count_10``.
+    title : str, optional
+    item, system : str
+        The columns that name each bar.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import likert_summary, plot_ratings
+    >>> answers = pd.DataFrame({"item": "ease", "system": ["s"] * 3 + ["b"] * 3, "rating": [8, 7, 9, 3, 5, 4]})
+    >>> fig = plot_ratings(likert_summary(answers))
+    >>> [label.get_text() for label in fig.axes[0].get_yticklabels()]
+    ['ease\\nb', 'ease\\ns']
+    """
     counts = summary[[f"count_{score}" for score in SCALE]].to_numpy(float)
     shares = 100 * counts / counts.sum(axis=1, keepdims=True)
-    labels = [f"{row.item}\n{row.system}" for row in summary.itertuples(index=False)]
+    labels = [f"{name}\n{code}" for name, code in zip(summary[item], summary[system])]
     colours = matplotlib.colormaps["RdYlBu"](np.linspace(0.05, 0.95, len(SCALE)))
     fig = Figure(figsize=(8, 0.7 * len(labels) + 1.6), layout="constrained")
     ax = fig.subplots()
@@ -107,6 +160,12 @@ def save_figure(fig: Figure, stem: Path) -> tuple[Path, Path]:
     fig.savefig(png, dpi=150)
     fig.savefig(svg)
     return png, svg
+
+
+def _spread(n: int, width: float) -> np.ndarray:
+    """Horizontal offsets that set n dots (sorted by value) side by side, so that equal values do not hide
+    one another; deterministic, unlike random jitter."""
+    return np.linspace(-width / 2, width / 2, n) if n > 1 else np.zeros(n)
 
 
 def _bracket(ax, x0: float, x1: float, height: float, step: float, text: str) -> None:

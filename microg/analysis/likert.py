@@ -1,5 +1,5 @@
 """The 11-point Likert items: distribution per item and system, and the paired Wilcoxon signed-rank
-test of system vs baseline per item with effect size r, Bonferroni-corrected across items."""
+test of system vs baseline per item with effect sizes, Bonferroni-corrected across items."""
 
 from __future__ import annotations
 
@@ -13,23 +13,45 @@ from microg.analysis.tables import RATING_RANGE, stars
 SCALE = tuple(range(RATING_RANGE[0], RATING_RANGE[1] + 1))
 LIKERT_TEST_COLUMNS = (
     "item", "system", "baseline", "n", "median_system", "median_baseline",
-    "V", "p_unc", "p_bonf", "z", "r", "rbc", "stars",
+    "V", "p_unc", "p_bonf", "z", "r", "rbc", "stars", "rbc_ci_low", "rbc_ci_high",
 )  # fmt: skip
 
 
 def likert_summary(
     answers: pd.DataFrame, item: str = "item", system: str = "system", rating: str = "rating"
 ) -> pd.DataFrame:
-    """Per item and system: n, median, quartiles (linear interpolation, R's default), IQR, mean, and
-    the count of each rating 0-10 in columns ``count_0`` ... ``count_10``."""
+    """The distribution of the ratings per item and system.
+
+    Parameters
+    ----------
+    answers : pandas.DataFrame
+        One row per rating.
+    item, system, rating : str
+        Columns of the item, the system rated and the rating (0-10).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per ``item`` and ``system``: n, median, quartiles q1 and q3 (linear interpolation, R's
+        default), iqr, mean, and the count of each rating 0-10 in ``count_0`` ... ``count_10``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import likert_summary
+    >>> answers = pd.DataFrame({"item": "ease", "system": "s", "rating": [3, 7, 8, 8]})
+    >>> likert_summary(answers)[["item", "system", "n", "median", "q1", "q3", "count_8"]]
+       item system  n  median  q1  q3  count_8
+    0  ease      s  4     7.5  6.0  8.0        2
+    """
     rows = []
     for (item_name, system_name), values in answers.groupby([item, system], sort=True)[rating]:
         q1, median, q3 = np.percentile(values, [25, 50, 75])
         counts = values.value_counts().reindex(SCALE, fill_value=0)
         rows.append(
             {
-                "item": item_name,
-                "system": system_name,
+                item: item_name,
+                system: system_name,
                 "n": len(values),
                 "median": median,
                 "q1": q1,
@@ -51,27 +73,56 @@ def likert_tests(
     system_column: str = "system",
     rating: str = "rating",
 ) -> pd.DataFrame:
-    """Per item: Wilcoxon signed-rank test of ``system`` vs ``baseline`` ratings of the same
-    participants (those who rated both), r = z / sqrt(n non-zero differences), and the p-value
-    Bonferroni-corrected across items; columns LIKERT_TEST_COLUMNS."""
+    """Per item, the Wilcoxon signed-rank test of ``system`` vs ``baseline`` on the same raters.
+
+    Only participants who rated the item for both systems count (:func:`unpaired_raters` lists the
+    others). The p-value is Bonferroni-corrected across items.
+
+    Parameters
+    ----------
+    answers : pandas.DataFrame
+        One row per participant, system and item.
+    system, baseline : str
+        The systems compared (values of ``system_column``).
+    subject, item, system_column, rating : str
+        The column names.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns LIKERT_TEST_COLUMNS: n pairs, the medians, V, p_unc, p_bonf, z, r = z / sqrt(n
+        non-zero differences), the rank-biserial correlation rbc with its 95 % CI, stars.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import likert_tests
+    >>> answers = pd.DataFrame({"participant": [f"P{i}" for i in range(6)] * 2, "item": "ease",
+    ...                         "system": ["s"] * 6 + ["b"] * 6, "rating": [8, 7, 9, 6, 8, 7, 4, 5, 3, 6, 2, 5]})
+    >>> likert_tests(answers, "s", "b")[["item", "n", "V", "p_bonf", "rbc"]].round(3)
+       item  n     V  p_bonf  rbc
+    0  ease  6  15.0   0.057  1.0
+    """
     rows = []
     for item_name, ratings in answers.groupby(item, sort=True):
         wide = ratings.pivot(index=subject, columns=system_column, values=rating)
         pairs = wide.reindex(columns=[system, baseline]).dropna()
-        test = signed_rank(pairs[system].to_numpy(), pairs[baseline].to_numpy())
+        test = signed_rank(pairs[system].to_numpy(), pairs[baseline].to_numpy()).iloc[0]
         rows.append(
             {
                 "item": item_name,
                 "system": system,
                 "baseline": baseline,
-                "n": test.n,
+                "n": int(test["n"]),
                 "median_system": pairs[system].median(),
                 "median_baseline": pairs[baseline].median(),
-                "V": test.V,
-                "p_unc": test.p,
-                "z": test.z,
-                "r": test.r,
-                "rbc": test.rbc,
+                "V": test["V"],
+                "p_unc": test["p"],
+                "z": test["z"],
+                "r": test["r"],
+                "rbc": test["rbc"],
+                "rbc_ci_low": test["rbc_ci_low"],
+                "rbc_ci_high": test["rbc_ci_high"],
             }
         )
     table = pd.DataFrame(rows)
@@ -81,11 +132,37 @@ def likert_tests(
 
 
 def unpaired_raters(
-    answers: pd.DataFrame, system: str, baseline: str, subject: str = "participant", item: str = "item"
+    answers: pd.DataFrame,
+    system: str,
+    baseline: str,
+    subject: str = "participant",
+    item: str = "item",
+    system_column: str = "system",
 ) -> pd.DataFrame:
-    """Participants left out of an item's test because they rated it for only one of the systems."""
-    rated = answers[answers["system"].isin([system, baseline])]
-    per_item = rated.groupby([item, subject])["system"].agg(set)
+    """Participants left out of an item's test because they rated it for only one of the systems.
+
+    Parameters
+    ----------
+    answers, system, baseline, subject, item, system_column
+        As for :func:`likert_tests`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``subject`` and ``reason``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import unpaired_raters
+    >>> answers = pd.DataFrame({"who": ["a", "a", "b"], "question": "ease", "tool": ["s", "b", "s"],
+    ...                         "rating": [7, 5, 6]})
+    >>> unpaired_raters(answers, "s", "b", subject="who", item="question", system_column="tool")
+      who                 reason
+    0   b  rated ease only for s
+    """
+    rated = answers[answers[system_column].isin([system, baseline])]
+    per_item = rated.groupby([item, subject])[system_column].agg(set)
     missing = per_item[per_item.map(len) < 2]
-    rows = [(who, f"rated {item_name} only for {next(iter(systems))}") for (item_name, who), systems in missing.items()]
-    return pd.DataFrame(rows, columns=["participant", "reason"])
+    rows = [(who, f"rated {name} only for {next(iter(systems))}") for (name, who), systems in missing.items()]
+    return pd.DataFrame(rows, columns=[subject, "reason"])

@@ -1,5 +1,6 @@
-"""The study report: one self-contained HTML file (figures embedded), the tables as CSV, and the
-figures as PNG and SVG."""
+"""The study report: one self-contained HTML page (figures embedded), the same Results and tables as
+Markdown to paste into a manuscript, the tables as CSV at full precision, and the figures as PNG
+and SVG."""
 
 from __future__ import annotations
 
@@ -9,27 +10,27 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import jinja2
-import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
 from microg import __version__
-from microg.analysis.analyse import (BETWEEN, EXCLUDED_STAGES, NORMALITY_ALPHA, SPHERICITY_ALPHA, WITHIN,
-                                    StudyAnalysis, analyse_study)
-from microg.analysis.anova import ANOVA_COLUMNS
+from microg.analysis import results as r
+from microg.analysis.analyse import EXCLUDED_STAGES, StudyAnalysis, analyse_study
+from microg.analysis.anova import ANOVA_COLUMNS, SPHERICITY_ALPHA
+from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.figures import plot_bars, plot_ratings, save_figure
 from microg.analysis.posthoc import POSTHOC_COLUMNS
-from microg.analysis.tables import MEASURES
 from microg.analysis.report_template import TEMPLATE
 
-MEASURE_NAMES = {"time_s": "time", "attempts": "attempts"}
-MEASURE_LABELS = {"time_s": "completion time (s)", "attempts": "attempts (drops)"}
+MEASURE_FILES = {"time_s": "time"}
 SYSTEM_DESCRIPTIONS = {
     "impulse_penetration": "impulse + penetration contact model, the paper's method",
     "soft_hand": "compliant soft-hand coupling, standing in for the paper's comparison system",
     "penetration_only": "penetration phase only, the prior method the paper improves on",
 }
 REPORT_FILE = "report.html"
+MARKDOWN_FILE = "report.md"
+TIDY_TABLES = ("sample", "cell_means", "corrections", "simple_effects", "simple_pairs", "assumptions", "count_model")
 SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated participants (a motor model), not people."
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
 
@@ -43,179 +44,313 @@ def write_report(
     ss_type: int = 3,
     excluded_stages: Sequence[str] = EXCLUDED_STAGES,
     title: str = "Study report",
+    **columns,
 ) -> Path:
-    """Analyse a study's tables and write ``out_dir``/report.html, the CSV tables and the figures.
+    """Analyse a study's tables and write the report into ``out_dir``.
 
-    CSV files: anova_time.csv, anova_attempts.csv, posthoc_time.csv, posthoc_attempts.csv for the
-    system under test (the same with a ``_<system>`` suffix for each other system), systems.csv,
-    likert.csv (when a questionnaire is given) and dropped.csv. Returns the HTML file's path.
+    Parameters
+    ----------
+    trials, questionnaire, system, baseline, ss_type, excluded_stages
+        As for :func:`microg.analysis.analyse_study`.
+    out_dir : str or Path
+        Folder for report.html, report.md, the CSV tables and figures/.
+    title : str
+        The report's title.
+    **columns
+        Column names and options passed to :func:`microg.analysis.analyse_study` (subject, group,
+        within, system_column, dv, counts, completed, stage, label, item, rating, alpha).
+
+    Returns
+    -------
+    Path
+        The HTML file. Beside it: report.md (Results and tables as Markdown), the CSV tables
+        (:func:`write_tables`) and figures/ (PNG and SVG).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> import pingouin as pg
+    >>> from microg.analysis import write_report
+    >>> data = pg.read_dataset("mixed_anova").assign(tool="s")
+    >>> path = write_report(data, None, tempfile.mkdtemp(), subject="Subject", group="Group", within="Time",
+    ...                     system_column="tool", dv=["Scores"], counts=[])
+    >>> path.name, (path.parent / "report.md").exists()
+    ('report.html', True)
     """
-    analysis = analyse_study(trials, questionnaire, system, baseline, ss_type, excluded_stages)
+    analysis = analyse_study(trials, questionnaire, system, baseline, ss_type, excluded_stages, **columns)
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out)
     figures = write_figures(analysis, out / "figures")
-    html = render_html(analysis, figures, title)
+    sections = report_sections(analysis)
+    (out / MARKDOWN_FILE).write_text(render_markdown(analysis, title, sections), encoding="utf-8")
     path = out / REPORT_FILE
-    path.write_text(html, encoding="utf-8")
+    path.write_text(render_html(analysis, figures, title, sections), encoding="utf-8")
     return path
 
 
 def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
-    """The CSV tables at full precision. An ANOVA the data cannot support (too few complete
-    participants, or a measure without variation) is written with its sources and empty statistics;
-    the report says why."""
+    """The CSV tables at full precision; returns the files written.
+
+    Per system and measure (suffix ``_<system>`` for systems other than the one under test):
+    anova_<measure>.csv and posthoc_<measure>.csv. An ANOVA the data cannot support is written with
+    its sources and empty statistics; the report says why. One tidy table each, with the columns
+    system and measure: sample.csv (N per group in the data and in each analysis), cell_means.csv,
+    corrections.csv, simple_effects.csv, simple_pairs.csv, assumptions.csv, count_model.csv. Also
+    systems.csv (system vs baseline), likert.csv, dropped.csv and conditions.csv (labels).
+    """
+    a = analysis
     written = []
-    not_estimable = pd.DataFrame({"source": [BETWEEN, WITHIN, f"{BETWEEN}:{WITHIN}"]}).reindex(columns=ANOVA_COLUMNS)
-    for name, dv in ((name, dv) for name in analysis.systems for dv in MEASURES):
-        suffix = "" if name == analysis.system else f"_{name}"
-        anova = analysis.anova.get((name, dv), not_estimable)
-        post = analysis.posthoc.get((name, dv), pd.DataFrame(columns=POSTHOC_COLUMNS))
+    sources = [a.group, a.within, f"{a.group}:{a.within}"]
+    not_estimable = pd.DataFrame({"source": sources}).reindex(columns=ANOVA_COLUMNS)
+    analysed = set(a.analysed())
+    for name, dv in ((name, dv) for name in a.systems for dv in a.measures):
+        suffix = "" if name == a.system else f"_{name}"
+        anova = a.table("anova", name, dv) if (name, dv) in analysed else not_estimable
+        post = a.table("posthoc", name, dv) if (name, dv) in analysed else pd.DataFrame(columns=POSTHOC_COLUMNS)
         for kind, frame in (("anova", anova), ("posthoc", post)):
-            path = out / f"{kind}_{MEASURE_NAMES[dv]}{suffix}.csv"
-            frame.to_csv(path, index=False)
-            written.append(path)
-    if analysis.comparison is not None:
-        analysis.comparison.to_csv(out / "systems.csv", index=False)
-        written.append(out / "systems.csv")
-    if analysis.likert_summary is not None:
-        likert_table(analysis).to_csv(out / "likert.csv", index=False)
-        written.append(out / "likert.csv")
-    analysis.dropped.to_csv(out / "dropped.csv", index=False)
-    return [*written, out / "dropped.csv"]
+            written.append(_csv(frame, out / f"{kind}_{MEASURE_FILES.get(dv, dv)}{suffix}.csv"))
+    for name in TIDY_TABLES:
+        written.append(_csv(getattr(a, name), out / f"{name}.csv"))
+    if not a.comparison.empty:
+        written.append(_csv(a.comparison, out / "systems.csv"))
+    if not a.likert_summary.empty:
+        written.append(_csv(likert_table(a), out / "likert.csv"))
+    written.append(_csv(a.conditions, out / "conditions.csv"))
+    written.append(_csv(a.dropped, out / "dropped.csv"))
+    return written
 
 
 def likert_table(analysis: StudyAnalysis) -> pd.DataFrame:
     """Distribution per item and system, with the item's system-vs-baseline test on each row."""
-    if analysis.likert_tests is None:
+    if analysis.likert_tests.empty:
         return analysis.likert_summary
     tests = analysis.likert_tests.drop(columns=["median_system", "median_baseline"]).rename(
         columns={"system": "test_system", "baseline": "test_baseline", "n": "n_pairs"}
     )
-    return analysis.likert_summary.merge(tests, on="item", how="left")
+    item = analysis.likert_summary.columns[0]
+    return analysis.likert_summary.merge(tests.rename(columns={"item": item}), on=item, how="left")
 
 
 def write_figures(analysis: StudyAnalysis, folder: Path) -> list[dict]:
-    """Bars per system and measure, and the rating distribution; PNG and SVG files."""
+    """Bars with each participant's point per system and measure, and the rating distribution."""
+    a = analysis
     figures = []
-    for (name, dv), cells in analysis.cells.items():
-        fig = plot_bars(cells, dv, analysis.posthoc[(name, dv)], ylabel=MEASURE_LABELS[dv], title=name)
+    for name, dv in a.analysed():
+        cells = a.table("cells", name, dv)
+        fig = plot_bars(cells, "value", a.table("posthoc", name, dv), a.within, a.group, ylabel=r.measure_label(dv),
+                        title=a.label(name))  # fmt: skip
         caption = (
-            f"{MEASURE_LABELS[dv].capitalize()} with {name} per object and group, mean \u00b1 SE over participants; "
-            "brackets mark Bonferroni-significant post hoc comparisons (* p < .05, ** p < .01, *** p < .001)"
+            f"{r.measure_label(dv).capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
+            "\u00b1 SE, dots individual participants (n per group in the legend); brackets mark "
+            "Bonferroni-significant post hoc comparisons (* p < .05, ** p < .01, *** p < .001)"
         )
-        figures.append(_figure(fig, folder / f"bars_{MEASURE_NAMES[dv]}_{name}", caption))
-    if analysis.likert_summary is not None:
-        fig = plot_ratings(analysis.likert_summary, title="Ratings (simulated)" if analysis.simulated_ratings else None)
+        figures.append(_figure(fig, folder / f"bars_{MEASURE_FILES.get(dv, dv)}_{name}", caption))
+    if not a.likert_summary.empty:
+        summary = a.likert_summary.copy()
+        summary.iloc[:, 1] = summary.iloc[:, 1].map(a.label)
+        fig = plot_ratings(summary, title="Ratings (simulated)" if a.simulated_ratings else None,
+                           item=summary.columns[0], system=summary.columns[1])  # fmt: skip
         caption = "Distribution of the 0-10 ratings per item and system (diverging at the neutral 5)"
         figures.append(_figure(fig, folder / "ratings", caption))
     return figures
 
 
-def render_html(analysis: StudyAnalysis, figures: list[dict], title: str) -> str:
-    """The report page (jinja2), readable from the top: summary, methods, tables, figures."""
+def report_sections(analysis: StudyAnalysis) -> dict:
+    """Everything the HTML page and the Markdown file show, as text and display tables."""
+    a = analysis
+    blocks = []
+    for name, dv in a.analysed():
+        post = a.table("posthoc", name, dv)
+        block = {
+            "title": f"{r.measure_label(dv).capitalize()}, {a.label(name)}",
+            "results": r.anova_paragraph(a, name, dv),
+            "assumptions": r.assumptions_paragraph(a, name, dv),
+            "tables": [
+                ("Cell means", r.cell_means_table(a, name, dv)),
+                ("Mixed ANOVA", r.anova_table(a, name, dv)),
+                ("Sphericity (GG: Greenhouse-Geisser, HF: Huynh-Feldt)", r.sphericity_table(a, name, dv)),
+                ("Post hoc comparisons (Bonferroni within each family)", r.contrasts_table(a, post)),
+                ("Assumption checks", r.assumptions_table(a, name, dv)),
+            ],
+        }  # fmt: skip
+        if r.interaction_significant(a, name, dv):
+            block["tables"][4:4] = [
+                (f"Simple effects of {a.within} in each {a.group}", r.simple_effects_table(a, name, dv)),
+                (f"Pairs of {a.within} in each {a.group} (Bonferroni over all of them)",
+                 r.contrasts_table(a, a.table("simple_pairs", name, dv))),
+            ]  # fmt: skip
+        if dv in a.counts and not a.table("count_model", name, dv).empty:
+            block["tables"].append(
+                ("Count model (an addition to the paper's analysis)", r.count_model_table(a, name, dv))
+            )
+        blocks.append(block)
+    comparison = []
+    if not a.comparison.empty:
+        comparison = [r.comparison_paragraph(a, dv) for dv in a.comparison["measure"]]
+    return {
+        "systems": [
+            f"{label} ({role})"
+            + (f": {name}" if label != name else "")
+            + (f", {SYSTEM_DESCRIPTIONS[name]}" if name in SYSTEM_DESCRIPTIONS else "")
+            for name, label, role in a.conditions[["system", "label", "role"]].itertuples(index=False)
+        ],
+        "sample": r.sample_table(a),
+        "dropped": r.dropped_table(a) if len(a.dropped) else None,
+        "blocks": blocks,
+        "comparison": comparison,
+        "table1": r.table1(a) if comparison else None,
+        "ttests": r.ttest_table(a) if comparison else None,
+        "wilcoxon": r.wilcoxon_table(a) if comparison else None,
+        "likert": r.likert_paragraph(a) if not a.likert_tests.empty else "",
+        "likert_distribution": r.likert_distribution_table(a) if not a.likert_summary.empty else None,
+        "likert_tests": r.likert_tests_table(a) if not a.likert_tests.empty else None,
+        "methods": methods(a),
+    }
+
+
+def render_html(analysis: StudyAnalysis, figures: list[dict], title: str, sections: dict | None = None) -> str:
+    """The report page (jinja2), readable from the top: summary, Results, methods, tables, figures.
+    ``sections``: :func:`report_sections` of the analysis, when already made."""
+    a = analysis
     environment = jinja2.Environment(
         autoescape=jinja2.select_autoescape(default=True), undefined=jinja2.StrictUndefined
     )
-    template = environment.from_string(TEMPLATE)
-    banners = ((analysis.simulated_trials, SIMULATED_TRIALS), (analysis.simulated_ratings, SIMULATED_RATINGS))
-    return template.render(
+    environment.filters["html"] = _html
+    banners = ((a.simulated_trials, SIMULATED_TRIALS), (a.simulated_ratings, SIMULATED_RATINGS))
+    return environment.from_string(TEMPLATE).render(
         title=title,
         version=__version__,
         generated=datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         simulated=[text for flag, text in banners if flag],
-        simulated_ratings=SIMULATED_RATINGS if analysis.simulated_ratings else "",
-        system=analysis.system,
-        baseline=analysis.baseline,
-        others=[name for name in analysis.systems if name not in (analysis.system, analysis.baseline)],
-        descriptions={name: SYSTEM_DESCRIPTIONS.get(name, "") for name in analysis.systems},
-        n_participants=sum(analysis.group_sizes.values()),
-        group_sizes=", ".join(f"group {g}: {n}" for g, n in analysis.group_sizes.items()),
-        objects=analysis.objects,
-        excluded_stages=analysis.excluded_stages,
-        warnings=analysis.warnings,
-        dropped=_html(analysis.dropped) if len(analysis.dropped) else "",
-        methods=methods(analysis),
-        anovas=[
-            {
-                "title": f"{MEASURE_LABELS[dv].capitalize()}, {name}",
-                "table": _html(table),
-                "corrections": _html(analysis.corrections[(name, dv)]),
-            }
-            for (name, dv), table in analysis.anova.items()
-        ],
-        posthocs=[
-            {"title": f"{MEASURE_LABELS[dv].capitalize()}, {name}", "table": _html(table)}
-            for (name, dv), table in analysis.posthoc.items()
-        ],
-        table1=_html(table1(analysis)) if analysis.comparison is not None else "",
-        comparison=_html(analysis.comparison) if analysis.comparison is not None else "",
-        likert_summary=_html(analysis.likert_summary) if analysis.likert_summary is not None else "",
-        likert_tests=_html(analysis.likert_tests) if analysis.likert_tests is not None else "",
+        simulated_ratings=SIMULATED_RATINGS if a.simulated_ratings else "",
+        system=a.label(a.system),
+        baseline=a.label(a.baseline) if a.baseline else "",
+        objects=a.objects,
+        within=a.within,
+        excluded_stages=a.excluded_stages,
+        warnings=a.warnings,
         figures=figures,
+        **(sections or report_sections(a)),
     )
 
 
-def table1(analysis: StudyAnalysis) -> pd.DataFrame:
-    """The paper's Table 1 layout: mean +- SD of time and attempts for the system and the baseline."""
-    comparison = analysis.comparison.set_index("measure")
-    cells = {}
-    for who, prefix in ((analysis.system, "system"), (analysis.baseline, "baseline")):
-        cells[who] = {
-            MEASURE_LABELS[dv]: f"{row[f'mean_{prefix}']:.1f} \u00b1 {row[f'sd_{prefix}']:.1f}"
-            for dv, row in comparison.iterrows()
-        }
-    return pd.DataFrame(cells).T.rename_axis("system").reset_index()
+def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None = None) -> str:
+    """The Results paragraphs and every table as Markdown, to paste into a manuscript."""
+    a = analysis
+    sections = sections or report_sections(a)
+    lines = [f"# {title}", ""]
+    if a.simulated_trials or a.simulated_ratings:
+        lines += [f"> {text}" for flag, text in ((a.simulated_trials, SIMULATED_TRIALS),
+                                                  (a.simulated_ratings, SIMULATED_RATINGS)) if flag] + [""]  # fmt: skip
+    lines += [
+        "## Participants",
+        "",
+        *[f"- {line}" for line in sections["systems"]],
+        "",
+        _markdown(sections["sample"]),
+        "",
+    ]
+    if sections["dropped"] is not None:
+        lines += ["Excluded participants:", "", _markdown(sections["dropped"]), ""]
+    lines += ["## Results", ""]
+    for block in sections["blocks"]:
+        lines += [f"### {block['title']}", "", block["results"], "", block["assumptions"], ""]
+        for caption, table in block["tables"]:
+            lines += [f"**{caption}**", "", _markdown(table), ""]
+    if sections["comparison"]:
+        lines += ["### System vs baseline (Table 1)", "", *[p + "\n" for p in sections["comparison"]]]
+        for caption in ("table1", "ttests", "wilcoxon"):
+            lines += [_markdown(sections[caption]), ""]
+    if sections["likert"]:
+        lines += ["### Questionnaire", "", sections["likert"], "", _markdown(sections["likert_tests"]), ""]
+    if sections["likert_distribution"] is not None:
+        lines += [_markdown(sections["likert_distribution"]), ""]
+    lines += ["## Methods", "", *[f"- {line}" for line in sections["methods"]], ""]
+    return "\n".join(lines)
 
 
 def methods(analysis: StudyAnalysis) -> list[str]:
     """The method statements printed in the report."""
+    a = analysis
     ss = (
         "Type 3 sums of squares (sum-to-zero coding, equal weight per group; afex's default)"
-        if analysis.ss_type == 3
+        if a.ss_type == 3
         else "Type 2 sums of squares (groups weighted by size)"
     )
-    return [
+    statements = [
         (
-            "Unit of analysis: one value per participant, system and object, the mean of that cell's trials. "
-            "Completion time uses completed tasks only (an unfinished task has no time; it is not a zero); "
-            "attempts use every task with a recorded count, completed or not. Withdrawn participants and "
-            f"trials of the stage(s) {', '.join(analysis.excluded_stages) or '(none)'} are left out."
+            f"Unit of analysis: one value per participant, system and {a.within}, the mean of that cell's trials. "
+            "Measures of finished tasks (completion time) use completed tasks only (an unfinished task has no time; "
+            "it is not a zero); counts (drops) use every task with a recorded count, completed or not. Withdrawn "
+            f"participants and trials of the stage(s) {', '.join(a.excluded_stages) or '(none)'} are left out."
         ),
         (
-            "A participant without a value for every object is left out of that system's ANOVA and post hoc "
-            "tests and of the system-vs-baseline pairs (complete cases, as afex does); see Dropped participants."
+            f"A participant without a value for every {a.within} is left out of that system's ANOVA and of the "
+            "system-vs-baseline pairs (complete cases, as afex does); every N in this report is the N analysed, "
+            "and the excluded participants are listed with the reason."
         ),
         (
-            f"Mixed ANOVA, group between x object within, per system and measure; {ss}, from the multivariate "
-            "linear model of the wide data (as R's afex/car). Partial eta squared = SS / (SS + SS_error)."
+            f"Mixed ANOVA, {a.group} between x {a.within} within, per system and measure; {ss}, from the multivariate "
+            f"linear model of the wide data (as R's afex/car). Effect sizes: partial eta squared ({r.ETA_P}) with its "
+            f"95 % CI from the noncentral F on the uncorrected df (R's effectsize), and generalised eta squared "
+            f"({r.ETA_G}, afex's default). "
+            "An effect with a sum of squares of 0 has F = 0 and p = 1."
         ),
         (
-            "Sphericity: Mauchly's test and the Greenhouse-Geisser epsilon from the pooled within-group "
-            "covariance (pingouin's mixed_anova, as afex). The Greenhouse-Geisser correction is applied to a "
-            f"within effect when Mauchly's p < {SPHERICITY_ALPHA}; corrected df and p are listed for every "
-            "within effect."
+            "Sphericity: Mauchly's test and the Greenhouse-Geisser epsilon from the pooled within-group covariance "
+            "(as afex); the Huynh-Feldt epsilon by car's formula (its p uses min(1, epsilon)). The Greenhouse-Geisser "
+            f"correction is applied to a within effect when Mauchly's p < {SPHERICITY_ALPHA}; both corrected p are "
+            "listed for every within effect."
         ),
         (
-            "Post hoc: pairwise object comparisons averaged over groups with equal weights, and group "
-            "comparisons at each object, as emmeans on afex's multivariate model (t tests on the pooled "
-            "within-group covariance, df = N - number of groups); Bonferroni within each family (all object "
-            "pairs; all group pairs across objects). Stars: * p < .05, ** p < .01, *** p < .001 (corrected p)."
+            f"Post hoc: pairwise {a.within} comparisons averaged over {a.group}s with equal weights, and {a.group} "
+            f"comparisons at each {a.within}, as emmeans on afex's multivariate model (t tests on the pooled "
+            f"within-group covariance, df = N - number of {a.group}s); Bonferroni within each family (all {a.within} "
+            f"pairs; all {a.group} pairs across {a.within}s); 95 % CIs Bonferroni-adjusted alike (unadjusted ones "
+            "in the CSV). Stars: * p < .05, ** p < .01, *** p < .001 (corrected p)."
+        ),
+        (
+            f"Simple effects, read when the interaction is significant at {a.alpha}: the effect of {a.within} within "
+            f"each {a.group}, a Wald F test on the pooled covariance with df ({a.within} levels - 1, N - number of "
+            f"{a.group}s), as emmeans' joint_tests, Bonferroni-adjusted over the {a.group}s; then the {a.within} "
+            f"pairs within each {a.group}, Bonferroni-adjusted over all of them."
+        ),
+        (
+            f"Assumptions: Levene's test of equal {a.group} variances at each {a.within} (centred on the median, "
+            f"R's car::leveneTest default), Box's M test of equal covariance matrices (chi-square approximation, read "
+            f"at {BOX_M_ALPHA}), Shapiro-Wilk test of the ANOVA's residuals (values minus their {a.group}'s mean "
+            f"at each {a.within}); each at {a.alpha} unless stated, with what follows from it."
         ),
         (
             "System vs baseline: per participant, the mean over objects; mean and sample SD over participants; "
-            "paired t-test with Cohen's d on the average SD; Wilcoxon signed-rank test (zero differences "
-            "dropped; exact p below 50 pairs without ties, else normal approximation with continuity "
-            "correction, as R's wilcox.test) with the rank-biserial correlation; Shapiro-Wilk on the paired "
-            f"differences (p < {NORMALITY_ALPHA} prints a warning)."
+            "paired t-test with the 95 % CI of the difference, d_z (mean difference / SD of the differences) with "
+            "its 95 % CI from the noncentral t, and Cohen's d on the average SD (d_av); Wilcoxon signed-rank test "
+            "(zero differences dropped; exact p below 50 pairs without ties, else normal approximation with "
+            "continuity correction, as R's wilcox.test) with the rank-biserial correlation r_rb and its 95 % CI "
+            "(Fisher z, as R's effectsize); Shapiro-Wilk on the paired differences."
         ),
         (
-            "Likert: per item and system the distribution, median and quartiles (linear interpolation); "
-            "Wilcoxon signed-rank test of the system vs the baseline on participants who rated both, "
-            "r = z / sqrt(n) with z the normal approximation without continuity correction and n the non-zero "
-            "differences; Bonferroni across items."
+            "Likert: per item and system the distribution, median and quartiles (linear interpolation); Wilcoxon "
+            "signed-rank test of the system vs the baseline on participants who rated both, r = z / sqrt(n) with z "
+            "the normal approximation without continuity correction and n the non-zero differences; Bonferroni "
+            "across items."
         ),
     ]
+    if a.counts:
+        statements.append(
+            "Counts (an addition to the paper's analysis): each task's count as Poisson with a log link, group x "
+            f"{a.within} in sum-to-zero coding, the tasks of a participant correlated (GEE, exchangeable working "
+            "correlation, robust standard errors; statsmodels, as R's geepack); Wald chi-square test per term. When "
+            "some group x level cell has no event the interaction cannot be estimated and main effects are tested "
+            "alone; when a whole group or level has none, no model is fitted."
+        )
+    return statements
+
+
+def _csv(frame: pd.DataFrame, path: Path) -> Path:
+    frame.to_csv(path, index=False)
+    return path
 
 
 def _figure(fig, stem: Path, caption: str) -> dict:
@@ -225,10 +360,13 @@ def _figure(fig, stem: Path, caption: str) -> dict:
 
 
 def _html(table: pd.DataFrame) -> Markup:
-    return Markup(table.to_html(index=False, na_rep="", float_format=_number, border=0))
+    return Markup(table.to_html(index=False, na_rep="", border=0))
 
 
-def _number(value: float) -> str:
-    if not np.isfinite(value):
-        return ""
-    return f"{value:.4g}"
+def _markdown(table: pd.DataFrame) -> str:
+    """A pipe table; cells padded so that the raw text reads as a table too."""
+    cells = [list(map(str, table.columns))] + [["" if pd.isna(v) else str(v) for v in row] for row in table.to_numpy()]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(table.columns))]
+    lines = ["| " + " | ".join(text.ljust(w) for text, w in zip(row, widths)) + " |" for row in cells]
+    lines.insert(1, "|" + "|".join("-" * (w + 2) for w in widths) + "|")
+    return "\n".join(lines).replace("\n\n", "\n")

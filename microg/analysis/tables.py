@@ -1,128 +1,364 @@
-"""Reading and checking the exported tidy tables, and turning trials into participant-level cells.
+"""Reading and checking tidy tables, and turning trials into participant-level cells.
 
-Everything that comes from outside is checked here, once; the statistics modules trust what they get.
+Everything that comes from outside is checked here, once; the statistics modules trust what they
+get. Every column name is a parameter; the defaults are the export's names (:mod:`microg.schema`).
 """
 
 from __future__ import annotations
 
+import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-TRIAL_COLUMNS = ("participant", "group", "system", "object", "time_s", "attempts")
-QUESTIONNAIRE_COLUMNS = ("participant", "system", "item", "rating")
-LABEL_COLUMNS = ("participant", "group", "system", "object", "item", "stage")
+from microg.schema import QUESTIONNAIRE, TRIALS
+
 RATING_RANGE = (0, 10)
-MEASURES = ("time_s", "attempts")
+LARGEST_VALUE = 1e12
+"""Largest magnitude a measure may have. No task lasts 1e12 s (31 700 years) or has 1e12 drops; a
+value near float64's limit (1e308) is a logging error, and its square overflows to infinity inside
+the sums of squares."""
+TEXT_COLUMNS = tuple(column.name for column in (*TRIALS, *QUESTIONNAIRE) if column.dtype == "string")
+FLAG_COLUMNS = ("completed", "simulated", "withdrawn")
+COLUMN_OPTIONS = ("subject", "group", "within", "system_column", "dv", "counts", "completed", "stage", "label", "item",
+                  "rating")  # fmt: skip
+"""The column names :func:`microg.analysis.analyse_study` takes; ``dv`` and ``counts`` are lists."""
 
 
 class AnalysisInputError(ValueError):
-    """A table handed to the analysis is unusable; the message names the file, column and value."""
+    """A table handed to the analysis is unusable; the message names the file, column, value and row."""
 
 
-def read_table(path: str | Path) -> pd.DataFrame:
-    """Read an exported table from CSV or Parquet (chosen by the file's suffix)."""
+def read_table(path: str | Path, text: Sequence[str] = ()) -> pd.DataFrame:
+    """Read a tidy table from CSV or Parquet (chosen by the file's suffix).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.csv``, ``.parquet`` or ``.pq`` file.
+    text : sequence of str
+        Columns to read as text from a CSV file (besides the export's text columns), so that a
+        participant id such as ``007`` stays ``"007"``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The table as stored.
+
+    Raises
+    ------
+    AnalysisInputError
+        For an unknown suffix, an empty file or a file that is not a table.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from microg.analysis.tables import read_table
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "t.csv"
+    >>> _ = path.write_text("participant,time_s\\n007,12.5\\n")
+    >>> read_table(path)["participant"].tolist()
+    ['007']
+    """
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix == ".csv":
-        header = pd.read_csv(path, nrows=0).columns
-        labels = {column: str for column in LABEL_COLUMNS if column in header}
-        return pd.read_csv(path, dtype=labels)
-    if suffix in (".parquet", ".pq"):
+    if suffix not in (".csv", ".parquet", ".pq"):
+        raise AnalysisInputError(f"{path}: unknown table format {suffix!r} (expected .csv or .parquet)")
+    if path.stat().st_size == 0:
+        raise AnalysisInputError(f"{path}: the file is empty (no header, no rows)")
+    try:
+        if suffix == ".csv":
+            header = pd.read_csv(path, nrows=0).columns
+            texts = {column: str for column in (*TEXT_COLUMNS, *text) if column in header}
+            return pd.read_csv(path, dtype=texts)
         return pd.read_parquet(path)
-    raise AnalysisInputError(f"{path}: unknown table format {suffix!r} (expected .csv or .parquet)")
+    except (ValueError, OSError) as error:
+        raise AnalysisInputError(f"{path}: not a readable {suffix[1:]} table ({error})") from None
 
 
-def read_trials(path: str | Path) -> pd.DataFrame:
-    """Read and check an exported trials table."""
-    return check_trials(read_table(path), source=str(path))
+def read_columns(path: str | Path) -> dict:
+    """Column names from a small TOML mapping file, for :func:`microg.analysis.analyse_study`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file with any of the keys COLUMN_OPTIONS, e.g. ``subject = "pid"`` and
+        ``dv = ["rt", "errors"]``.
+
+    Returns
+    -------
+    dict
+        The mapping, ``dv`` and ``counts`` as lists.
+
+    Raises
+    ------
+    AnalysisInputError
+        Naming the file and the key for an unknown key, a value of the wrong type, or a file that
+        is not TOML.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from microg.analysis.tables import read_columns
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "columns.toml"
+    >>> _ = path.write_text('subject = "pid"\\ndv = ["rt", "errors"]\\ncounts = "errors"\\n')
+    >>> read_columns(path)
+    {'subject': 'pid', 'dv': ['rt', 'errors'], 'counts': ['errors']}
+    """
+    try:
+        mapping = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise AnalysisInputError(f"{path}: not a readable TOML file of column names ({error})") from None
+    for key, value in mapping.items():
+        if key not in COLUMN_OPTIONS:
+            raise AnalysisInputError(f"{path}: unknown key {key!r} (known: {', '.join(COLUMN_OPTIONS)})")
+        listed = key in ("dv", "counts")
+        names = [value] if listed and isinstance(value, str) else value
+        if not (
+            all(isinstance(n, str) for n in names) if listed and isinstance(names, list) else isinstance(value, str)
+        ):
+            kind = "a column name or a list of them" if listed else "a column name"
+            raise AnalysisInputError(f"{path}: key {key!r} must be {kind}, not {value!r}")
+        mapping[key] = names
+    return mapping
 
 
-def read_questionnaire(path: str | Path) -> pd.DataFrame:
-    """Read and check an exported questionnaire table."""
-    return check_questionnaire(read_table(path), source=str(path))
+def read_trials(path: str | Path, **columns) -> pd.DataFrame:
+    """Read and check a trials table.
+
+    Parameters
+    ----------
+    path : str or Path
+        A CSV or Parquet file (:func:`read_table`).
+    **columns
+        Column names and rules passed to :func:`check_trials` (subject, group, within, system, dv,
+        counts, completed, label).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked table; errors name this file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from microg.analysis import read_trials
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "trials.csv"
+    >>> _ = path.write_text("participant,group,system,object,time_s,attempts\\n"
+    ...                     "P1,V,s,cube,inf,0\\nP2,B,s,ball,3.0,1\\n")
+    >>> read_trials(path)
+    Traceback (most recent call last):
+    ...
+    microg.analysis.tables.AnalysisInputError: ...trials.csv: column 'time_s' value inf is not finite (data row 1, ...)
+    """
+    text = [columns.get(key, default) for key, default in
+            (("subject", "participant"), ("group", "group"), ("within", "object"), ("system", "system"))]  # fmt: skip
+    return check_trials(read_table(path, text=text), source=str(path), **columns)
 
 
-def check_trials(trials: pd.DataFrame, source: str = "trials table") -> pd.DataFrame:
-    """Return a checked copy of a trials table with numeric measures and boolean flags.
+def read_questionnaire(path: str | Path, **columns) -> pd.DataFrame:
+    """Read and check a questionnaire table.
 
-    Raises AnalysisInputError naming the source, column and offending value for: a missing column,
-    a missing label, a non-numeric or negative time, a negative or fractional attempt count, a
-    completed task without a time, a participant listed in two groups, fewer than two groups or
-    fewer than two objects.
+    Parameters
+    ----------
+    path : str or Path
+        A CSV or Parquet file (:func:`read_table`).
+    **columns
+        Column names passed to :func:`check_questionnaire` (subject, group, system, item, rating,
+        label).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked table; errors name this file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from microg.analysis import read_questionnaire
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "answers.csv"
+    >>> _ = path.write_text("participant,system,item,rating\\nP1,s,ease,7\\n")
+    >>> read_questionnaire(path)["rating"].tolist()
+    [7]
+    """
+    text = [columns.get(key, default) for key, default in
+            (("subject", "participant"), ("system", "system"), ("item", "item"))]  # fmt: skip
+    return check_questionnaire(read_table(path, text=text), source=str(path), **columns)
+
+
+def check_trials(
+    trials: pd.DataFrame,
+    source: str = "trials table",
+    *,
+    subject: str = "participant",
+    group: str = "group",
+    within: str = "object",
+    system: str = "system",
+    dv: Sequence[str] = ("time_s", "attempts"),
+    counts: Sequence[str] = ("attempts",),
+    completed: str = "completed",
+    label: str = "system_label",
+) -> pd.DataFrame:
+    """Check a trials table and return a copy with numeric measures, text labels and boolean flags.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        One row per task: ``subject``, ``group``, ``system``, ``within`` and the ``dv`` columns;
+        optionally ``completed``, ``simulated``, ``withdrawn`` (True/False), ``stage`` and ``label``.
+    source : str
+        How the error messages name the table (its file).
+    subject, group, within, system : str
+        Columns of the participant id, the between factor, the within factor and the system.
+    dv : sequence of str
+        The measures. Each must be empty or a finite number, 0 or more and at most
+        ``LARGEST_VALUE``.
+    counts : sequence of str
+        The measures that count events (drops): whole numbers.
+    completed : str
+        Flag of finished tasks; a finished task must have a value of every measure that is not a
+        count (an unfinished task has no completion time).
+    label : str
+        Optional column of each system's label for readers; one label per system.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked copy (index 0..n-1).
+
+    Raises
+    ------
+    AnalysisInputError
+        Naming the source, column, value and data row (1 = the first row after the header): a
+        missing column, no rows, an empty label, a measure that is not a number, not finite, negative
+        or absurdly large, a fractional count, a finished task without a measure, a participant in two
+        groups, a system with two labels, fewer than two groups or fewer than two ``within`` levels.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import check_trials
+    >>> trials = pd.DataFrame({"pid": ["a", "b"], "cond": ["x", "y"], "tool": "s", "shape": "cube",
+    ...                        "rt": [1.5, 1e308]})
+    >>> check_trials(trials, subject="pid", group="cond", system="tool", within="shape", dv=["rt"], counts=[])
+    Traceback (most recent call last):
+    ...
+    microg.analysis.tables.AnalysisInputError: trials table: column 'rt' value 1e+308 is larger than 1e+12 ...
     """
     trials = trials.reset_index(drop=True)
-    _require_columns(trials, TRIAL_COLUMNS, source)
+    _require_columns(trials, [subject, group, system, within, *dv], source)
     if trials.empty:
-        raise AnalysisInputError(f"{source}: no trials")
+        raise AnalysisInputError(f"{source}: no trials (the table has a header but no rows)")
     out = trials.copy()
-    for column in ("participant", "group", "system", "object"):
-        out[column] = _labels(trials, column, source)
-    out["time_s"] = _numbers(trials, "time_s", source)
-    out["attempts"] = _numbers(trials, "attempts", source)
-    _require(out, "time_s", out["time_s"] < 0, source, "is negative")
-    fractional = out["attempts"].notna() & (out["attempts"] != np.round(out["attempts"]))
-    _require(out, "attempts", (out["attempts"] < 0) | fractional, source, "is not a count of drops")
-    for flag in ("completed", "simulated", "withdrawn"):
+    for column in (subject, group, system, within):
+        out[column] = _labels(trials, column, source, subject)
+    for measure in dv:
+        out[measure] = _measure(trials, measure, source, subject, whole=measure in counts)
+    for flag in FLAG_COLUMNS:
         if flag in trials.columns:
-            out[flag] = _flags(trials, flag, source)
-    if "completed" in out.columns:
-        untimed = out["completed"] & out["time_s"].isna()
-        _require(out, "completed", untimed, source, "is True but time_s is empty")
-    _check_one_group_each(out, source)
-    _require_levels(out, "group", source, "a mixed ANOVA needs at least two groups")
-    _require_levels(out, "object", source, "a within-participant comparison needs at least two objects")
+            out[flag] = _flags(trials, flag, source, subject)
+    if completed in out.columns:
+        for measure in (m for m in dv if m not in counts):
+            untimed = out[completed] & out[measure].isna()
+            _require(out, completed, untimed, source, f"is True but {measure} is empty", subject)
+    if label in trials.columns:
+        out[label] = _labels(trials, label, source, subject)
+        _check_one_each(out, system, label, source)
+    _check_one_each(out, subject, group, source)
+    _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
+    _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
     return out
 
 
-def check_questionnaire(answers: pd.DataFrame, source: str = "questionnaire table") -> pd.DataFrame:
-    """Return a checked copy of a questionnaire table with integer ratings in 0-10.
+def check_questionnaire(
+    answers: pd.DataFrame,
+    source: str = "questionnaire table",
+    *,
+    subject: str = "participant",
+    group: str = "group",
+    system: str = "system",
+    item: str = "item",
+    rating: str = "rating",
+    label: str = "system_label",
+) -> pd.DataFrame:
+    """Check a questionnaire table and return a copy with integer ratings in 0-10.
 
-    Raises AnalysisInputError for a missing column or label, a rating that is not an integer in
-    0-10, an item rated twice by one participant for one system, or a participant in two groups.
+    Parameters
+    ----------
+    answers : pandas.DataFrame
+        One row per participant, system and item: ``subject``, ``system``, ``item``, ``rating``;
+        optionally ``group``, ``label``, ``simulated`` and ``withdrawn``.
+    source : str
+        How the error messages name the table (its file).
+    subject, group, system, item, rating, label : str
+        The column names.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked copy.
+
+    Raises
+    ------
+    AnalysisInputError
+        For a missing column, no rows, an empty label, a rating that is not an integer in 0-10, an
+        item rated twice by one participant for one system, a participant in two groups or a
+        system with two labels.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import check_questionnaire
+    >>> answers = pd.DataFrame({"participant": ["P1"], "system": ["s"], "item": ["ease"], "rating": [11]})
+    >>> check_questionnaire(answers)
+    Traceback (most recent call last):
+    ...
+    microg.analysis.tables.AnalysisInputError: questionnaire table: column 'rating' value 11 is not an integer ...
     """
     answers = answers.reset_index(drop=True)
-    _require_columns(answers, QUESTIONNAIRE_COLUMNS, source)
+    _require_columns(answers, [subject, system, item, rating], source)
+    if answers.empty:
+        raise AnalysisInputError(f"{source}: no ratings (the table has a header but no rows)")
     out = answers.copy()
-    for column in ("participant", "system", "item"):
-        out[column] = _labels(answers, column, source)
-    rating = _numbers(answers, "rating", source)
-    _require(out.assign(rating=rating), "rating", rating.isna(), source, "is empty")
+    for column in (subject, system, item):
+        out[column] = _labels(answers, column, source, subject)
+    values = _numbers(answers, rating, source, subject)
+    _require(out, rating, values.isna(), source, "is empty", subject)
     low, high = RATING_RANGE
-    invalid = (rating < low) | (rating > high) | (rating != np.round(rating))
-    _require(out, "rating", invalid, source, f"is not an integer rating in {low}-{high}")
-    out["rating"] = rating.astype(int)
-    for flag in ("simulated", "withdrawn"):
+    invalid = (values < low) | (values > high) | (values != np.round(values))
+    _require(out, rating, invalid, source, f"is not an integer rating in {low}-{high}", subject)
+    out[rating] = values.astype(int)
+    for flag in FLAG_COLUMNS:
         if flag in answers.columns:
-            out[flag] = _flags(answers, flag, source)
-    if "group" in answers.columns:
-        out["group"] = _labels(answers, "group", source)
-        _check_one_group_each(out, source)
-    repeated = out.duplicated(["participant", "system", "item"], keep="first")
+            out[flag] = _flags(answers, flag, source, subject)
+    for column, key in ((group, subject), (label, system)):
+        if column in answers.columns:
+            out[column] = _labels(answers, column, source, subject)
+            _check_one_each(out, key, column, source)
+    repeated = out.duplicated([subject, system, item], keep="first")
     if repeated.any():
         row = out[repeated].iloc[0]
         raise AnalysisInputError(
-            f"{source}: participant {row['participant']!r} rated item {row['item']!r} for system "
-            f"{row['system']!r} more than once (data row {int(row.name) + 1})"
+            f"{source}: {subject} {row[subject]!r} rated {item} {row[item]!r} for {system} "
+            f"{row[system]!r} more than once (data row {int(row.name) + 1})"
         )
     return out
 
 
-def check_same_groups(trials: pd.DataFrame, answers: pd.DataFrame) -> None:
-    """Both tables must put each participant in the same group."""
-    if "group" not in answers.columns:
+def check_same_groups(trials: pd.DataFrame, answers: pd.DataFrame, subject: str = "participant", group: str = "group"):
+    """Refuse tables that put a participant in different groups (both tables checked already)."""
+    if group not in answers.columns:
         return
-    trial_groups = trials.drop_duplicates("participant").set_index("participant")["group"]
-    answer_groups = answers.drop_duplicates("participant").set_index("participant")["group"]
+    trial_groups = trials.drop_duplicates(subject).set_index(subject)[group]
+    answer_groups = answers.drop_duplicates(subject).set_index(subject)[group]
     shared = trial_groups.index.intersection(answer_groups.index)
     differ = trial_groups[shared] != answer_groups[shared]
     if differ.any():
         who = differ[differ].index[0]
         raise AnalysisInputError(
-            f"participant {who!r} is in group {trial_groups[who]!r} in the trials table but in group "
-            f"{answer_groups[who]!r} in the questionnaire table (column 'group')"
+            f"{subject} {who!r} is in {group} {trial_groups[who]!r} in the trials table but in {group} "
+            f"{answer_groups[who]!r} in the questionnaire table (column {group!r})"
         )
 
 
@@ -131,60 +367,151 @@ def is_simulated(table: pd.DataFrame | None) -> bool:
     return table is not None and "simulated" in table.columns and bool(table["simulated"].any())
 
 
-def withdrawn(table: pd.DataFrame | None) -> set[str]:
+def withdrawn(table: pd.DataFrame | None, subject: str = "participant") -> set[str]:
     """Participants flagged as withdrawn (their data stay in the log, out of the analysis)."""
     if table is None or "withdrawn" not in table.columns:
         return set()
-    return set(table.loc[table["withdrawn"], "participant"])
+    return set(table.loc[table["withdrawn"], subject])
 
 
-def exclude_stages(trials: pd.DataFrame, stages: Sequence[str]) -> pd.DataFrame:
-    """Trials outside the named stages (e.g. training, which only one group does)."""
-    if "stage" not in trials.columns or not stages:
+def exclude_stages(trials: pd.DataFrame, stages: Sequence[str], stage: str = "stage") -> pd.DataFrame:
+    """Trials outside the named stages (e.g. training, which only one group does); case-insensitive.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.tables import exclude_stages
+    >>> exclude_stages(pd.DataFrame({"stage": ["training", "stage1"]}), ["Training"])["stage"].tolist()
+    ['stage1']
+    """
+    if stage not in trials.columns or not stages:
         return trials
-    named = trials["stage"].astype(str).str.lower().isin([s.lower() for s in stages])
+    named = trials[stage].astype(str).str.lower().isin([s.lower() for s in stages])
     return trials[~named]
 
 
 def participant_cells(
-    trials: pd.DataFrame, dv: str, within: str = "object", subject: str = "participant"
+    trials: pd.DataFrame,
+    dv: str,
+    subject: str = "participant",
+    group: str = "group",
+    system: str = "system",
+    within: str = "object",
+    completed: str | None = None,
 ) -> pd.DataFrame:
-    """One value per participant, group, system and object: the mean over that cell's trials.
+    """One value per participant, group, system and ``within`` level: the mean over that cell's trials.
 
-    Completion time uses completed tasks only (an unfinished task has no time, not a zero); attempts
-    use every task with a recorded count, finished or not, since a drop is a drop.
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        Checked trials (:func:`check_trials`).
+    dv : str
+        The measure.
+    subject, group, system, within : str
+        The columns that identify a cell.
+    completed : str, optional
+        A flag column: only tasks flagged True count. Give it for a measure of finished tasks
+        (completion time: an unfinished task has no time, not a zero); leave it out for a measure
+        every task has (drops: a drop is a drop, finished or not).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``subject, group, system, within, dv``; rows without a value are left out.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import participant_cells
+    >>> trials = pd.DataFrame({"participant": "P1", "group": "V", "system": "s", "object": "cube",
+    ...                        "completed": [True, False, True], "time_s": [10.0, None, 20.0]})
+    >>> participant_cells(trials, "time_s", completed="completed")
+      participant group system object  time_s
+    0          P1     V      s   cube    15.0
     """
-    rows = trials
-    if dv == "time_s" and "completed" in trials.columns:
-        rows = trials[trials["completed"]]
+    rows = trials if completed is None else trials[trials[completed].astype(bool)]
     rows = rows[rows[dv].notna()]
-    keys = [subject, "group", "system", within]
+    keys = [subject, group, system, within]
     return rows.groupby(keys, observed=True, sort=True)[dv].mean().reset_index()
 
 
 def complete_cases(
     cells: pd.DataFrame, dv: str, within: str, subject: str, levels: Sequence[str] | None = None
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Keep the participants with a value in every level of ``within``; list the others and why.
+) -> pd.DataFrame:
+    """The cells of the participants with a value of ``dv`` in every level of ``within``.
 
-    Returns (complete cells, dropped) where dropped has the columns participant and reason.
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        Long table, one row per participant and level.
+    dv, within, subject : str
+        Measure, within factor and participant columns.
+    levels : sequence of str, optional
+        The levels required (default: every level present in ``cells``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The complete participants' rows of those levels. :func:`incomplete_cases` says who is left
+        out and why.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import complete_cases
+    >>> cells = pd.DataFrame({"p": ["a", "a", "b"], "o": ["x", "y", "x"], "v": [1.0, 2.0, 3.0]})
+    >>> complete_cases(cells, "v", "o", "p")["p"].tolist()
+    ['a', 'a']
+    """
+    left_out = incomplete_cases(cells, dv, within, subject, levels)[subject]
+    levels = sorted(cells[within].unique()) if levels is None else list(levels)
+    kept = cells[~cells[subject].isin(left_out) & cells[within].isin(levels)]
+    return kept.reset_index(drop=True)
+
+
+def incomplete_cases(
+    cells: pd.DataFrame, dv: str, within: str, subject: str, levels: Sequence[str] | None = None
+) -> pd.DataFrame:
+    """The participants without a value of ``dv`` in some level of ``within``, and why.
+
+    Parameters
+    ----------
+    cells, dv, within, subject, levels
+        As for :func:`complete_cases`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``subject`` and ``reason`` (e.g. "no v for o y").
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import incomplete_cases
+    >>> cells = pd.DataFrame({"p": ["a", "a", "b"], "o": ["x", "y", "x"], "v": [1.0, 2.0, 3.0]})
+    >>> incomplete_cases(cells, "v", "o", "p")
+       p       reason
+    0  b  no v for o y
     """
     levels = sorted(cells[within].unique()) if levels is None else list(levels)
     present = cells[cells[dv].notna()].groupby(subject, observed=True)[within].agg(set)
-    missing = {who: [lv for lv in levels if lv not in have] for who, have in present.items()}
-    every = cells[subject].unique()
-    reasons = {
-        who: f"no {dv} for {within} {', '.join(map(str, missing.get(who, levels)))}"
-        for who in every
-        if missing.get(who, levels)
-    }
-    dropped = pd.DataFrame({"participant": list(reasons), "reason": list(reasons.values())})
-    kept = cells[~cells[subject].isin(list(reasons)) & cells[within].isin(levels)]
-    return kept.reset_index(drop=True), dropped
+    reasons = {}
+    for who in cells[subject].unique():
+        missing = [str(level) for level in levels if level not in present.get(who, set())]
+        if missing:
+            reasons[who] = f"no {dv} for {within} {', '.join(missing)}"
+    return pd.DataFrame({subject: list(reasons), "reason": list(reasons.values())})
 
 
 def stars(p: float) -> str:
-    """Significance marks: * p < .05, ** p < .01, *** p < .001."""
+    """Significance marks: * p < .05, ** p < .01, *** p < .001.
+
+    Examples
+    --------
+    >>> from microg.analysis.tables import stars
+    >>> stars(0.004), stars(0.2)
+    ('**', '')
+    """
     if not np.isfinite(p):
         return ""
     return "***" if p < 0.001 else "**" if p < 0.01 else "*" if p < 0.05 else ""
@@ -193,56 +520,67 @@ def stars(p: float) -> str:
 def _require_columns(table: pd.DataFrame, columns: Sequence[str], source: str) -> None:
     for column in columns:
         if column not in table.columns:
-            raise AnalysisInputError(
-                f"{source}: missing column {column!r} (columns present: {', '.join(map(str, table.columns))})"
-            )
+            present = ", ".join(map(str, table.columns))
+            raise AnalysisInputError(f"{source}: missing column {column!r} (columns present: {present})")
 
 
-def _labels(table: pd.DataFrame, column: str, source: str) -> pd.Series:
+def _labels(table: pd.DataFrame, column: str, source: str, subject: str) -> pd.Series:
     values = table[column]
-    _require(table, column, values.isna() | (values.astype(str).str.strip() == ""), source, "is empty")
+    _require(table, column, values.isna() | (values.astype(str).str.strip() == ""), source, "is empty", subject)
     return values.astype(str)
 
 
-def _numbers(table: pd.DataFrame, column: str, source: str) -> pd.Series:
+def _numbers(table: pd.DataFrame, column: str, source: str, subject: str) -> pd.Series:
     raw = table[column]
     if pd.api.types.is_bool_dtype(raw):
-        _require(table, column, pd.Series(True, index=raw.index), source, "is not a number")
+        _require(table, column, pd.Series(True, index=raw.index), source, "is not a number", subject)
     numbers = pd.to_numeric(raw, errors="coerce").astype(float)
     blank = raw.isna() | (raw.astype(str).str.strip() == "")
-    _require(table, column, numbers.isna() & ~blank, source, "is not a number")
+    _require(table, column, numbers.isna() & ~blank, source, "is not a number", subject)
     return numbers
 
 
-def _flags(table: pd.DataFrame, column: str, source: str) -> pd.Series:
+def _measure(table: pd.DataFrame, column: str, source: str, subject: str, whole: bool) -> pd.Series:
+    values = _numbers(table, column, source, subject)
+    _require(table.assign(**{column: values}), column, np.isinf(values), source, "is not finite", subject)
+    too_large = values.abs() > LARGEST_VALUE
+    _require(table, column, too_large, source, f"is larger than {LARGEST_VALUE:g}", subject)
+    _require(table, column, values < 0, source, "is negative", subject)
+    if whole:
+        fractional = values.notna() & (values != np.round(values))
+        _require(table, column, fractional, source, "is not a count (a whole number)", subject)
+    return values
+
+
+def _flags(table: pd.DataFrame, column: str, source: str, subject: str) -> pd.Series:
     raw = table[column]
-    if pd.api.types.is_bool_dtype(raw):
+    if pd.api.types.is_bool_dtype(raw) and not raw.isna().any():
         return raw.astype(bool)
     words = {"true": True, "false": False, "1": True, "0": False, "1.0": True, "0.0": False}
     mapped = raw.astype(str).str.strip().str.lower().map(words)
-    _require(table, column, mapped.isna(), source, "is not True or False")
+    _require(table, column, mapped.isna(), source, "is not True or False", subject)
     return mapped.astype(bool)
 
 
-def _require(table: pd.DataFrame, column: str, bad: pd.Series, source: str, what: str) -> None:
+def _require(table: pd.DataFrame, column: str, bad: pd.Series, source: str, what: str, subject: str) -> None:
     if not bad.any():
         return
     row = int(np.flatnonzero(bad.to_numpy())[0])
     where = f"data row {row + 1}"
-    if "participant" in table.columns and column != "participant":
-        where += f", participant {table['participant'].iloc[row]!r}"
+    if subject in table.columns and column != subject:
+        where += f", {subject} {table[subject].iloc[row]!r}"
     value = table[column].iloc[row]
     value = value.item() if isinstance(value, np.generic) else value
     raise AnalysisInputError(f"{source}: column {column!r} value {value!r} {what} ({where})")
 
 
-def _check_one_group_each(table: pd.DataFrame, source: str) -> None:
-    groups = table.groupby("participant", observed=True)["group"].unique()
-    several = groups[groups.map(len) > 1]
+def _check_one_each(table: pd.DataFrame, key: str, column: str, source: str) -> None:
+    values = table.groupby(key, observed=True)[column].unique()
+    several = values[values.map(len) > 1]
     if len(several):
         who = several.index[0]
-        names = " and ".join(repr(g) for g in sorted(several.iloc[0]))
-        raise AnalysisInputError(f"{source}: participant {who!r} appears in groups {names} (column 'group')")
+        names = " and ".join(repr(v) for v in sorted(several.iloc[0]))
+        raise AnalysisInputError(f"{source}: {key} {who!r} has {names} in column {column!r}; one is allowed")
 
 
 def _require_levels(table: pd.DataFrame, column: str, source: str, why: str) -> None:

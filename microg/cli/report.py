@@ -29,6 +29,16 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
     show_default=True,
     help="Leave out trials of this stage (repeatable).",
 )
+@click.option("--subject", default=None, help="Column of the participant id [participant].")
+@click.option("--group", default=None, help="Column of the between-participant factor [group].")
+@click.option("--within", default=None, help="Column of the within-participant factor [object].")
+@click.option("--system-column", default=None, help="Column of the system [system].")
+@click.option("--dv", multiple=True, help="Column of a measure (repeatable) [time_s, attempts].")
+@click.option("--count", "counts", multiple=True,
+              help="A --dv that counts events, analysed also with a count model (repeatable) [attempts].")
+@click.option("--columns", "columns_file", type=FILE,
+              help="TOML file of column names (subject, group, within, system_column, dv, counts, completed, stage, "
+                   "label, item, rating); the options above win.")  # fmt: skip
 def report(
     trials: Path | None,
     likert: Path | None,
@@ -38,13 +48,33 @@ def report(
     baseline: str | None,
     ss_type: str,
     excluded_stages: tuple[str, ...],
+    subject: str | None,
+    group: str | None,
+    within: str | None,
+    system_column: str | None,
+    dv: tuple[str, ...],
+    counts: tuple[str, ...],
+    columns_file: Path | None,
 ) -> None:
     """Mixed ANOVA, post hoc tests, system vs baseline, Likert analysis and figures of a study.
 
-    Give either --trials (and optionally --likert) or --study. Writes OUT/report.html (self-contained)
-    and the tables as CSV next to it.
+    Give either --trials (and optionally --likert) or --study. Writes OUT/report.html (self-contained),
+    OUT/report.md (Results and tables as Markdown) and the tables as CSV next to them. Any tidy table
+    works: name its columns with --subject, --group, --within, --system-column, --dv and --count, or
+    in a --columns file.
     """
     from microg.analysis import AnalysisInputError, write_report
+    from microg.analysis.tables import read_columns
+
+    try:
+        columns = read_columns(columns_file) if columns_file is not None else {}
+    except AnalysisInputError as error:
+        raise click.ClickException(str(error)) from error
+    given = {"subject": subject, "group": group, "within": within, "system_column": system_column,
+             "dv": list(dv) or None, "counts": list(counts) or None}  # fmt: skip
+    columns.update({key: value for key, value in given.items() if value is not None})
+    if "dv" in columns:
+        columns.setdefault("counts", [])
 
     if study is not None and (trials is not None or likert is not None):
         raise click.UsageError("give either --study or --trials/--likert, not both")
@@ -62,7 +92,8 @@ def report(
     else:
         trials_table, questionnaire = trials, likert
     try:
-        path = write_report(trials_table, questionnaire, out, system, baseline, int(ss_type), excluded_stages)
+        path = write_report(trials_table, questionnaire, out, system, baseline, int(ss_type), excluded_stages,
+                            **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""
         raise click.ClickException(f"{where}{error}") from error

@@ -3,7 +3,8 @@
 Data: pingouin's shipped datasets ``mixed_anova`` (2 groups x 30, 3 times, balanced) and
 ``mixed_anova_unbalanced`` (groups of 7, 10 and 9, 4 times).
 R: afex 1.2-1 ``aov_ez(..., type = 3 or 2)``, ``summary(fit$Anova, multivariate = FALSE)`` for the
-sums of squares, Mauchly's test and the Greenhouse-Geisser epsilon and p (R 4.2.2, Debian bookworm).
+sums of squares, Mauchly's test and the Greenhouse-Geisser and Huynh-Feldt epsilons and p (R 4.2.2,
+Debian bookworm); the newer columns are compared with tests/analysis/r/expected/mixed/ (reproduce.sh).
 """
 
 from __future__ import annotations
@@ -13,7 +14,14 @@ import pandas as pd
 import pingouin as pg
 import pytest
 
-from microg.analysis import ANOVA_COLUMNS, AnalysisInputError, mixed_anova, posthoc, sphericity_correction
+from microg.analysis import (
+    ANOVA_COLUMNS,
+    AnalysisInputError,
+    mixed_anova,
+    posthoc,
+    sphericity_correction,
+)
+from tests.analysis.r_compare import MIXED, R_ANOVA_NUMBERS, R_DIR, assert_same_numbers
 
 RTOL = 1e-6
 COLUMNS = ["SS", "df1", "df2", "F", "p_unc", "np2", "eps_GG", "p_GG", "W_mauchly", "p_mauchly"]
@@ -118,13 +126,42 @@ def test_too_few_error_degrees_of_freedom_is_an_input_error():
     data = pd.DataFrame(
         {"s": ["a", "a", "b", "b"], "g": ["x", "x", "y", "y"], "w": ["1", "2", "1", "2"], "v": [1.0, 2, 3, 5]}
     )
-    with pytest.raises(AnalysisInputError, match="leave 0 error degrees of freedom; the 2 levels of column 'w' "
-                                                 "need at least 1"):
+    with pytest.raises(
+        AnalysisInputError, match="leave 0 error degrees of freedom; the 2 levels of column 'w' need at least 1"
+    ):
         mixed_anova(data, "v", "w", "g", "s")
 
 
-def test_a_measure_without_variation_is_an_input_error_not_a_crash():
+@pytest.mark.parametrize("dataset, ss_type", [("mixed_anova", 3), ("mixed_anova", 2), ("mixed_anova_unbalanced", 3),
+                                              ("mixed_anova_unbalanced", 2)])  # fmt: skip
+def test_every_column_matches_r(dataset, ss_type):
+    """Generalised eta squared (afex), the Huynh-Feldt epsilon and p (car), the CI of partial eta
+    squared (the noncentral F inverted in R; effectsize to its optimiser's 1e-5) and the rest."""
+    table = mixed_anova(pg.read_dataset(dataset), "Scores", "Time", "Group", "Subject", ss_type=ss_type)
+    expected = pd.read_csv(MIXED / f"{dataset}_type{ss_type}_anova.csv")
+    assert_same_numbers(table, expected, ["source"], R_ANOVA_NUMBERS)
+    merged = table.merge(expected, on="source", suffixes=("", "_r"))
+    for bound in ("np2_ci_low", "np2_ci_high"):
+        np.testing.assert_allclose(merged[bound], merged[f"{bound}_effectsize"], rtol=1e-4, atol=1e-6)
+
+
+def test_an_effect_with_a_sum_of_squares_of_zero_has_f_0_and_p_1_as_in_r():
+    """Both groups hold the same values: afex gives F = 0 (to 1e-30) and p = 1 for group and the
+    interaction; statsmodels' multivariate test used to crash there."""
+    data = pd.read_csv(R_DIR / "zero_effect.csv")
+    table = mixed_anova(data, "attempts", "object", "group", "participant")
+    assert_same_numbers(table, pd.read_csv(MIXED / "zero_effect_type3_anova.csv"), ["source"], R_ANOVA_NUMBERS)
+    zero = table.set_index("source").loc[["group", "group:object"]]
+    assert (zero["SS"] == 0).all() and (zero["F"] == 0).all() and (zero["p_unc"] == 1).all()
+    assert (zero["np2"] == 0).all() and (zero["ges"] == 0).all()
+
+
+def test_a_measure_without_variation_gives_f_0_and_p_1_not_a_crash():
+    """A constant measure (every drop count 0): nothing to test. R's afex divides 0 by 0 there (NaN
+    for the within effects, rounding noise for the between effect); we report F = 0 and p = 1."""
     data = pd.DataFrame({"s": list("aaabbbcccddd"), "g": list("xxxxxxyyyyyy"), "w": list("123") * 4,
-                         "v": [0.0] * 12})
-    with pytest.raises(AnalysisInputError, match="covariance singular"):
-        mixed_anova(data, "v", "w", "g", "s")
+                         "v": [0.0] * 12})  # fmt: skip
+    table = mixed_anova(data, "v", "w", "g", "s")
+    assert (table["F"] == 0).all() and (table["p_unc"] == 1).all()
+    assert table["eps_GG"].isna().all()
+    assert (sphericity_correction(table)["p"] == 1).all()

@@ -11,8 +11,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pingouin as pg
+import pytest
 
-from microg.analysis import POSTHOC_COLUMNS, posthoc
+from microg.analysis import POSTHOC_COLUMNS, posthoc, simple_effects
+from tests.analysis.r_compare import (
+    MIXED,
+    R_POSTHOC_NUMBERS,
+    R_SIMPLE_NUMBERS,
+    assert_same_numbers,
+)
 
 RTOL = 1e-6
 NUMBERS = ["estimate", "SE", "df", "T", "p_unc", "p_bonf"]
@@ -82,3 +89,25 @@ def test_pooled_within_group_variance_differs_from_a_groupless_paired_t():
     groupless = paired[(paired["A"] == "T0") & (paired["B"] == "T3")].iloc[0]
     assert ours["df"] == 23 and groupless["dof"] == 25
     assert abs(ours["p_unc"] - groupless["p_unc"]) > 1e-3
+
+
+@pytest.mark.parametrize("dataset", ["mixed_anova", "mixed_anova_unbalanced"])
+def test_confidence_intervals_and_simple_effects_match_emmeans(dataset):
+    """95 % CIs (unadjusted and Bonferroni-adjusted, emmeans' confint), the simple effects
+    (joint_tests by group) and the pairs within each group, on balanced and unbalanced data."""
+    data = pg.read_dataset(dataset)
+    prefix = MIXED / f"{dataset}_type3"
+    table = posthoc(data, "Scores", "Time", "Group", "Subject", within_by_group=True)
+    classic = table[~(table["at"].notna() & (table["factor"] == "Time"))]
+    assert_same_numbers(classic, pd.read_csv(f"{prefix}_posthoc.csv"), ["factor", "at", "A", "B"], R_POSTHOC_NUMBERS)
+    within_groups = table[table["at"].notna() & (table["factor"] == "Time")]
+    assert_same_numbers(within_groups, pd.read_csv(f"{prefix}_simple_pairs.csv"), ["factor", "at", "A", "B"],
+                        R_POSTHOC_NUMBERS)  # fmt: skip
+    effects = simple_effects(data, "Scores", "Time", "Group", "Subject")
+    assert_same_numbers(effects, pd.read_csv(f"{prefix}_simple_effects.csv"), ["effect", "at"], R_SIMPLE_NUMBERS)
+
+
+def test_the_bonferroni_interval_excludes_zero_exactly_when_the_bonferroni_p_is_below_05():
+    table = posthoc(pg.read_dataset("mixed_anova_unbalanced"), "Scores", "Time", "Group", "Subject")
+    excludes = (table["ci_low_bonf"] > 0) | (table["ci_high_bonf"] < 0)
+    assert (excludes == (table["p_bonf"] < 0.05)).all()

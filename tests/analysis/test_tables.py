@@ -3,14 +3,24 @@ trials become participant-level cells by the documented rules."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from microg.analysis import AnalysisInputError, complete_cases, participant_cells, read_questionnaire, read_trials
+from microg.analysis import (
+    AnalysisInputError,
+    analyse_study,
+    complete_cases,
+    incomplete_cases,
+    participant_cells,
+    read_questionnaire,
+    read_trials,
+)
 from microg.analysis.tables import exclude_stages
-from microg.study.cli import main
+from microg.cli import main
 from tests.analysis.study_data import make_study
 
 
@@ -49,7 +59,7 @@ def test_participant_in_two_groups_is_named(tmp_path, study):
     other = "B" if trials.loc[0, "group"] == "V" else "V"
     trials.loc[trials.index[trials["participant"] == who][-1], "group"] = other
     path = _write(tmp_path, trials, "trials.csv")
-    with pytest.raises(AnalysisInputError, match=rf"{path}: participant '{who}' appears in groups 'B' and 'V'"):
+    with pytest.raises(AnalysisInputError, match=rf"{path}: participant '{who}' has 'B' and 'V' in column 'group'"):
         read_trials(path)
 
 
@@ -130,7 +140,7 @@ def test_cells_use_completed_times_and_all_attempts():
             "attempts": [1.0, 4.0, 0.0],
         }
     )
-    assert participant_cells(trials, "time_s")["time_s"].tolist() == [15.0]
+    assert participant_cells(trials, "time_s", completed="completed")["time_s"].tolist() == [15.0]
     assert participant_cells(trials, "attempts")["attempts"].tolist() == [5.0 / 3.0]
 
 
@@ -142,7 +152,8 @@ def test_complete_cases_lists_who_was_dropped_and_why():
             "v": [1.0, 2.0, 3.0, 4.0, np.nan],
         }
     )
-    kept, dropped = complete_cases(cells, "v", "object", "participant")
+    kept = complete_cases(cells, "v", "object", "participant")
+    dropped = incomplete_cases(cells, "v", "object", "participant")
     assert sorted(kept["participant"].unique()) == ["a"]
     assert dropped.set_index("participant")["reason"].to_dict() == {
         "b": "no v for object long",
@@ -156,3 +167,128 @@ def test_training_trials_are_left_out(study):
     kept = exclude_stages(trials, ["training"])
     assert not (kept["stage"] == "training").any()
     assert len(kept) == int((trials["stage"] != "training").sum())
+
+
+@pytest.mark.parametrize("value, what", [(np.inf, "inf is not finite"), (-np.inf, "-inf is not finite"),
+                                         (1e308, "1e+308 is larger than 1e+12")])  # fmt: skip
+def test_non_finite_and_absurd_values_name_file_column_and_row(tmp_path, study, value, what):
+    trials = study[0].copy()
+    trials.loc[7, "time_s"] = value
+    path = _write(tmp_path, trials, "trials.csv")
+    who = trials.loc[7, "participant"]
+    with pytest.raises(
+        AnalysisInputError, match=re.escape(f"{path}: column 'time_s' value {what} (data row 8, participant '{who}')")
+    ):
+        read_trials(path)
+
+
+def test_empty_files_are_refused_with_the_file_named(tmp_path, study):
+    empty = tmp_path / "trials.csv"
+    empty.write_text("")
+    with pytest.raises(AnalysisInputError, match=rf"{empty}: the file is empty"):
+        read_trials(empty)
+    header_only = _write(tmp_path, study[0].iloc[:0], "header.csv")
+    with pytest.raises(AnalysisInputError, match=rf"{header_only}: no trials"):
+        read_trials(header_only)
+    answers = _write(tmp_path, study[1].iloc[:0], "answers.csv")
+    with pytest.raises(AnalysisInputError, match=rf"{answers}: no ratings"):
+        read_questionnaire(answers)
+
+
+def test_wrong_types_are_refused(tmp_path, study):
+    trials = study[0].copy()
+    trials["attempts"] = trials["attempts"].astype(object)
+    trials.loc[5, "attempts"] = True
+    with pytest.raises(AnalysisInputError, match=r"column 'attempts' value 'True' is not a number \(data row 6"):
+        read_trials(_write(tmp_path, trials.assign(attempts=trials["attempts"].astype(str)), "a.csv"))
+    flagged = study[0].assign(completed="maybe")
+    with pytest.raises(AnalysisInputError, match=r"column 'completed' value 'maybe' is not True or False \(data row 1"):
+        read_trials(_write(tmp_path, flagged, "b.csv"))
+    not_a_table = tmp_path / "trials.parquet"
+    not_a_table.write_text("participant,group")
+    with pytest.raises(AnalysisInputError, match=rf"{not_a_table}: not a readable parquet table"):
+        read_trials(not_a_table)
+
+
+def test_a_system_with_two_labels_is_refused(study):
+    trials = study[0].assign(system_label=np.where(study[0]["system"] == "soft_hand", "System 2", "System 1"))
+    trials.loc[3, "system_label"] = "System 3"
+    with pytest.raises(
+        AnalysisInputError, match=r"system '.*' has 'System \d' and 'System 3' in column 'system_label'"
+    ):
+        analyse_study(trials)
+
+
+def test_any_tidy_table_works_with_its_own_column_names(study):
+    """The whole analysis on renamed columns gives the same numbers as on the export's names."""
+    trials, answers = study
+    names = {
+        "participant": "pid",
+        "group": "cohort",
+        "object": "shape",
+        "system": "tool",
+        "time_s": "duration",
+        "attempts": "errors",
+        "completed": "done",
+        "stage": "phase",
+        "item": "question",
+        "rating": "score",
+    }
+    renamed = analyse_study(
+        trials.rename(columns=names),
+        answers.rename(columns=names),
+        subject="pid",
+        group="cohort",
+        within="shape",
+        system_column="tool",
+        dv=["duration", "errors"],
+        counts=["errors"],
+        completed="done",
+        stage="phase",
+        item="question",
+        rating="score",
+    )
+    plain = analyse_study(trials, answers)
+    measures = {"duration": "time_s", "errors": "attempts"}
+    for piece in ("anova", "posthoc", "simple_effects", "assumptions", "cell_means", "count_model", "comparison"):
+        ours = (
+            getattr(renamed, piece)
+            .replace({"measure": measures})
+            .replace({"cohort": "group", "shape": "object", "cohort:shape": "group:object"})
+        )
+        numbers = ours.select_dtypes("number").columns
+        theirs = getattr(plain, piece)
+        np.testing.assert_allclose(ours[numbers].to_numpy(float), theirs[numbers].to_numpy(float), rtol=1e-12,
+                                   err_msg=piece)  # fmt: skip
+    np.testing.assert_array_equal(renamed.likert_tests["p_unc"], plain.likert_tests["p_unc"])
+    assert set(renamed.dropped["pid"]) == set(plain.dropped["participant"])
+
+
+def test_cli_takes_column_names_as_options_and_from_a_file(tmp_path, study):
+    trials = study[0].rename(columns={"participant": "pid", "object": "shape", "time_s": "rt", "attempts": "errors"})
+    path = _write(tmp_path, trials, "mine.csv")
+    options = ["report", "--trials", str(path), "--subject", "pid", "--within", "shape", "--dv", "rt",
+               "--dv", "errors", "--count", "errors"]  # fmt: skip
+    result = CliRunner().invoke(main, [*options, "--out", str(tmp_path / "a")])
+    assert result.exit_code == 0, result.output
+    mapping = tmp_path / "columns.toml"
+    mapping.write_text('subject = "pid"\nwithin = "shape"\ndv = ["rt", "errors"]\ncounts = "errors"\n')
+    result = CliRunner().invoke(main, ["report", "--trials", str(path), "--columns", str(mapping), "--out",
+                                       str(tmp_path / "b")])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    for name in ("anova_rt.csv", "anova_errors_soft_hand.csv", "count_model.csv", "systems.csv"):
+        pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "a" / name), pd.read_csv(tmp_path / "b" / name))
+    assert set(pd.read_csv(tmp_path / "a" / "count_model.csv")["measure"]) == {"errors"}
+    plain = analyse_study(study[0])
+    anova = pd.read_csv(tmp_path / "a" / "anova_rt.csv")
+    np.testing.assert_allclose(anova["F"], plain.table("anova", "impulse_penetration", "time_s")["F"], rtol=1e-12)
+
+
+def test_cli_names_a_bad_mapping_file(tmp_path, study):
+    mapping = tmp_path / "columns.toml"
+    mapping.write_text('participant = "pid"\n')
+    path = _write(tmp_path, study[0], "trials.csv")
+    result = CliRunner().invoke(main, ["report", "--trials", str(path), "--columns", str(mapping), "--out",
+                                       str(tmp_path / "out")])  # fmt: skip
+    assert result.exit_code == 1
+    assert f"{mapping}: unknown key 'participant'" in result.output

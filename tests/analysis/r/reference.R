@@ -1,24 +1,65 @@
-# Reference values for microg.analysis, computed with R's afex, emmeans and stats.
+# Reference values for microg.analysis, computed with R's afex, emmeans, car, rstatix, effectsize,
+# geepack and stats.
 #
 #   Rscript reference.R mixed DATA.csv DV WITHIN BETWEEN SUBJECT SS_TYPE OUT_PREFIX
-#     afex::aov_ez (type SS_TYPE, Greenhouse-Geisser) -> OUT_PREFIX_anova.csv
-#     emmeans on afex's multivariate model, Bonferroni -> OUT_PREFIX_posthoc.csv
+#     afex::aov_ez (type SS_TYPE) with generalised eta squared, Greenhouse-Geisser and Huynh-Feldt,
+#     and the CI of partial eta squared -> OUT_PREFIX_anova.csv
+#     emmeans on afex's multivariate model, Bonferroni, with CIs -> OUT_PREFIX_posthoc.csv
+#     simple effects (emmeans joint_tests by BETWEEN) -> OUT_PREFIX_simple_effects.csv, their pairs
+#     -> OUT_PREFIX_simple_pairs.csv; Levene, Box's M, Shapiro-Wilk of the residuals
+#     -> OUT_PREFIX_assumptions.csv; mean, SD, SE, n per cell -> OUT_PREFIX_cell_means.csv
 #   Rscript reference.R study TRIALS.csv QUESTIONNAIRE.csv SYSTEM BASELINE OUT_DIR
 #     the whole analysis of a study export, following the rules in docs/analysis.md:
-#     anova_<measure>_<system>.csv, posthoc_<measure>_<system>.csv, systems.csv,
-#     likert_summary.csv, likert_tests.csv
+#     <table>_<measure>_<system>.csv for each table above, count_model_attempts_<system>.csv
+#     (geepack), systems.csv, likert_summary.csv, likert_tests.csv
 # Factor levels are R's sorted levels; contrasts are "A - B" in that order.
+# Confidence intervals of partial eta squared and d_z are computed twice: by inverting R's
+# noncentral F / t with uniroot (np2_ci_low ...; exact) and by effectsize (*_effectsize; its
+# optimiser stops at about 1e-5 relative).
 suppressMessages({
   library(afex)
   library(emmeans)
+  library(car)
+  library(rstatix)
+  library(effectsize)
+  library(geepack)
 })
 
+noncentral_root <- function(cdf, p, floor) {
+  # the noncentrality where cdf (falling in it) equals p; floor when the root would be below it
+  if (!is.na(floor) && cdf(floor) <= p) return(floor)
+  low <- if (is.na(floor)) -1 else floor
+  high <- 1
+  while (cdf(low) < p) low <- low * 2
+  while (cdf(high) > p) high <- high * 2
+  uniroot(function(x) cdf(x) - p, c(low, high), tol = 1e-13)$root
+}
+
+eta2_ci <- function(f, df1, df2) {
+  bounds <- sapply(c(0.975, 0.025), function(p) noncentral_root(function(x) pf(f, df1, df2, ncp = x), p, 0))
+  bounds / (bounds + df2)
+}
+
+dz_ci <- function(t, n) {
+  sapply(c(0.975, 0.025), function(p) noncentral_root(function(x) pt(t, n - 1, ncp = x), p, NA)) / sqrt(n)
+}
+
+rbc_ci <- function(rbc, n_nonzero) {
+  # effectsize::rank_biserial's interval (Fisher z), for our rbc
+  se <- sqrt((2 * n_nonzero^3 + 3 * n_nonzero^2 + n_nonzero) / 6) / ((n_nonzero^2 + n_nonzero) / 2)
+  tanh(atanh(rbc) + c(-1, 1) * qnorm(0.975) * se)
+}
+
 mixed_reference <- function(d, dv, within, between, subject, ss_type) {
+  # complete cases, as afex keeps them: the assumption checks and cell means describe the same data
+  present <- table(d[[subject]][!is.na(d[[dv]])])
+  d <- d[d[[subject]] %in% names(present)[present == length(unique(d[[within]]))], ]
   d[[within]] <- factor(d[[within]])
   d[[between]] <- factor(d[[between]])
   d[[subject]] <- factor(d[[subject]])
   fit <- suppressWarnings(suppressMessages(aov_ez(
-    id = subject, dv = dv, data = d, between = between, within = within, type = ss_type)))
+    id = subject, dv = dv, data = d, between = between, within = within, type = ss_type,
+    anova_table = list(es = "ges", correction = "none"))))
   uni <- suppressWarnings(summary(fit$Anova, multivariate = FALSE))
   tests <- as.data.frame(unclass(uni$univariate.tests))
   tests <- tests[rownames(tests) != "(Intercept)", ]
@@ -28,6 +69,11 @@ mixed_reference <- function(d, dv, within, between, subject, ss_type) {
     table <- as.data.frame(unclass(table))
     ifelse(sources %in% rownames(table), table[sources, column], NA)
   }
+  ci <- t(mapply(eta2_ci, tests[["F value"]], tests[["num Df"]], tests[["den Df"]]))
+  ci_effectsize <- t(mapply(function(f, df1, df2) {
+    e <- F_to_eta2(f, df1, df2, ci = 0.95, alternative = "two.sided")
+    c(e$CI_low, e$CI_high)
+  }, tests[["F value"]], tests[["num Df"]], tests[["den Df"]]))
   anova <- data.frame(
     source = sources,
     SS = tests[["Sum Sq"]],
@@ -37,28 +83,85 @@ mixed_reference <- function(d, dv, within, between, subject, ss_type) {
     F = tests[["F value"]],
     p_unc = tests[["Pr(>F)"]],
     np2 = tests[["Sum Sq"]] / (tests[["Sum Sq"]] + tests[["Error SS"]]),
+    ges = fit$anova_table[sources, "ges"],
+    np2_ci_low = ci[, 1], np2_ci_high = ci[, 2],
+    np2_ci_low_effectsize = ci_effectsize[, 1], np2_ci_high_effectsize = ci_effectsize[, 2],
     eps_GG = lookup(uni$pval.adjustments, "GG eps"),
     p_GG = lookup(uni$pval.adjustments, "Pr(>F[GG])"),
+    eps_HF = lookup(uni$pval.adjustments, "HF eps"),
+    p_HF = lookup(uni$pval.adjustments, "Pr(>F[HF])"),
     W_mauchly = lookup(uni$sphericity.tests, "Test statistic"),
     p_mauchly = lookup(uni$sphericity.tests, "p-value")
   )
-  tidy_pairs <- function(prs, family) {
-    unadj <- as.data.frame(summary(prs, by = NULL, adjust = "none"))
-    adj <- as.data.frame(summary(prs, by = NULL, adjust = "bonferroni"))
+  tidy_pairs <- function(prs, family, at) {
+    unadj <- as.data.frame(summary(prs, by = NULL, adjust = "none", infer = TRUE))
+    adj <- as.data.frame(summary(prs, by = NULL, adjust = "bonferroni", infer = TRUE))
     levels <- strsplit(as.character(unadj$contrast), " - ", fixed = TRUE)
     data.frame(
       factor = family,
-      at = if (family == between) as.character(unadj[[within]]) else NA,
+      at = if (is.null(at)) NA else as.character(unadj[[at]]),
       A = sapply(levels, `[`, 1), B = sapply(levels, `[`, 2),
       estimate = unadj$estimate, SE = unadj$SE, df = unadj$df, T = unadj$t.ratio,
-      p_unc = unadj$p.value, p_bonf = adj$p.value
+      p_unc = unadj$p.value, p_bonf = adj$p.value,
+      ci_low = unadj$lower.CL, ci_high = unadj$upper.CL, ci_low_bonf = adj$lower.CL, ci_high_bonf = adj$upper.CL
     )
   }
+  by <- function(a, b) as.formula(paste("~", a, "|", b))
   posthoc <- rbind(
-    tidy_pairs(pairs(emmeans(fit, as.formula(paste("~", within)))), within),
-    tidy_pairs(pairs(emmeans(fit, as.formula(paste("~", between, "|", within)))), between)
+    tidy_pairs(pairs(emmeans(fit, as.formula(paste("~", within)))), within, NULL),
+    tidy_pairs(pairs(emmeans(fit, by(between, within))), between, within)
   )
-  list(anova = anova, posthoc = posthoc)
+  simple_pairs <- tidy_pairs(pairs(emmeans(fit, by(within, between))), within, between)
+  joint <- as.data.frame(joint_tests(fit, by = between))
+  simple_effects <- data.frame(
+    effect = within, at = as.character(joint[[between]]), df1 = joint$df1, df2 = joint$df2,
+    # joint_tests prints F rounded to 3 decimals; its p is exact, and so is the F it comes from
+    F = qf(joint$p.value, joint$df1, joint$df2, lower.tail = FALSE),
+    p_unc = joint$p.value, p_bonf = p.adjust(joint$p.value, method = "bonferroni"))
+  levene <- do.call(rbind, lapply(levels(d[[within]]), function(level) {
+    test <- leveneTest(as.formula(paste(dv, "~", between)), data = d[d[[within]] == level, ])
+    data.frame(check = "Levene", at = level, statistic = test[1, "F value"], df1 = test[1, "Df"],
+               df2 = test[2, "Df"], p = test[1, "Pr(>F)"])
+  }))
+  wide <- reshape(aggregate(d[dv], by = d[c(subject, between, within)], FUN = mean),
+                  idvar = c(subject, between), timevar = within, direction = "wide")
+  box <- box_m(wide[, -(1:2)], wide[[between]])
+  shapiro <- shapiro.test(suppressMessages(residuals(fit)))
+  assumptions <- rbind(
+    levene,
+    data.frame(check = "Box's M", at = "", statistic = box$statistic, df1 = box$parameter, df2 = NA, p = box$p.value),
+    data.frame(check = "Shapiro-Wilk of residuals", at = "", statistic = unname(shapiro$statistic), df1 = NA,
+               df2 = NA, p = shapiro$p.value))
+  keyed <- aggregate(d[dv], by = d[c(subject, between, within)], FUN = mean)
+  stats <- function(f) aggregate(keyed[dv], by = keyed[c(between, within)], FUN = f)
+  cell_means <- data.frame(stats(length)[c(between, within)], n = stats(length)[[dv]], mean = stats(mean)[[dv]],
+                           sd = stats(sd)[[dv]], se = stats(sd)[[dv]] / sqrt(stats(length)[[dv]]),
+                           share_zero = stats(function(v) mean(v == 0))[[dv]])
+  list(anova = anova, posthoc = posthoc, simple_effects = simple_effects, simple_pairs = simple_pairs,
+       assumptions = assumptions, cell_means = cell_means)
+}
+
+count_reference <- function(tasks, dv, within, between, subject) {
+  # Poisson GEE, exchangeable correlation within participant, sum-to-zero coding; robust Wald
+  # chi-square per term from geepack's coefficients and sandwich covariance
+  tasks <- tasks[order(tasks[[subject]]), ]
+  tasks$id <- factor(tasks[[subject]])
+  tasks$b <- factor(tasks[[between]])
+  tasks$w <- factor(tasks[[within]])
+  tasks$y <- tasks[[dv]]
+  old <- options(contrasts = c("contr.sum", "contr.poly"))
+  on.exit(options(old))
+  fit <- geeglm(y ~ b * w, id = id, family = poisson, corstr = "exchangeable", data = tasks)
+  coefs <- coef(fit)
+  covariance <- vcov(fit)
+  assign <- attr(model.matrix(fit), "assign")
+  terms <- c(between, within, paste0(between, ":", within))
+  do.call(rbind, lapply(1:3, function(term) {
+    i <- which(assign == term)
+    chi2 <- as.numeric(t(coefs[i]) %*% solve(covariance[i, i], coefs[i]))
+    data.frame(term = terms[term], chi2 = chi2, df = length(i), p_unc = pchisq(chi2, length(i), lower.tail = FALSE),
+               correlation = summary(fit)$corr[1, "Estimate"], n_tasks = nrow(tasks))
+  }))
 }
 
 signed_rank <- function(x, y) {
@@ -71,8 +174,10 @@ signed_rank <- function(x, y) {
   v_minus <- sum(ranks[d < 0])
   ties <- table(ranks)
   z <- (v_plus - n * (n + 1) / 4) / sqrt(n * (n + 1) * (2 * n + 1) / 24 - sum(ties^3 - ties) / 48)
-  list(V = unname(test$statistic), p = test$p.value, z = z, r = z / sqrt(n),
-       rbc = (v_plus - v_minus) / (v_plus + v_minus))
+  rbc <- (v_plus - v_minus) / (v_plus + v_minus)
+  ci <- rbc_ci(rbc, n)
+  list(V = unname(test$statistic), p = test$p.value, z = z, r = z / sqrt(n), rbc = rbc, n_nonzero = n,
+       rbc_ci_low = ci[1], rbc_ci_high = ci[2])
 }
 
 study_reference <- function(trials_file, answers_file, system, baseline, out) {
@@ -90,9 +195,18 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
   systems <- list()
   for (dv in names(cells)) {
     for (s in sort(unique(trials$system))) {
-      res <- mixed_reference(cells[[dv]][cells[[dv]]$system == s, ], dv, "object", "group", "participant", 3)
-      write.csv(res$anova, file.path(out, paste0("anova_", dv, "_", s, ".csv")), row.names = FALSE)
-      write.csv(res$posthoc, file.path(out, paste0("posthoc_", dv, "_", s, ".csv")), row.names = FALSE)
+      c1 <- cells[[dv]][cells[[dv]]$system == s, ]
+      res <- mixed_reference(c1, dv, "object", "group", "participant", 3)
+      for (table in names(res)) {
+        write.csv(res[[table]], file.path(out, paste0(table, "_", dv, "_", s, ".csv")), row.names = FALSE)
+      }
+      if (dv == "attempts") {
+        counts <- table(c1$participant)
+        complete <- names(counts)[counts == length(objects)]
+        tasks <- rows[[dv]][rows[[dv]]$system == s & rows[[dv]]$participant %in% complete, ]
+        write.csv(count_reference(tasks, dv, "object", "group", "participant"),
+                  file.path(out, paste0("count_model_", dv, "_", s, ".csv")), row.names = FALSE)
+      }
     }
     means <- lapply(c(system, baseline), function(s) {
       c1 <- cells[[dv]][cells[[dv]]$system == s, ]
@@ -104,12 +218,26 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
     x <- as.numeric(means[[1]][ids]); y <- as.numeric(means[[2]][ids])
     tt <- t.test(x, y, paired = TRUE)
     sr <- signed_rank(x, y)
+    dz <- cohens_d(x, y, paired = TRUE, ci = 0.95)
+    dz_interval <- dz_ci(unname(tt$statistic), length(ids))
     systems[[dv]] <- data.frame(
       measure = dv, system = system, baseline = baseline, n = length(ids),
       mean_system = mean(x), sd_system = sd(x), mean_baseline = mean(y), sd_baseline = sd(y),
       mean_diff = mean(x - y), T = unname(tt$statistic), dof = unname(tt$parameter), p_t = tt$p.value,
       cohen_d = mean(x - y) / sqrt((var(x) + var(y)) / 2),
-      V = sr$V, p_wilcoxon = sr$p, rbc = sr$rbc, p_shapiro = shapiro.test(x - y)$p.value)
+      V = sr$V, p_wilcoxon = sr$p, rbc = sr$rbc, p_shapiro = shapiro.test(x - y)$p.value,
+      diff_ci_low = tt$conf.int[1], diff_ci_high = tt$conf.int[2],
+      d_z = dz$Cohens_d, d_z_ci_low = dz_interval[1], d_z_ci_high = dz_interval[2],
+      d_z_ci_low_effectsize = dz$CI_low, d_z_ci_high_effectsize = dz$CI_high,
+      rbc_ci_low = sr$rbc_ci_low, rbc_ci_high = sr$rbc_ci_high, n_nonzero = sr$n_nonzero)
+    if (all(x != y)) {  # effectsize ranks zero differences its own way; compare it where there are none
+      rb <- rank_biserial(x, y, paired = TRUE, ci = 0.95)
+      systems[[dv]]$rbc_effectsize <- rb$r_rank_biserial
+      systems[[dv]]$rbc_ci_low_effectsize <- rb$CI_low
+      systems[[dv]]$rbc_ci_high_effectsize <- rb$CI_high
+    } else {
+      systems[[dv]][c("rbc_effectsize", "rbc_ci_low_effectsize", "rbc_ci_high_effectsize")] <- NA
+    }
   }
   write.csv(do.call(rbind, systems), file.path(out, "systems.csv"), row.names = FALSE)
 
@@ -129,7 +257,8 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
     pairs <- merge(x, y, by = "participant", suffixes = c("_system", "_baseline"))
     sr <- signed_rank(pairs$rating_system, pairs$rating_baseline)
     test_rows[[item]] <- data.frame(item = item, n = nrow(pairs), V = sr$V, p_unc = sr$p,
-                                    z = sr$z, r = sr$r, rbc = sr$rbc)
+                                    z = sr$z, r = sr$r, rbc = sr$rbc, rbc_ci_low = sr$rbc_ci_low,
+                                    rbc_ci_high = sr$rbc_ci_high)
   }
   likert_summary <- do.call(rbind, summary_rows)
   names(likert_summary)[8:18] <- paste0("count_", 0:10)
@@ -143,8 +272,7 @@ args <- commandArgs(trailingOnly = TRUE)
 if (length(args) == 8 && args[1] == "mixed") {
   res <- mixed_reference(read.csv(args[2], stringsAsFactors = FALSE), args[3], args[4], args[5], args[6],
                          as.integer(args[7]))
-  write.csv(res$anova, paste0(args[8], "_anova.csv"), row.names = FALSE)
-  write.csv(res$posthoc, paste0(args[8], "_posthoc.csv"), row.names = FALSE)
+  for (table in names(res)) write.csv(res[[table]], paste0(args[8], "_", table, ".csv"), row.names = FALSE)
 } else if (length(args) == 6 && args[1] == "study") {
   study_reference(args[2], args[3], args[4], args[5], args[6])
 } else {

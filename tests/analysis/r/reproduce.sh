@@ -1,23 +1,24 @@
 #!/usr/bin/env bash
 # Regenerate the R reference values the analysis tests hold (run from anywhere; needs Rscript with
-# afex and emmeans, e.g. Debian's r-base-core r-cran-afex r-cran-emmeans, and the project's venv).
-#   - afex/emmeans on the mixed_anova datasets that pingouin ships: printed; the values are written
-#     into tests/analysis/test_anova.py and tests/analysis/test_posthoc.py
+# afex, emmeans, car, rstatix, effectsize and geepack, e.g. Debian's r-base-core r-cran-afex
+# r-cran-emmeans r-cran-car r-cran-rstatix r-cran-effectsize r-cran-geepack, and the project's venv).
+#   - expected/mixed/: afex/emmeans/car/rstatix on the mixed_anova datasets that pingouin ships
+#     (types 2 and 3) and on zero_effect.csv (both groups hold the same values: group and
+#     interaction sums of squares are exactly 0)
 #   - expected/study/: the whole analysis of study_trials.csv + study_questionnaire.csv
 #     (made once with tests/analysis/study_data.py: make_study(seed=11))
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 python="${PYTHON:-$here/../../../.venv/bin/python}"
 datasets="$("$python" -c 'import os, pingouin; print(os.path.join(os.path.dirname(pingouin.__file__), "datasets"))')"
-printed="$(mktemp -d)"
+mkdir -p "$here/expected/mixed" "$here/expected/study"
 for dataset in mixed_anova mixed_anova_unbalanced; do
   for type in 2 3; do
-    Rscript "$here/reference.R" mixed "$datasets/$dataset.csv" Scores Time Group Subject $type "$printed/${dataset}_type$type"
-    echo "== $dataset, type $type"
-    cat "$printed/${dataset}_type${type}_anova.csv" "$printed/${dataset}_type${type}_posthoc.csv"
+    Rscript "$here/reference.R" mixed "$datasets/$dataset.csv" Scores Time Group Subject $type \
+      "$here/expected/mixed/${dataset}_type$type"
   done
 done
-rm -r "$printed"
-mkdir -p "$here/expected/study"
+Rscript "$here/reference.R" mixed "$here/zero_effect.csv" attempts object group participant 3 \
+  "$here/expected/mixed/zero_effect_type3"
 Rscript "$here/reference.R" study "$here/study_trials.csv" "$here/study_questionnaire.csv" \
   impulse_penetration soft_hand "$here/expected/study"

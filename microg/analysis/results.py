@@ -1,0 +1,519 @@
+"""What a reader of the report reads: the Results paragraphs (APA style) and the tables with
+readable headers and journal-formatted numbers, made from a :class:`StudyAnalysis`. The CSV files
+keep the raw numbers at full precision."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from microg.analysis.analyse import StudyAnalysis
+from microg.analysis.apa import (
+    bounded,
+    chi_square,
+    degrees,
+    f_test,
+    interval,
+    number,
+    p_cell,
+    p_value,
+    t_test,
+)
+from microg.analysis.assumptions import BOX_M_ALPHA
+from microg.analysis.likert import SCALE
+
+MEASURE_LABELS = {"time_s": "completion time (s)", "attempts": "attempts (drops)"}
+ETA_P, ETA_G, EPSILON, CHI2 = "\u03b7p\u00b2", "\u03b7G\u00b2", "\u03b5", "\u03c7\u00b2"
+MINUS = " \u2212 "
+
+
+def measure_label(dv: str) -> str:
+    """How a reader sees a measure: "completion time (s)" for time_s, else the column's name."""
+    return MEASURE_LABELS.get(dv, dv)
+
+
+def sample_size(analysis: StudyAnalysis, kind: str, system: str = "", measure: str = "") -> str:
+    """The N an analysis used, per group: "N = 28 (B: 14, V: 14)"."""
+    rows = _rows(analysis.sample, kind, system, measure)
+    groups = ", ".join(f"{g}: {n}" for g, n in zip(rows[analysis.group], rows["n"]))
+    return f"N = {int(rows['n'].sum())} ({groups})"
+
+
+def exclusions(analysis: StudyAnalysis, kind: str, system: str = "", measure: str = "") -> str:
+    """Who an analysis left out and why, or "" when nobody."""
+    rows = _rows(analysis.dropped, kind, system, measure)
+    if rows.empty:
+        return ""
+    listed = "; ".join(f"{who} ({why})" for who, why in zip(rows[analysis.subject], rows["reason"]))
+    return f"{len(rows)} excluded: {listed}"
+
+
+def anova_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
+    """The Results paragraph of one system's mixed ANOVA of ``dv``: N and who was excluded, the
+    effects, post hoc tests, simple effects after a significant interaction and, for counts, the
+    count model."""
+    a = analysis
+    anova = a.table("anova", system, dv).set_index("source")
+    chosen = a.table("corrections", system, dv).set_index("source")
+    cells = a.table("cells", system, dv)
+    n_levels, n_groups = cells[a.within].nunique(), cells[a.group].nunique()
+    left_out = exclusions(a, "ANOVA", system, dv)
+    text = [
+        f"{measure_label(dv).capitalize()} with {a.label(system)}: {sample_size(a, 'ANOVA', system, dv)}"
+        + (f"; {left_out}." if left_out else ".")
+    ]
+    if np.isclose(cells["value"].std(), 0):
+        value = number(cells["value"].iloc[0])
+        text.append(
+            f"Every participant's {measure_label(dv)} is {value}: the measure does not vary, so there is nothing "
+            "to test (the ANOVA table reports F = 0 and p = 1 for each effect, as R does)."
+        )
+        return " ".join(text + _count_sentences(a, system, dv))
+    interaction = f"{a.group}:{a.within}"
+    names = {a.group: f"main effect of {a.group}", a.within: f"main effect of {a.within}",
+             interaction: f"{a.group} \u00d7 {a.within} interaction"}  # fmt: skip
+    effects = []
+    for source in (a.group, a.within, interaction):
+        row, choice = anova.loc[source], chosen.loc[source]
+        wording = "a significant" if choice["p"] < a.alpha else "no significant"
+        effect = (
+            f"{wording} {names[source]}, {f_test(row['F'], choice['df1'], choice['df2'], choice['p'])}, "
+            f"{ETA_P} = {bounded(row['np2'])}, 95 % CI {interval(row['np2_ci_low'], row['np2_ci_high'], bounded)}, "
+            f"{ETA_G} = {bounded(row['ges'])}"
+        )
+        if choice["correction"] == "Greenhouse-Geisser":
+            effect += f" (Greenhouse-Geisser corrected, {EPSILON} = {bounded(choice['epsilon'])})"
+        effects.append(effect)
+    text.append(
+        f"A {n_groups} \u00d7 {n_levels} mixed ANOVA ({a.group} between, {a.within} within participants; type "
+        f"{a.ss_type} sums of squares) showed {effects[0]}; {effects[1]}; and {effects[2]}."
+    )
+    significant = {source: chosen.loc[source, "p"] < a.alpha for source in chosen.index}
+    text.extend(
+        _posthoc_sentences(a, system, dv, significant[a.within], significant[a.group] or significant[interaction])
+    )
+    if interaction_significant(a, system, dv):
+        text.extend(_simple_effect_sentences(a, system, dv))
+    return " ".join(text + _count_sentences(a, system, dv))
+
+
+def assumptions_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
+    """The assumption checks of one system's ANOVA of ``dv`` in words, each with what follows from it."""
+    return " ".join(_assumption_sentences(analysis, system, dv))
+
+
+def interaction_significant(analysis: StudyAnalysis, system: str, dv: str) -> bool:
+    """Whether the interaction's p (as read: corrected where sphericity is violated) is below alpha."""
+    chosen = analysis.table("corrections", system, dv)
+    return bool(chosen["p"].iloc[2] < analysis.alpha)
+
+
+def comparison_paragraph(analysis: StudyAnalysis, dv: str) -> str:
+    """System vs baseline on ``dv`` (the paper's Table 1) in words."""
+    a = analysis
+    row = a.comparison.set_index("measure").loc[dv]
+    left_out = exclusions(a, "pairs", a.system, dv)
+    versus = f"{a.label(a.system)} vs {a.label(a.baseline)}"
+    lead = f"{measure_label(dv).capitalize()}, {versus}: {sample_size(a, 'pairs', a.system, dv)} pairs"
+    text = [lead + (f"; {left_out}." if left_out else ".")]
+    text.append(
+        f"M = {number(row['mean_system'])} (SD = {number(row['sd_system'])}) vs M = {number(row['mean_baseline'])} "
+        f"(SD = {number(row['sd_baseline'])}); difference M = {number(row['mean_diff'])}, 95 % CI "
+        f"{interval(row['diff_ci_low'], row['diff_ci_high'])}, {t_test(row['T'], row['dof'], row['p_t'])}, "
+        f"d_z = {number(row['d_z'])}, 95 % CI {interval(row['d_z_ci_low'], row['d_z_ci_high'])}; Wilcoxon "
+        f"signed-rank V = {number(row['V'], 1)}, p {p_value(row['p_wilcoxon'])}, r_rb = {bounded(row['rbc'])}, "
+        f"95 % CI {interval(row['rbc_ci_low'], row['rbc_ci_high'], bounded)}."
+    )
+    if row["p_shapiro"] < a.alpha:
+        text.append(
+            f"The paired differences are far from normal (Shapiro-Wilk p {p_value(row['p_shapiro'])}): "
+            "the Wilcoxon test is the one to read."
+        )
+    return " ".join(text)
+
+
+def likert_paragraph(analysis: StudyAnalysis) -> str:
+    """The questionnaire's tests in words (Bonferroni across items)."""
+    a = analysis
+    tests = a.likert_tests
+    parts = [
+        f"{row['item']} (n = {int(row['n'])}): Mdn = {number(row['median_system'], 1)} vs "
+        f"{number(row['median_baseline'], 1)}, V = {number(row['V'], 1)}, p {p_value(row['p_bonf'])}, "
+        f"r_rb = {bounded(row['rbc'])}, 95 % CI {interval(row['rbc_ci_low'], row['rbc_ci_high'], bounded)}"
+        for _, row in tests.iterrows()
+    ]
+    return (
+        f"Ratings of {a.label(a.system)} vs {a.label(a.baseline)} (Wilcoxon signed-rank tests on participants who "
+        f"rated both; p Bonferroni-corrected over {len(tests)} items): " + "; ".join(parts) + "."
+    )
+
+
+def anova_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """The ANOVA table with readable headers; df and p are those of the test read (Greenhouse-Geisser
+    corrected where sphericity is violated, as in the Results paragraph)."""
+    table = analysis.table("anova", system, dv)
+    chosen = analysis.table("corrections", system, dv)
+    return pd.DataFrame(
+        {
+            "Effect": _sources(table["source"]),
+            "SS": table["SS"].map(number),
+            "df": chosen["df1"].map(degrees),
+            "df error": chosen["df2"].map(degrees),
+            "MS": table["MS"].map(number),
+            "F": table["F"].map(number),
+            "p": chosen["p"].map(p_cell),
+            ETA_P: table["np2"].map(bounded),
+            f"{ETA_P} 95 % CI": [
+                interval(lo, hi, bounded) for lo, hi in zip(table["np2_ci_low"], table["np2_ci_high"])
+            ],
+            ETA_G: table["ges"].map(bounded),
+        }
+    )
+
+
+def sphericity_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """Mauchly's test, both epsilons with their corrected p, and the correction used, per within effect."""
+    table = analysis.table("anova", system, dv).iloc[1:]
+    chosen = analysis.table("corrections", system, dv).iloc[1:]
+    return pd.DataFrame(
+        {
+            "Effect": _sources(table["source"]),
+            "Mauchly's W": table["W_mauchly"].map(bounded),
+            "p (Mauchly)": table["p_mauchly"].map(p_cell),
+            f"{EPSILON} (GG)": table["eps_GG"].map(bounded),
+            "p (GG)": table["p_GG"].map(p_cell),
+            f"{EPSILON} (HF)": table["eps_HF"].map(bounded),
+            "p (HF)": table["p_HF"].map(p_cell),
+            "Correction used": chosen["correction"].to_numpy(),
+        }
+    )
+
+
+def contrasts_table(analysis: StudyAnalysis, table: pd.DataFrame) -> pd.DataFrame:
+    """Post hoc comparisons (or the simple effects' pairs) with readable headers."""
+    a = analysis
+
+    def comparison(row) -> str:
+        pair = f"{row['A']}{MINUS}{row['B']}"
+        if row["factor"] == a.group:
+            return f"{pair} at {row['at']}"
+        return pair if pd.isna(row["at"]) else f"{pair} in {a.group} {row['at']}"
+
+    return pd.DataFrame(
+        {
+            "Comparison": table.apply(comparison, axis=1),
+            "Estimate": table["estimate"].map(number),
+            "SE": table["SE"].map(number),
+            "t": table["T"].map(number),
+            "df": table["df"].map(degrees),
+            "p": table["p_unc"].map(p_cell),
+            "p (Bonferroni)": table["p_bonf"].map(p_cell),
+            "95 % CI (Bonferroni)": [interval(lo, hi) for lo, hi in zip(table["ci_low_bonf"], table["ci_high_bonf"])],
+        }
+    )
+
+
+def simple_effects_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """The effect of the within factor in each group."""
+    table = analysis.table("simple_effects", system, dv)
+    return pd.DataFrame(
+        {
+            analysis.group.capitalize(): table["at"],
+            "F": table["F"].map(number),
+            "df": table["df1"].map(degrees),
+            "df error": table["df2"].map(degrees),
+            "p": table["p_unc"].map(p_cell),
+            "p (Bonferroni)": table["p_bonf"].map(p_cell),
+        }
+    )
+
+
+def assumptions_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """Each assumption check and what follows from it."""
+    table = analysis.table("assumptions", system, dv)
+    names = {"Levene": "Levene (median)", "Box's M": f"Box's M ({CHI2})", "Shapiro-Wilk of residuals": "Shapiro-Wilk W"}
+    return pd.DataFrame(
+        {
+            "Check": table["check"].map(names),
+            "At": table["at"],
+            "Statistic": [
+                bounded(v, 3) if c.startswith("Shapiro") else number(v)
+                for c, v in zip(table["check"], table["statistic"])
+            ],
+            "df": [", ".join(d for d in (degrees(d1), degrees(d2)) if d) for d1, d2 in zip(table["df1"], table["df2"])],
+            "p": table["p"].map(p_cell),
+            "What follows": table["consequence"],
+        }
+    )
+
+
+def count_model_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """The count model's Wald tests."""
+    table = analysis.table("count_model", system, dv)
+    return pd.DataFrame(
+        {
+            "Term": _sources(table["term"]),
+            CHI2: table["chi2"].map(number),
+            "df": table["df"].map(degrees),
+            "p": table["p_unc"].map(p_cell),
+        }
+    )
+
+
+def cell_means_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+    """Mean, SD, SE and n per group and level (share of zeros for counts)."""
+    a = analysis
+    table = a.table("cell_means", system, dv)
+    shown = pd.DataFrame(
+        {
+            a.group.capitalize(): table[a.group],
+            a.within.capitalize(): table[a.within],
+            "n": table["n"].astype(int),
+            "M": table["mean"].map(number),
+            "SD": table["sd"].map(number),
+            "SE": table["se"].map(number),
+        }
+    )
+    if dv in a.counts:
+        shown["% zero"] = (100 * table["share_zero"]).map(lambda v: number(v, 0))
+    return shown
+
+
+def table1(analysis: StudyAnalysis) -> pd.DataFrame:
+    """The paper's Table 1 with its n: M (SD) of each measure for the system and the baseline."""
+    a = analysis
+    comparison = a.comparison.set_index("measure")
+    rows = []
+    for who, prefix in ((a.system, "system"), (a.baseline, "baseline")):
+        row = {"System": a.label(who)}
+        for dv, values in comparison.iterrows():
+            row[f"{measure_label(dv)}, n"] = str(int(values["n"]))
+            row[f"{measure_label(dv)}, M (SD)"] = (
+                f"{number(values[f'mean_{prefix}'])} ({number(values[f'sd_{prefix}'])})"
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def ttest_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """Table 1's paired t-tests: difference with 95 % CI, t, p and effect sizes."""
+    table = analysis.comparison
+    return pd.DataFrame(
+        {
+            "Measure": table["measure"].map(measure_label),
+            "n": table["n"].astype(int),
+            "Difference M": table["mean_diff"].map(number),
+            "95 % CI": [interval(lo, hi) for lo, hi in zip(table["diff_ci_low"], table["diff_ci_high"])],
+            "t": table["T"].map(number),
+            "df": table["dof"].map(degrees),
+            "p": table["p_t"].map(p_cell),
+            "d_z [95 % CI]": _with_interval(table, "d_z", number),
+            "d_av": table["cohen_d"].map(number),
+        }
+    )
+
+
+def wilcoxon_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """Table 1's Wilcoxon signed-rank tests with the rank-biserial correlation and normality of the differences."""
+    table = analysis.comparison
+    return pd.DataFrame(
+        {
+            "Measure": table["measure"].map(measure_label),
+            "n (non-zero)": [f"{int(n)} ({int(m)})" for n, m in zip(table["n"], table["n_nonzero"])],
+            "V": table["V"].map(lambda v: number(v, 1)),
+            "p": table["p_wilcoxon"].map(p_cell),
+            "r_rb [95 % CI]": _with_interval(table, "rbc", bounded),
+            "Shapiro-Wilk p of differences": table["p_shapiro"].map(p_cell),
+        }
+    )
+
+
+def likert_distribution_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """Median, quartiles, mean and the count of each rating, per item and system."""
+    table = analysis.likert_summary
+    shown = pd.DataFrame(
+        {
+            "Item": table.iloc[:, 0],
+            "System": table.iloc[:, 1].map(analysis.label),
+            "n": table["n"].astype(int),
+            "Mdn": table["median"].map(lambda v: number(v, 1)),
+            "Q1-Q3": [f"{number(lo, 1)}-{number(hi, 1)}" for lo, hi in zip(table["q1"], table["q3"])],
+            "M": table["mean"].map(number),
+        }
+    )
+    for score in SCALE:
+        shown[str(score)] = table[f"count_{score}"].astype(int)
+    return shown
+
+
+def likert_tests_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """The per-item Wilcoxon tests."""
+    table = analysis.likert_tests
+    return pd.DataFrame(
+        {
+            "Item": table["item"],
+            "n": table["n"].astype(int),
+            f"Mdn {analysis.label(analysis.system)}": table["median_system"].map(lambda v: number(v, 1)),
+            f"Mdn {analysis.label(analysis.baseline)}": table["median_baseline"].map(lambda v: number(v, 1)),
+            "V": table["V"].map(lambda v: number(v, 1)),
+            "z": table["z"].map(number),
+            "p": table["p_unc"].map(p_cell),
+            "p (Bonferroni)": table["p_bonf"].map(p_cell),
+            "r": table["r"].map(bounded),
+            "r_rb [95 % CI]": _with_interval(table, "rbc", bounded),
+        }
+    )
+
+
+def sample_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """The participants each analysis used, per group (the effective N), beside those in the data."""
+    a = analysis
+    keys = a.sample[["analysis", "system", "measure"]].drop_duplicates()
+    names = {
+        "data": "in the data",
+        "ANOVA": "mixed ANOVA",
+        "pairs": "system vs baseline",
+        "Likert": "questionnaire item",
+    }
+    rows = []
+    for kind, system, measure in keys.itertuples(index=False):
+        what = names[kind] if kind != "Likert" else f"{names[kind]} {measure}"
+        if kind in ("ANOVA", "pairs"):
+            what += f", {measure_label(measure)}"
+        if kind == "ANOVA":
+            what += f", {a.label(system)}"
+        rows.append({"Analysis": what, "N (per group)": sample_size(a, kind, system, measure).removeprefix("N = ")})
+    return pd.DataFrame(rows)
+
+
+def dropped_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """Who was left out of which analysis, and why."""
+    a = analysis
+    table = a.dropped
+    what = []
+    for kind, system, measure in table[["analysis", "system", "measure"]].itertuples(index=False):
+        label = a.label(system) if system else ""
+        names = {
+            "all": "all analyses",
+            "ANOVA": f"mixed ANOVA, {measure_label(measure)}, {label}",
+            "pairs": f"system vs baseline, {measure_label(measure)}",
+            "Likert": "questionnaire",
+        }
+        what.append(names[kind])
+    return pd.DataFrame({"Analysis": what, a.subject.capitalize(): table[a.subject], "Reason": table["reason"]})
+
+
+def _posthoc_sentences(a: StudyAnalysis, system: str, dv: str, levels: bool, groups: bool) -> list[str]:
+    table = a.table("posthoc", system, dv)
+    sentences = []
+    pairs = table[table["factor"] == a.within]
+    if levels and len(pairs):
+        sentences.append(
+            f"Pairwise comparisons of {a.within} (averaged over {a.group}s; p and 95 % CIs Bonferroni-adjusted over "
+            f"{len(pairs)} pairs): " + "; ".join(_contrast(row) for _, row in pairs.iterrows()) + "."
+        )
+    at_levels = table[table["factor"] == a.group]
+    if groups and len(at_levels):
+        sentences.append(
+            f"{a.group.capitalize()} comparisons at each {a.within} (Bonferroni-adjusted over {len(at_levels)} "
+            "comparisons): " + "; ".join(f"at {row['at']}, {_contrast(row)}" for _, row in at_levels.iterrows()) + "."
+        )
+    return sentences
+
+
+def _simple_effect_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
+    effects = a.table("simple_effects", system, dv)
+    tests = "; ".join(
+        f"{a.group} {row['at']}, {f_test(row['F'], row['df1'], row['df2'], row['p_bonf'])}"
+        for _, row in effects.iterrows()
+    )
+    pairs = a.table("simple_pairs", system, dv)
+    listed = "; ".join(f"in {row['at']}, {_contrast(row)}" for _, row in pairs.iterrows())
+    return [
+        (
+            f"As the interaction was significant, the effect of {a.within} was tested within each {a.group} (Wald F on "
+            f"the pooled covariance, as emmeans' joint tests; p Bonferroni-adjusted over the {len(effects)} "
+            f"{a.group}s): {tests}. Pairwise comparisons of {a.within} within each {a.group} (Bonferroni-adjusted "
+            f"over {len(pairs)} comparisons): {listed}."
+        )
+    ]
+
+
+def _assumption_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
+    checks = a.table("assumptions", system, dv)
+    levene = checks[checks["check"] == "Levene"]
+    tested = levene.dropna(subset=["p"])
+    parts = []
+    if len(tested):
+        listed = "; ".join(
+            f"{row['at']}, F({degrees(row['df1'])}, {degrees(row['df2'])}) = {number(row['statistic'])}, "
+            f"p {p_value(row['p'])}"
+            for _, row in tested.iterrows()
+        )
+        violated = tested[tested["violated"]]
+        follows = (
+            "; ".join(violated["consequence"])
+            if len(violated)
+            else f"equal variances of the {a.group}s are plausible at every {a.within}"
+        )
+        parts.append(f"Levene's test (median-centred) of the {a.group}s' variances: {listed}: {follows}.")
+    for _, row in checks[checks["check"] != "Levene"].iterrows():
+        if np.isnan(row["p"]):
+            parts.append(f"{row['check']}: {row['consequence']}.")
+        elif row["check"] == "Box's M":
+            parts.append(
+                f"Box's M: {chi_square(row['statistic'], row['df1'], row['p'])} (read at {bounded(BOX_M_ALPHA, 3)}): "
+                f"{row['consequence']}."
+            )
+        else:
+            parts.append(
+                f"Shapiro-Wilk test of the ANOVA residuals: W = {bounded(row['statistic'], 3)}, p {p_value(row['p'])}: "
+                f"{row['consequence']}."
+            )
+    return parts
+
+
+def _count_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
+    if dv not in a.counts:
+        return []
+    table = a.table("count_model", system, dv)
+    if table.empty:
+        return []
+    first = table.iloc[0]
+    zeros = f"{number(100 * first['share_zero'], 0)} % of them 0"
+    lead = (
+        f"In addition to the paper's analysis, the counts of the {int(first['n_tasks'])} tasks ({zeros}) of the "
+        f"{int(first['n_subjects'])} participants were modelled with a Poisson GEE (log link, exchangeable correlation "
+        "within participant, robust Wald tests)"
+    )
+    if first["model"] == "none":
+        return [f"{lead}: {first['note']}."]
+    tests = "; ".join(
+        f"{name}, {chi_square(row['chi2'], row['df'], row['p_unc'])}"
+        for name, (_, row) in zip(_sources(table["term"]), table.iterrows())
+        if not np.isnan(row["chi2"])
+    )
+    correlation = f"estimated correlation {bounded(first['correlation'])}"
+    extra = "" if first["model"] == "main effects and interaction" else f"; {first['note']}"
+    return [f"{lead}; {correlation}{extra}: {tests}."]
+
+
+def _with_interval(table: pd.DataFrame, column: str, format_one) -> list[str]:
+    """ "estimate [low, high]" from the columns ``column``, ``column``_ci_low and ``column``_ci_high."""
+    values = zip(table[column], table[f"{column}_ci_low"], table[f"{column}_ci_high"])
+    return [f"{format_one(value)} {interval(low, high, format_one)}" for value, low, high in values]
+
+
+def _contrast(row) -> str:
+    return (
+        f"{row['A']}{MINUS}{row['B']} = {number(row['estimate'])}, 95 % CI "
+        f"{interval(row['ci_low_bonf'], row['ci_high_bonf'])}, p {p_value(row['p_bonf'])}"
+    )
+
+
+def _sources(sources: pd.Series) -> list[str]:
+    return [source.replace(":", " \u00d7 ") for source in sources]
+
+
+def _rows(table: pd.DataFrame, kind: str, system: str, measure: str) -> pd.DataFrame:
+    return table[(table["analysis"] == kind) & (table["system"] == system) & (table["measure"] == measure)]

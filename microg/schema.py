@@ -1,0 +1,66 @@
+"""The columns of the exported tables, in one place: the export writes them, the analysis reads them.
+
+Each table is a tuple of :class:`Column` (name, pandas dtype, one-line description) in the order the
+export writes them. ``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` are the names in that order,
+``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` map each name to its dtype. Columns marked optional
+may be absent from a table; readers must not require them.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+
+class Column(NamedTuple):
+    """One column of an exported table."""
+
+    name: str
+    dtype: str
+    description: str
+    optional: bool = False
+
+
+TRIALS = (
+    Column("study", "string", "the study's name"),
+    Column("participant", "string", "participant id, e.g. P01"),
+    Column("group", "string", "the participant's group code, e.g. V (trained first) or B (beginners)"),
+    Column("gender", "string", "the participant's gender as enrolled"),
+    Column("age", "Int64", "the participant's age in years"),
+    Column("handedness", "string", "left or right"),
+    Column("mr_experience", "bool", "whether the participant had used mixed reality before"),
+    Column("stage", "string", "the protocol stage the task belongs to, e.g. training, stage1, stage2"),
+    Column("system", "string", "code of the system (interaction model) the task ran with"),
+    Column("object", "string", "the object's code in the protocol, e.g. C, F, L"),
+    Column("order_position", "Int64", "position of the task in the participant's object order"),
+    Column("completed", "bool", "whether the task was completed"),
+    Column("time_s", "float64", "completion time in seconds; empty unless completed"),
+    Column("attempts", "Int64", "number of drops; empty for a task that never ran"),
+    Column("started_at", "float64", "session-clock seconds when the task's last run started"),
+    Column("ended_at", "float64", "session-clock seconds when the task's last run ended"),
+    Column("status", "string", "completed, timeout, aborted, skipped, unfinished or not_run"),
+    Column("simulated", "bool", "whether a simulated participant did the task"),
+    Column("object_name", "string", "the object's name, e.g. cube"),
+    Column("system_label", "string", "the protocol's label for that system, e.g. System 1", optional=True),
+    Column("runs", "Int64", "how many times the task was run"),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
+    Column("session", "Int64", "id of the session in the study's log"),
+    Column("task_index", "Int64", "index of the task within its session"),
+)
+
+QUESTIONNAIRE = (
+    Column("study", "string", "the study's name"),
+    Column("participant", "string", "participant id, e.g. P01"),
+    Column("group", "string", "the participant's group code"),
+    Column("system", "string", "code of the system the rating is about"),
+    Column("system_label", "string", "the protocol's label for that system, e.g. System 1", optional=True),
+    Column("item", "string", "the questionnaire item, e.g. naturalness"),
+    Column("rating", "Int64", "the rating on the 0-10 scale"),
+    Column("source", "string", "who gave the rating: participant or model"),
+    Column("simulated", "bool", "whether the rating comes from the rating model"),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
+)
+
+TRIAL_COLUMNS = tuple(column.name for column in TRIALS)
+QUESTIONNAIRE_COLUMNS = tuple(column.name for column in QUESTIONNAIRE)
+TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
+QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
