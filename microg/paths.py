@@ -1,13 +1,24 @@
-"""Where the project's shipped files live: protocols, object definitions, sample data."""
+"""Where the project's shipped files live: protocols, object definitions, sample recordings.
+
+They are the repository's top-level ``protocols/`` and ``data/`` folders; an installed package
+carries them as ``microg/protocols`` and ``microg/data`` (package data, see pyproject.toml).
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-SOURCE_ROOT = Path(__file__).resolve().parent.parent
-PROTOCOLS = SOURCE_ROOT / "protocols"
+PACKAGE = Path(__file__).resolve().parent
+
+
+def _shipped(name: str) -> Path:
+    inside = PACKAGE / name
+    return inside if inside.is_dir() else PACKAGE.parent / name
+
+
+PROTOCOLS = _shipped("protocols")
 OBJECTS = PROTOCOLS / "objects"
-DATA = SOURCE_ROOT / "data"
+DATA = _shipped("data")
 LEAP_RECORDINGS = DATA / "leap-v2-recordings"
 """Four real Leap Motion recordings in LeapJS v2 JSON (see the README beside them)."""
 

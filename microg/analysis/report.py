@@ -204,7 +204,7 @@ def report_sections(analysis: StudyAnalysis) -> dict:
         "wilcoxon": r.wilcoxon_table(a) if comparison else None,
         "likert": r.likert_paragraph(a) if not a.likert_tests.empty else "",
         "likert_distribution": r.likert_distribution_table(a) if not a.likert_summary.empty else None,
-        "likert_tests": r.likert_tests_table(a) if not a.likert_tests.empty else None,
+        "likert_tests": r.likert_analyse_batch(a) if not a.likert_tests.empty else None,
         "methods": methods(a),
     }
 

@@ -346,7 +346,7 @@ def likert_distribution_table(analysis: StudyAnalysis) -> pd.DataFrame:
     return shown
 
 
-def likert_tests_table(analysis: StudyAnalysis) -> pd.DataFrame:
+def likert_analyse_batch(analysis: StudyAnalysis) -> pd.DataFrame:
     """The per-item Wilcoxon tests."""
     table = analysis.likert_tests
     return pd.DataFrame(

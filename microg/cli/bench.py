@@ -1,4 +1,4 @@
-"""``microg bench``: the benchmarks of ``microg.bench`` (accuracy, peers, throughput)."""
+"""``microg bench``: the benchmarks of ``microg.bench`` (accuracy, peers, throughput, coldstart)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def _options(function):
 
 @click.group()
 def bench() -> None:
-    """Benchmarks: what accuracy costs, the peers beside us, throughput. Not part of the tests."""
+    """Benchmarks: what accuracy costs, the peers beside us, throughput, cold start. Not part of the tests."""
 
 
 @bench.command()
@@ -60,6 +60,48 @@ def throughput(out: Path, figures: Path, quick: bool, participants: int | None) 
     table = load("throughput").run(out, figures, quick, participants)
     click.echo(table.to_string(index=False))
     click.echo(f"-> {out / 'throughput.csv'}, {figures / 'bench-throughput.png'}")
+
+
+@bench.command()
+@_options
+def coldstart(out: Path, figures: Path, quick: bool) -> None:
+    """Fresh process to first physics frame with an empty compile cache, and with a warm one (coldstart.csv)."""
+    table = load("coldstart").run(out, figures, quick)
+    click.echo(table.to_string(index=False))
+    click.echo(f"-> {out / 'coldstart.csv'}")
+
+
+@bench.command("power")
+@click.option("--quick", is_flag=True, help="A fast smoke run: 100 data sets per n instead of 1000.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
+              show_default=True, help="Directory for power.csv.")
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+              help="Worker processes of the local Dask cluster.")
+def power_bench(out: Path, quick: bool, workers: int) -> None:
+    """Monte Carlo power of the paper's 2 x 3 design (1000 data sets x n = 8, 10, 15, 20) on a local Dask
+    cluster, against the report's one-by-one analysis (power.csv)."""
+    from microg.power.bench import run
+
+    table = run(out, quick, workers)
+    click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+    click.echo(f"-> {out / 'power.csv'}")
+
+
+@bench.command("display")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
+              show_default=True, help="Directory for display_latency.csv and webxr_latency.csv.")
+@click.option("--quick", is_flag=True, help="30 s of the screen session and 15 s of the headset's, instead of "
+                                            "the whole simulated session and 60 s.")
+def display_bench(out: Path, quick: bool) -> None:
+    """The participant view's latency in headless Chromium: a 110 Hz simulated session's physics result
+    to the drawn frame (display_latency.csv), and under WebXR emulation a hand pose read in the page to
+    that pose drawn with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
+    from microg.bench.display import run
+
+    try:
+        run(out, quick, say=click.echo)
+    except (RuntimeError, FileNotFoundError) as error:
+        raise click.ClickException(str(error)) from None
 
 
 COMMANDS = [bench]

@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import click
 
-from microg.paths import DATA
-
 from .common import clear_errors
 
 
 @click.command()
-@click.option("--out", type=click.Path(file_okay=False), default=str(DATA / "demo"), show_default=True,
-              help="Folder for the study, its tables and its report.")
+@click.option("--out", type=click.Path(file_okay=False), default="microg-demo", show_default=True,
+              help="Folder for the study, its tables and its report (in the current folder by default).")
 @click.option("--participants", type=click.IntRange(1), default=30, show_default=True,
               help="Simulated participants to enrol (the paper had 30).")
 @click.option("--seed", type=click.IntRange(0), default=1, show_default=True,

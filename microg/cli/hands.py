@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import click
@@ -47,17 +48,17 @@ def hands() -> None:
 
 @hands.command("import")
 @click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+@click.option("--out", "output", type=click.Path(dir_okay=False, path_type=Path),
               help=f"Recording to write (default: ./NAME{SUFFIX}).")
-@click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
-def import_command(file: Path, output: Path | None, force: bool) -> None:
+@click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+def import_command(file: Path, output: Path | None, overwrite: bool) -> None:
     """Convert a LeapJS v2 recording (JSON, plain or .gz) to the project's recording format."""
     recording = _load(file)
     output = output or _default_output(file)
     try:
-        written = write_recording(output, recording.info, recording.frames, overwrite=force)
+        written = write_recording(output, recording.info, recording.frames, overwrite=overwrite)
     except FileExistsError as error:
-        raise click.ClickException(f"{error} (use --force to overwrite)") from None
+        raise click.ClickException(f"{error} (use --overwrite to replace it)") from None
     click.echo(f"{file} -> {output}: {written} frames, {recording.info.source}")
 
 
@@ -144,17 +145,35 @@ def filter_report_command(recording: Path, windows: str, side: str | None, plot:
 
 
 @hands.command("record")
-@click.argument("output", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help=f"Recording to write (NAME{SUFFIX}).")
+@click.option("--input", "input_kind", type=click.Choice(["leap", "webxr"]), default="leap", show_default=True,
+              help="leap (a Leap Motion on this machine) or webxr (a headset's own hand tracking, read by the "
+                   "participant's page, which this command serves: open it in the headset's browser).")
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True),
               help="Seconds to record (default: until Ctrl-C).")
 @click.option("--frames", "max_frames", type=click.IntRange(min=1), help="Frames to record at most.")
-@click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
-def record_command(output: Path, duration: float | None, max_frames: int | None, force: bool) -> None:
-    """Record a live Leap Motion to a recording file (needs Ultraleap's SDK, bindings and a device)."""
+@click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+@click.option("--protocol", "protocol_name", default="paper", show_default=True,
+              help="With --input webxr: the protocol whose workspace the headset places (a file, or the name "
+                   "of a shipped protocol); the joints are recorded in its tracker frame.")
+@click.option("--host", default="127.0.0.1", show_default=True,
+              help="With --input webxr: the address the page listens on (anything but 127.0.0.1 needs the "
+                   "one-time token printed with the address).")
+@click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
+              help="With --input webxr: the page's port (0: a free one; fix it for adb reverse).")
+def record_command(output: Path, input_kind: str, duration: float | None, max_frames: int | None, overwrite: bool,
+                   protocol_name: str, host: str, port: int) -> None:
+    """Record live hands to a recording file: a Leap Motion (needs Ultraleap's SDK, bindings and a
+    device), or a headset's hand tracking through the participant's page (--input webxr)."""
+    if output.exists() and not overwrite:
+        raise click.ClickException(f"{output}: already exists (use --overwrite to replace it)")
+    limits = dict(duration=duration, max_frames=max_frames, overwrite=overwrite)
+    if input_kind == "webxr":
+        _record_webxr(output, protocol_name, host, port, limits)
+        return
     from microg.hands.leap_device import LeapSource, LeapUnavailable
 
-    if output.exists() and not force:
-        raise click.ClickException(f"{output}: already exists (use --force to overwrite)")
     try:
         source = LeapSource()
     except LeapUnavailable as error:
@@ -162,13 +181,66 @@ def record_command(output: Path, duration: float | None, max_frames: int | None,
     try:
         info = RecordingInfo(source="leap", device=source.device, frame_rate=source.frame_rate, start_time=UNKNOWN)
         click.echo(f"recording {source.device} at {source.frame_rate:.0f} Hz to {output}; Ctrl-C stops")
-        summary = record(source, output, info, duration=duration, max_frames=max_frames, overwrite=force)
+        summary = record(source, output, info, **limits)
     except LeapUnavailable as error:
         raise click.ClickException(f"{error}; the frames recorded so far are in {output}") from None
     finally:
         source.close()
     dropped = f" ({source.frames_dropped} frames dropped: the writer fell behind)" if source.frames_dropped else ""
     click.echo(f"{summary.frames} frames, {summary.seconds:.2f} s -> {summary.path}{dropped}")
+
+
+class _Announced:
+    """A source whose display hands on what the page measured (clock, placement) before each frame:
+    the recording loop is the thread that drives the display here."""
+
+    def __init__(self, source, display):
+        self.source, self.display, self.description = source, display, source.description
+
+    def next_frame(self, observation=None):
+        self.display.deliver_events()
+        return self.source.next_frame(observation)
+
+    def close(self) -> None:
+        self.source.close()
+
+
+def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict) -> None:
+    """``record --input webxr``: serve the participant's page, record the hands it streams."""
+    from microg.hands.webxr import WebXRSource
+    from microg.paths import protocol_file
+    from microg.study.protocol import Phase, ProtocolError, load_protocol
+    from microg.view.display import ParticipantDisplay
+
+    try:
+        protocol = load_protocol(protocol_file(protocol_name))
+    except (ProtocolError, OSError) as error:
+        raise click.ClickException(str(error)) from None
+    source = WebXRSource(protocol.tracking_rate)
+
+    def say(kind: str, data: dict) -> None:
+        """The page's placement and clock, for the researcher's notes."""
+        click.echo(f"{kind}: {json.dumps(data)}")
+
+    try:
+        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say) as display:
+            display.phase(Phase("recording", 0.0, "Your hand movements are being recorded. Move as the researcher "
+                                                  "asks you to."))
+            click.echo(f"participant view: {display.url}")
+            if display.token:
+                click.echo(f"  (one-time token {display.token}: the address above carries it)")
+            click.echo(f"enter mixed reality in the headset's browser and place the workspace; recording to {output} "
+                       "starts with the first hand frame; Ctrl-C stops")
+            info = RecordingInfo(source="webxr", device=source.device, frame_rate=float("nan"), start_time=UNKNOWN,
+                                 notes=f"WebXR Hand Input through the participant's page, in the tracker frame of "
+                                       f"protocol {protocol.name} (placed in the headset); timestamps: the page's "
+                                       f"read time plus its measured clock offset")
+            summary = record(_Announced(source, display), output, info, **limits)
+    finally:
+        source.close()
+    dropped = f" ({source.frames_dropped} frames dropped: the writer fell behind)" if source.frames_dropped else ""
+    click.echo(f"{summary.frames} frames, {summary.seconds:.2f} s at {source.frame_rate:.0f} Hz -> {summary.path}"
+               f"{dropped}")
 
 
 COMMANDS = [hands]

@@ -57,7 +57,7 @@ def add_sample(study_dir: str, seed: int) -> None:
 
 @participant.command("withdraw")
 @study_dir_argument
-@click.argument("participant_id")
+@click.option("--participant", "participant_id", required=True, help="The participant to withdraw.")
 @click.option("--reason", required=True, help="Why, for the record.")
 @clear_errors
 def withdraw(study_dir: str, participant_id: str, reason: str) -> None:
@@ -72,7 +72,7 @@ def withdraw(study_dir: str, participant_id: str, reason: str) -> None:
 @clear_errors
 def list_participants(study_dir: str) -> None:
     """Every participant with group, object order and status."""
-    with open_study(study_dir) as store:
+    with open_study(study_dir, readonly=True) as store:
         for record in store.participants():
             click.echo(f"{_describe(record)} [{record.status}]")
 

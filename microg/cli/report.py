@@ -82,10 +82,11 @@ def report(
         raise click.UsageError("give --trials FILE (and optionally --likert FILE) or --study DIR")
     if study is not None:
         from microg.study.export import read_tables
+        from microg.study.store import StoreError
 
         try:
             trials_table, questionnaire = read_tables(study)
-        except FileNotFoundError as error:
+        except (FileNotFoundError, StoreError) as error:
             raise click.ClickException(str(error)) from error
         if questionnaire is not None and questionnaire.empty:
             questionnaire = None

@@ -1,18 +1,27 @@
-"""``microg session run | resume``: run a participant's session from live, replayed or simulated hands."""
+"""``microg session run | resume``: run a participant's session from live, replayed or simulated hands,
+with the participant's view served by the session itself (``--display``)."""
 
 from __future__ import annotations
+
+import contextlib
 
 import click
 from tqdm import tqdm
 
-from microg.study.inputs import open_inputs, parse_input
+from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
 from microg.study.protocol import Phase
+from microg.study.model_rater import ModelRater
 from microg.study.questionnaire import TerminalRater
-from microg.study.session import make_clock, resume_session, run_session
-from microg.study.store import Event, PlannedTask, Store, open_study
+from microg.study.session import Unattended, make_clock, resume_session, run_session
+from microg.study.protocol import ProtocolError
+from microg.study.replay import ReplayError, ReplayInputs
+from microg.study.store import Event, PlannedTask, Store, describe_counts, open_study, plan_tasks
+
 from .common import clear_errors, study_dir_argument
 
-QUESTIONNAIRE_DEFAULT = {"leap": "ask", "replay": "skip", "simulated": "model"}
+QUESTIONNAIRE_DEFAULT = {"leap": "ask", "webxr": "ask", "lsl": "ask", "replay": "skip", "simulated": "model"}
+LIVE = ("leap", "webxr", "lsl")
+"""Inputs with a person at the tracker: the display is on by default."""
 
 
 class TerminalOperator:
@@ -29,27 +38,55 @@ class TerminalOperator:
                               f"{task.order_position}. Enter to start, s to skip", default="", show_default=False)
         return answer.strip().lower() != "s"
 
+    def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        click.echo(f"task {task.index} {status}" + (f" in {time_s:.1f} s" if time_s is not None else ""))
+
 
 @click.group("session")
 def session() -> None:
     """Run and resume participants' sessions."""
 
 
-def _rater(kind: str, store: Store, session_id: int, seed: int, clock):
+def _rejected_logger(store: Store, session_id: int, clock):
+    def rejected(item, stage, text, message):
+        store.log(session_id, [Event(clock.now(), "answer_rejected", {"system": stage.system, "item": item.name,
+                                                                      "answer": text, "message": message})])
+    return rejected
+
+
+def _event_logger(store: Store, session_id: int, clock):
+    """Logs what the participant's page measured or decided (``display_clock``, ``display_placement``)
+    with the session; the display calls it on the session's thread."""
+    def log(kind: str, data: dict) -> None:
+        store.log(session_id, [Event(clock.now(), kind, data)])
+    return log
+
+
+def _rater(kind: str, store: Store, session_id: int, seed: int, clock, display):
     if kind == "skip":
         return None
     if kind == "ask":
-        def rejected(item, stage, text, message):
-            store.log(session_id, [Event(clock.now(), "answer_rejected", {"system": stage.system, "item": item.name,
-                                                                  "answer": text, "message": message})])
-        return TerminalRater(on_rejected=rejected)
-
-    from microg.study.questionnaire import ModelRater
+        if display is not None:
+            from microg.view.display import DisplayRater
+            return DisplayRater(display, on_rejected=_rejected_logger(store, session_id, clock))
+        return TerminalRater(on_rejected=_rejected_logger(store, session_id, clock))
     return ModelRater(store, session_id, seed)
 
 
+def _point(text: str | None, name: str) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3:
+        raise click.BadParameter(f"{text!r}: give three numbers X,Y,Z in metres (tracker frame)", param_hint=name)
+    return values
+
+
 def _run_one(store: Store, participant_id: str, input_spec: str | None, questionnaire: str | None, lsl: bool,
-             progress: bool, resume: bool) -> str:
+             progress: bool, resume: bool, view: dict) -> str:
     record = store.participant(participant_id)
     existing = store.session_of(participant_id)
     if resume and existing is None:
@@ -57,44 +94,142 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
                                    f"microg session run {store.dir} --participant {participant_id} --input ...")
     spec = input_spec or (existing.input if existing else None)
     if spec is None:
-        raise click.ClickException("give --input leap, replay:FILE or simulated[:PROFILE]")
-    inputs = open_inputs(spec, store.protocol.group(record.group).simulated_profile)
-    kind = spec.partition(":")[0]
-    rating = questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
+        raise click.ClickException("give --input leap, webxr, replay:FILE or simulated[:PROFILE]")
+    kind = parse_input(spec)[0]
+    shown = view["display"] if view["display"] is not None else kind in LIVE
+    if kind == "webxr" and not shown:
+        raise click.UsageError("--input webxr reads the hands from the participant's page: it needs --display")
     if resume:
         session_record = existing
         if session_record.status != "running":
             raise click.ClickException(f"session {existing.id} of {participant_id} is {existing.status}; "
                                        "there is nothing to resume")
-    else:
-        session_record = store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock)
-    store.lock_session(session_record.id)
-    clock = make_clock(inputs.clock, store.last_time(session_record.id))
-    rater = _rater(rating, store, session_record.id, session_record.seed, clock)
-    markers = None
-    if lsl:
-        from microg.study.lsl import MarkerOutlet
-        markers = MarkerOutlet()
-    options = dict(clock=clock, operator=TerminalOperator() if kind == "leap" else None, rater=rater,
-                   markers=markers, progress=progress)
-    try:
-        if resume:
-            return resume_session(store, session_record.id, inputs, **options)
-        return run_session(store, session_record.id, inputs, **options)
-    except (KeyboardInterrupt, click.Abort):
-        raise click.ClickException(f"session {session_record.id} of {participant_id} paused; the task in progress "
-                                   f"will run again from its start on: microg session resume {store.dir} "
-                                   f"--participant {participant_id}") from None
-    finally:
-        inputs.close()
+    rating = questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
+    problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
+    if problems:
+        raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
+    with contextlib.ExitStack() as stack:
+        display = stack.enter_context(_display(store, view, kind)) if shown else None
+        inputs = open_inputs(spec, store.protocol.group(record.group).simulated_profile,
+                             webxr=None if display is None else display.hands, align=view["align"])
+        stack.callback(inputs.close)
+        if shown and kind not in LIVE:
+            inputs = PacedInputs(inputs, view["pace"])
+        if isinstance(inputs, ReplayInputs):  # every task has its recording, before anything runs
+            tasks = plan_tasks(store.protocol, record.group, record.object_order)
+            try:
+                inputs.check([participant_plan(store.protocol, task, participant=participant_id) for task in tasks])
+            except ReplayError as error:
+                raise click.ClickException(str(error)) from None
+        if not resume:
+            session_record = store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock)
+        store.lock_session(session_record.id)
+        clock = make_clock(inputs.clock, store.last_time(session_record.id))
+        rater = _rater(rating, store, session_record.id, session_record.seed, clock, display)
+        markers, watchers = None, []
+        if lsl:
+            from microg.study.lsl import NETWORK_NOTICE, MarkerOutlet, MocapOutlet
+            click.echo(NETWORK_NOTICE, err=True)
+            try:
+                markers = MarkerOutlet()
+                watchers.append(MocapOutlet(store.protocol.tracking_rate))
+            except ImportError as error:
+                raise click.ClickException(str(error)) from None
+        operator = TerminalOperator() if kind in LIVE else Unattended()
+        if display is not None:
+            from microg.view.display import DisplayOperator
+            operator = DisplayOperator(display, operator)
+            display.on_event = _event_logger(store, session_record.id, clock)
+            watchers.append(display.show)
+            click.echo(f"participant view: {display.url}")
+            if display.token:
+                click.echo(f"  (one-time token {display.token}: the address above carries it; "
+                           f"the page refuses to connect without it)")
+        def on_moment(moment) -> None:
+            for watch in watchers:
+                watch(moment)
+
+        options = dict(clock=clock, operator=operator, rater=rater, markers=markers, progress=progress,
+                       on_moment=on_moment if watchers else None)
+        try:
+            if resume:
+                return resume_session(store, session_record.id, inputs, **options)
+            return run_session(store, session_record.id, inputs, **options)
+        except (KeyboardInterrupt, click.Abort):
+            raise click.ClickException(f"session {session_record.id} of {participant_id} paused; the task in "
+                                       f"progress will run again from its start on: microg session resume "
+                                       f"{store.dir} --participant {participant_id}") from None
 
 
-INPUT_HELP = ("leap (live tracking), replay:FILE (a recording, replayed for each task) or simulated[:PROFILE] "
-              "(a simulated participant; PROFILE practice (skill grows with each task done), veteran or beginner; "
+def _outcome(store: Store, participant_id: str, status: str) -> str:
+    """How a session ended, with how its tasks stand: ``session of P01: incomplete, 6 tasks: 6 aborted``."""
+    return f"session of {participant_id}: {status}, {describe_counts(store.task_counts(store.session_of(participant_id).id))}"
+
+
+@contextlib.contextmanager
+def _display(store: Store, view: dict, kind: str):
+    from microg.study.protocol import Viewpoint
+    from microg.view.display import ParticipantDisplay
+
+    default = store.protocol.viewpoint
+    viewpoint = Viewpoint(_point(view["eye"], "--eye") or default.eye,
+                          _point(view["look_at"], "--look-at") or default.look_at,
+                          view["fov"] if view["fov"] is not None else default.fov_deg)
+    hands = None
+    if kind == "webxr":
+        from microg.hands.webxr import WebXRSource
+        hands = WebXRSource(store.protocol.tracking_rate)
+    with ParticipantDisplay(store.protocol, view["host"], view["port"], viewpoint, hands) as display:
+        yield display
+
+
+INPUT_HELP = ("leap (live tracking), webxr (a headset's hand tracking, through the participant's page), "
+              "replay:FILE (a recording, replayed for each task) or simulated[:PROFILE] (a simulated "
+              "participant; PROFILE practice (skill grows with each task done), veteran or beginner; "
               "default: the group's simulated_profile).")
-QUESTIONNAIRE_HELP = ("ask (in the terminal), model (the rating model of microg.participant.ratings, answers marked "
-                      "simulated) or skip; default: ask "
-                      "for leap, model for simulated, skip for replay.")
+QUESTIONNAIRE_HELP = ("ask (on the participant's page with --display, else in the terminal), model (the rating "
+                      "model, answers marked simulated) or skip; default: ask for leap and webxr, model for "
+                      "simulated, skip for replay.")
+
+
+def session_options(command):
+    """The options ``session run`` and ``session resume`` share."""
+    options = [
+        click.option("--questionnaire", type=click.Choice(["ask", "model", "skip"]), default=None,
+                     help=QUESTIONNAIRE_HELP),
+        click.option("--display/--no-display", "display", default=None,
+                     help="Serve the participant's view (page and WebSocket) from this session; default: on for "
+                          "live input (leap, webxr), off for replay and simulated."),
+        click.option("--host", default="127.0.0.1", show_default=True,
+                     help="Address the participant's view listens on; anything but 127.0.0.1 (e.g. the LAN "
+                          "address for a headset on Wi-Fi) requires a one-time token, printed with the address. "
+                          "A headset on USB reaches 127.0.0.1 through `adb reverse tcp:PORT tcp:PORT`."),
+        click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
+                     help="Port of the participant's view (0: a free one; fix it for adb reverse)."),
+        click.option("--eye", default=None, help="Screen mode: the participant's eyes X,Y,Z (m, tracker frame); "
+                                                 "default: the protocol's display.eye, else framing the places."),
+        click.option("--look-at", "look_at", default=None, help="Screen mode: the point X,Y,Z the view centres on."),
+        click.option("--fov", type=click.FloatRange(10, 120), default=None,
+                     help="Screen mode: vertical field of view (degrees) the screen spans from the eyes; "
+                          "default: the protocol's display.fov_deg, else 40."),
+        click.option("--pace", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
+                     help="With --display, replayed and simulated hands run at this many times real time."),
+        click.option("--align", default=None,
+                     help="Place replayed recordings in the workspace: start (the first palm at the task's hand "
+                          "start), grasp (the tightest thumb-index pinch on the object's start) or X,Y,Z[,RX,RY,RZ] "
+                          "(metres, then degrees); logged with each run. A manifest may set it per task."),
+        click.option("--lsl", is_flag=True, help="Stream the session on LSL (needs microg[lsl]): task and stage "
+                                                 "events as markers, and the tracked and rendered hands and the "
+                                                 "object's pose as a MoCap stream at the tracking rate."),
+        click.option("--quiet", is_flag=True, help="No progress bars."),
+    ]
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def _view(display, host, port, eye, look_at, fov, pace, align) -> dict:
+    return dict(display=display, host=host, port=port, eye=eye, look_at=look_at, fov=fov, pace=pace, align=align)
 
 
 @session.command("run")
@@ -103,26 +238,27 @@ QUESTIONNAIRE_HELP = ("ask (in the terminal), model (the rating model of microg.
 @click.option("--all", "run_all", is_flag=True,
               help="Run every active participant without a finished session (resuming unfinished ones).")
 @click.option("--input", "input_spec", required=True, help=INPUT_HELP)
-@click.option("--questionnaire", type=click.Choice(["ask", "model", "skip"]), default=None, help=QUESTIONNAIRE_HELP)
-@click.option("--lsl", is_flag=True, help="Send task and stage events as an LSL marker stream (needs microg[lsl]).")
-@click.option("--quiet", is_flag=True, help="No progress bars.")
+@session_options
 @clear_errors
 def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: str, questionnaire: str | None,
-        lsl: bool, quiet: bool) -> None:
+        display: bool | None, host: str, port: int, eye: str | None, look_at: str | None, fov: float | None, pace: float,
+        align: str | None, lsl: bool, quiet: bool) -> None:
     """Run a participant's session: timeline, tasks, questionnaire; everything is logged as it happens."""
     if bool(participant_id) == run_all:
         raise click.UsageError("give either --participant ID or --all")
     parse_input(input_spec)
+    view = _view(display, host, port, eye, look_at, fov, pace, align)
     with open_study(study_dir) as store:
         if participant_id:
-            status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, resume=False)
-            click.echo(f"session of {participant_id}: {status}")
+            status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, False, view)
+            click.echo(_outcome(store, participant_id, status))
             return
         todo = [p.id for p in store.participants() if p.status == "active"
                 and (store.session_of(p.id) is None or store.session_of(p.id).status == "running")]
         for pid in tqdm(todo, unit="participant", desc="participants", disable=quiet):
             resume = store.session_of(pid) is not None
-            _run_one(store, pid, None if resume else input_spec, questionnaire, lsl, not quiet, resume=resume)
+            status = _run_one(store, pid, None if resume else input_spec, questionnaire, lsl, not quiet, resume, view)
+            click.echo(_outcome(store, pid, status))
         click.echo(f"ran {len(todo)} session(s)")
 
 
@@ -130,17 +266,17 @@ def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: s
 @study_dir_argument
 @click.option("--participant", "participant_id", required=True, help="The participant whose session to resume.")
 @click.option("--input", "input_spec", default=None, help=INPUT_HELP + " Default: the session's own input.")
-@click.option("--questionnaire", type=click.Choice(["ask", "model", "skip"]), default=None, help=QUESTIONNAIRE_HELP)
-@click.option("--lsl", is_flag=True, help="Send task and stage events as an LSL marker stream (needs microg[lsl]).")
-@click.option("--quiet", is_flag=True, help="No progress bars.")
+@session_options
 @clear_errors
-def resume(study_dir: str, participant_id: str, input_spec: str | None, questionnaire: str | None, lsl: bool,
-           quiet: bool) -> None:
+def resume(study_dir: str, participant_id: str, input_spec: str | None, questionnaire: str | None,
+           display: bool | None, host: str, port: int, eye: str | None, look_at: str | None, fov: float | None, pace: float,
+           align: str | None, lsl: bool, quiet: bool) -> None:
     """Carry on a session that was cut off: at its first unfinished task (a task cut off midway runs
     again from its start; its partial frames stay, marked interrupted)."""
     with open_study(study_dir) as store:
-        status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, resume=True)
-        click.echo(f"session of {participant_id}: {status}")
+        status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, True,
+                          _view(display, host, port, eye, look_at, fov, pace, align))
+        click.echo(_outcome(store, participant_id, status))
 
 
 COMMANDS = [session]

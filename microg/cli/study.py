@@ -1,4 +1,5 @@
-"""``microg study init``: create a study from a protocol; ``microg study status``: where it stands."""
+"""``microg study init``: create a study from a protocol; ``microg study status``: where it stands;
+``microg study check``: the study database's full integrity check."""
 
 from __future__ import annotations
 
@@ -10,13 +11,13 @@ import click
 from microg.paths import protocol_file
 
 from microg.study.protocol import load_protocol
-from microg.study.store import create_study, open_study
+from microg.study.store import check_integrity, create_study, describe_counts, open_study
 from .common import clear_errors, study_dir_argument
 
 
 @click.group("study")
 def study() -> None:
-    """Create a study and see where it stands."""
+    """Create a study, see where it stands, check its database."""
 
 
 @study.command("init")
@@ -29,6 +30,9 @@ def study() -> None:
 def init(study_dir: str, protocol_name: str, seed: int | None) -> None:
     """Create a study in STUDY_DIR from a protocol: one SQLite database holding everything."""
     protocol = load_protocol(protocol_file(protocol_name))
+    for problem in protocol.simulation_problems():
+        click.echo(f"warning: {problem}; simulated sessions (--input simulated, microg demo) of this study "
+                   "will refuse to start", err=True)
     seed = seed if seed is not None else protocol.seed if protocol.seed is not None else secrets.randbelow(2**31)
     with create_study(study_dir, protocol, seed) as store:
         click.echo(f"created study {store.name!r} in {study_dir} (seed {seed}, protocol sha256 {protocol.sha256[:12]})")
@@ -43,8 +47,10 @@ def init(study_dir: str, protocol_name: str, seed: int | None) -> None:
 @study_dir_argument
 @clear_errors
 def status(study_dir: str) -> None:
-    """Participants per group and gender, and each session's progress."""
-    with open_study(study_dir) as store:
+    """Participants per group and gender, and how each session's tasks stand (read only)."""
+    with open_study(study_dir, readonly=True, accept_damaged=True) as store:
+        for problem in store.problems:
+            click.echo(f"damaged: {problem}", err=True)
         people = store.participants()
         active = [p for p in people if p.status == "active"]
         click.echo(f"study {store.name!r}: {len(active)} active, {len(people) - len(active)} withdrawn")
@@ -57,9 +63,31 @@ def status(study_dir: str) -> None:
             if session is None:
                 state = "no session"
             else:
-                done = len(store.finished_tasks(session.id))
-                state = f"session {session.id} {session.status}, {done}/{len(store.tasks(session.id))} tasks ({session.input})"
+                state = f"session {session.id} {session.status}, {describe_counts(store.task_counts(session.id))} " \
+                        f"({session.input})"
             click.echo(f"  {p.id:>6} {p.group} {p.participant.gender:<11} {p.status:<9} {state}")
+        if store.problems:
+            click.echo(f"the study is damaged ({len(store.problems)} problem(s) above); see: microg study check "
+                       f"{study_dir}", err=True)
+
+
+@study.command("check")
+@study_dir_argument
+@clear_errors
+def check(study_dir: str) -> None:
+    """The full integrity check of STUDY_DIR's database (read only): the append-only triggers, the
+    stored protocol against its SHA-256, every finished task run's frames and events, participant
+    ids, SQLite's own check and every frame batch. Exit status 1 when something is wrong."""
+    with open_study(study_dir, readonly=True, accept_damaged=True) as store:
+        problems = check_integrity(store.db, full=True)
+        runs, frames = store.db.execute("SELECT (SELECT COUNT(*) FROM task_runs), "
+                                        "(SELECT COALESCE(SUM(count), 0) FROM frames)").fetchone()
+    if problems:
+        for problem in problems:
+            click.echo(f"damaged: {problem}")
+        raise click.ClickException(f"{study_dir}: {len(problems)} problem(s); nothing was changed. Keep a copy of "
+                                   "the study folder; microg export --accept-damaged exports it, marked as damaged")
+    click.echo(f"{study_dir}: sound ({runs} task runs, {frames} frames, protocol and triggers as written)")
 
 
 COMMANDS = [study]

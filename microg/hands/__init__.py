@@ -1,40 +1,48 @@
 """Hand input: every source of hand frames behind one interface (see ``source.HandSource``).
 
     source = TrackingGuard(open_source("replay:grab.json.gz"))   # or "leap"
-    while (frame := source.next_frame(world)) is not None:
-        world = step(world, frame)
+    smooth = HandFilter(window=3, period=1 / 110)                # Eq. 1
+    while (frame := source.next_frame()) is not None:
+        world = step(world, smooth(frame))
 
 Sources: live Leap Motion (``leap_device``, optional), replay of recordings (``recording``: the
 project's Arrow stream format, and LeapJS v2 JSON through ``leapjs``). The simulated participant
 lives in ``microg.participant``. Every session puts the ``TrackingGuard`` between its source
-and the world. ``filter_report`` measures the window filter's noise and lag on a recording.
+and the world, and the window filter (``filter.HandFilter``, Eq. 1) between the guard and the
+physics. ``filter_report`` measures the window filter's noise and lag on a recording.
 """
 
 from __future__ import annotations
 
+from .filter import HandFilter
 from .guard import GuardConfig, GuardCounts, GuardState, TrackingGuard, admit, finish
 from .recording import (Recording, RecordingError, RecordingInfo, RecordingWriter, ReplaySource, load_recording,
                         read_recording, record, write_recording)
 from .source import HandSource
 
-SPECS = ("leap", "replay:PATH")
+SPECS = ("leap", "lsl:STREAM_NAME", "replay:PATH")
 
 
 def open_source(spec: str, *, realtime: bool = False) -> HandSource:
-    """The hand source named by ``spec``: ``leap`` (live device) or ``replay:PATH`` (either recording
-    format, told apart by content). Replay runs as fast as it is read unless ``realtime``."""
+    """The hand source named by ``spec``: ``leap`` (live device), ``lsl:STREAM_NAME`` (another
+    tracker on the Lab Streaming Layer, ``lsl``) or ``replay:PATH`` (either recording format, told
+    apart by content). Replay runs as fast as it is read unless ``realtime``."""
     if spec == "leap":
         from .leap_device import LeapSource
 
         return LeapSource()
     kind, _, path = spec.partition(":")
+    if kind == "lsl" and path:
+        from .lsl import LslSource
+
+        return LslSource(path)
     if kind == "replay" and path:
         return ReplaySource.from_file(path, realtime=realtime)
     raise ValueError(f"hand input {spec!r}: expected one of {', '.join(SPECS)}")
 
 
 __all__ = [
-    "GuardConfig", "GuardCounts", "GuardState", "HandSource", "Recording", "RecordingError", "RecordingInfo",
+    "GuardConfig", "GuardCounts", "GuardState", "HandFilter", "HandSource", "Recording", "RecordingError", "RecordingInfo",
     "RecordingWriter", "ReplaySource", "TrackingGuard", "admit", "finish", "load_recording", "open_source",
     "read_recording", "record", "write_recording",
 ]

@@ -22,62 +22,58 @@ with a new track id (the guard numbers tracks) starts an empty one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame
+from microg.sim.hand import N_BONES, N_DIGITS, SIDES, HandFrame
 
 
-@dataclass(frozen=True, eq=False)
+def window_weights(times: np.ndarray, period: float) -> np.ndarray:
+    """Eq. 1 as weights on the samples that arrived at ``times`` (newest first): the least-squares
+    line through them, read (len - 1) / 2 periods before the newest. They sum to 1; for evenly
+    spaced times at the nominal period each is 1 / len (the plain average)."""
+    count = len(times)
+    if count == 1:
+        return np.ones(1)
+    spread = times - times.mean()
+    target = times[0] - 0.5 * (count - 1) * period
+    return 1.0 / count + (target - times.mean()) * spread / (spread @ spread)
+
+
 class WindowFilter:
-    """The last ``count`` arrived samples (arrays of any shape) and their times, in a ring."""
+    """The last ``window`` arrived samples (arrays of one shape) and their times, in a ring."""
 
-    window: int
-    period: float
-    """Nominal frame period (s): the lag is (window - 1) / 2 of it."""
-    samples: np.ndarray
-    times: np.ndarray
-    count: int = 0
-    newest: int = -1
+    def __init__(self, window: int, period: float, shape: tuple[int, ...]):
+        self.window, self.period = window, period
+        """``period``: the nominal frame period (s); the lag is (window - 1) / 2 of it."""
+        self.samples = np.zeros((window, *shape))
+        self.times = np.zeros(window)
+        self.count, self.newest = 0, -1
 
-    @classmethod
-    def empty(cls, window: int, period: float, shape: tuple[int, ...]) -> WindowFilter:
-        return cls(window, period, np.zeros((window, *shape)), np.zeros(window))
+    def push(self, sample: np.ndarray, time: float) -> None:
+        self.newest = (self.newest + 1) % self.window
+        self.samples[self.newest], self.times[self.newest] = sample, time
+        self.count = min(self.count + 1, self.window)
 
-    def push(self, sample: np.ndarray, time: float) -> WindowFilter:
-        """The filter after ``sample`` arrived at ``time``."""
-        newest = (self.newest + 1) % self.window
-        samples, times = self.samples.copy(), self.times.copy()
-        samples[newest], times[newest] = sample, time
-        return WindowFilter(self.window, self.period, samples, times, min(self.count + 1, self.window), newest)
-
-    def reset(self) -> WindowFilter:
-        return WindowFilter(self.window, self.period, self.samples, self.times)
+    def reset(self) -> None:
+        """Empty the window: a new track starts."""
+        self.count, self.newest = 0, -1
 
     @property
     def value(self) -> np.ndarray:
-        """Eq. 1: the window's least-squares line at (count - 1) / 2 periods before the newest sample."""
-        index = (self.newest - np.arange(self.count)) % self.window
-        samples, times = self.samples[index], self.times[index]
-        mean = samples.mean(axis=0)
-        if self.count == 1:
-            return mean
-        spread = times - times.mean()
-        slope = np.tensordot(spread, samples - mean, axes=1) / (spread @ spread)
-        target = times[0] - 0.5 * (self.count - 1) * self.period
-        return mean + slope * (target - times.mean())
+        """Eq. 1 on the samples in the window."""
+        index = [(self.newest - k) % self.window for k in range(self.count)]
+        return np.tensordot(window_weights(self.times[index], self.period), self.samples[index], axes=1)
 
 
 def filter_series(values: np.ndarray, times: np.ndarray, window: int, period: float,
                   new_track: np.ndarray | None = None) -> np.ndarray:
     """Eq. 1 over a series of arrived samples (axis 0) at ``times``; ``new_track`` restarts it."""
-    state = WindowFilter.empty(window, period, values.shape[1:])
+    state = WindowFilter(window, period, values.shape[1:])
     out = np.empty(values.shape, dtype=np.float64)
     for i, sample in enumerate(values):
         if new_track is not None and new_track[i]:
-            state = state.reset()
-        state = state.push(sample, times[i])
+            state.reset()
+        state.push(sample, times[i])
         out[i] = state.value
     return out
 
@@ -88,7 +84,7 @@ class HandFilter:
     def __init__(self, window: int, period: float):
         if not isinstance(window, int) or isinstance(window, bool) or window < 1:
             raise ValueError(f"filter window = {window!r}: must be a whole number of frames >= 1")
-        self._windows = [WindowFilter.empty(window, period, (N_DIGITS, N_BONES + 1, 3)) for _ in SIDES]
+        self._windows = [WindowFilter(window, period, (N_DIGITS, N_BONES + 1, 3)) for _ in SIDES]
         self._tracks: list[int | None] = [None for _ in SIDES]
 
     def __call__(self, frame: HandFrame) -> HandFrame:
@@ -99,9 +95,10 @@ class HandFilter:
             if hand is None:
                 self._tracks[side] = None
                 continue
-            window = self._windows[side] if self._tracks[side] == hand.track_id else self._windows[side].reset()
-            self._windows[side] = window.push(hand.joints, frame.timestamp)
+            window = self._windows[side]
+            if self._tracks[side] != hand.track_id:
+                window.reset()
+            window.push(hand.joints, frame.timestamp)
             self._tracks[side] = hand.track_id
-            hands.append(Hand(hand.side, self._windows[side].value, hand.widths, hand.palm_position,
-                              hand.palm_orientation, hand.track_id))
+            hands.append(hand.with_joints(window.value))
         return HandFrame(frame.timestamp, tuple(hands))

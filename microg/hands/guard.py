@@ -41,7 +41,6 @@ from dataclasses import dataclass, field, fields, replace
 import numpy as np
 
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, is_jump
-from microg.sim.world import World
 from .source import HandSource
 
 RECENT_INTERVALS = 31
@@ -305,9 +304,9 @@ class TrackingGuard:
     def counts(self) -> GuardCounts:
         return self.state.counts
 
-    def next_frame(self, world: World | None = None) -> HandFrame | None:
+    def next_frame(self, observation=None) -> HandFrame | None:
         while not self._ready and not self._ended:
-            frame = self.source.next_frame(world)
+            frame = self.source.next_frame(observation)
             if frame is None:
                 self.state, ready = finish(self.state)
                 self._ended = True

@@ -19,7 +19,6 @@ from typing import Callable
 import numpy as np
 
 from microg.sim.hand import N_BONES, N_DIGITS, Hand, HandFrame
-from microg.sim.world import World
 from .units import metres, seconds
 
 INSTALL_HELP = """\
@@ -156,7 +155,7 @@ class LeapSource:
 
         return Listener()
 
-    def next_frame(self, world: World | None = None) -> HandFrame | None:
+    def next_frame(self, observation=None) -> HandFrame | None:
         with self._arrived:
             if not self._arrived.wait_for(lambda: self._frames or self._error, timeout=self.frame_timeout):
                 raise LeapUnavailable(f"no frame from the Leap Motion device for {self.frame_timeout} s: "

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from microg.sim.hand import N_BONES, N_DIGITS, Hand, HandFrame
-from .recording import UNKNOWN, Recording, RecordingError, RecordingInfo
+from .recording import UNKNOWN, Recording, RecordingError, RecordingInfo, implausible
 from .units import metres, palm_quaternion, seconds
 
 FINGER_JOINTS = ("mcpPosition", "pipPosition", "dipPosition", "tipPosition")
@@ -86,19 +86,26 @@ def _frame(where: str, frame: dict) -> HandFrame:
     timestamp = frame.get("timestamp")
     if not isinstance(timestamp, (int, float)) or isinstance(timestamp, bool) or not np.isfinite(timestamp):
         raise RecordingError(f"{where}.timestamp = {timestamp!r}: must be a number (microseconds)")
-    pointables = frame.get("pointables") or []
+    pointables, listed = frame.get("pointables") or [], frame.get("hands") or []
+    for key, value in (("pointables", pointables), ("hands", listed)):
+        if not isinstance(value, list):
+            raise RecordingError(f"{where}.{key} = {str(value)[:60]!r}: must be a list")
     hands = []
-    for h, hand in enumerate(frame.get("hands") or []):
-        hand_where = f"{where}.hands[{h}]"
-        if not isinstance(hand, dict):
-            raise RecordingError(f"{hand_where} = {str(hand)[:60]!r}: must be a hand object")
-        fingers = [(f"{where}.pointables[{p}]", pointable) for p, pointable in enumerate(pointables)
-                   if isinstance(pointable, dict) and pointable.get("handId") == hand.get("id")
-                   and not pointable.get("tool", False)]
-        hands.append(_hand(hand_where, hand, fingers))
     try:
+        for h, hand in enumerate(listed):
+            hand_where = f"{where}.hands[{h}]"
+            if not isinstance(hand, dict):
+                raise RecordingError(f"{hand_where} = {str(hand)[:60]!r}: must be a hand object")
+            fingers = [(f"{where}.pointables[{p}]", pointable) for p, pointable in enumerate(pointables)
+                       if isinstance(pointable, dict) and pointable.get("handId") == hand.get("id")
+                       and not pointable.get("tool", False)]
+            hands.append(_hand(hand_where, hand, fingers))
+            if (problem := implausible(hands[-1])) is not None:
+                raise RecordingError(f"{hand_where}: {problem}")
         return HandFrame(seconds(timestamp), tuple(hands))
-    except ValueError as error:
+    except (ValueError, FloatingPointError) as error:
+        if isinstance(error, RecordingError):
+            raise
         raise RecordingError(f"{where}: {error}") from None
 
 
@@ -109,6 +116,8 @@ def read_leapjs(path: str | Path) -> Recording:
     if not isinstance(document, dict) or not isinstance(document.get("frames"), list):
         raise RecordingError(f"{path}: frames is missing or not a list; not a LeapJS v2 recording")
     metadata = document.get("metadata") or {}
+    if not isinstance(metadata, dict):
+        raise RecordingError(f"{path}: metadata = {str(metadata)[:60]!r}: must be an object")
     frames = tuple(_frame(f"{path}: frames[{i}]", frame) for i, frame in enumerate(document["frames"]))
     rates = [r for f in document["frames"] if isinstance(r := f.get("currentFrameRate"), (int, float))]
     try:

@@ -31,7 +31,6 @@ import pyarrow as pa
 from microg import __version__
 
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame
-from microg.sim.world import World
 from .source import HandSource
 
 FORMAT = "microg-hands"
@@ -57,8 +56,41 @@ _HAND_TYPE = pa.struct([
 SCHEMA = pa.schema([("timestamp", pa.float64())] + [(side, _HAND_TYPE) for side in SIDES])
 
 
+MAX_BONE_WIDTH = 0.05
+"""m: the widest bone a recording may give (a finger 5 cm thick; the Leap reports 8 to 22 mm)."""
+MAX_REACH = 10.0
+"""m: the farthest from the tracker a joint or palm may be (no tracker sees a hand farther away)."""
+
+
 class RecordingError(ValueError):
     """A file that is not a readable hand recording; the message names the file and what is wrong."""
+
+
+def implausible(hand: Hand) -> str | None:
+    """What makes ``hand`` impossible for a real hand (``field[index] = value: why``), or None.
+    Recordings are checked frame by frame on reading, so a bad file is refused before any session
+    replays it (the physics would otherwise fling objects, or fail, on a 1 m wide finger)."""
+    with np.errstate(invalid="ignore"):
+        wide = np.argwhere(hand.widths > MAX_BONE_WIDTH)
+        if len(wide):
+            d, b = (int(i) for i in wide[0])
+            return (f"{hand.side} widths[{d}, {b}] = {hand.widths[d, b]:g} m: wider than any finger "
+                    f"(at most {MAX_BONE_WIDTH:g} m)")
+        for name in ("joints", "palm_position"):
+            values = getattr(hand, name)
+            far = np.argwhere(np.abs(values) > MAX_REACH)
+            if len(far):
+                index = tuple(int(i) for i in far[0])
+                return (f"{hand.side} {name}{list(index)} = {values[index]:g} m: farther from the tracker than "
+                        f"{MAX_REACH:g} m")
+    q = hand.palm_orientation
+    with np.errstate(over="ignore"):
+        norm = float(np.linalg.norm(q))
+    if np.isfinite(q).all() and abs(norm - 1.0) > 1e-3:
+        return f"{hand.side} palm_orientation = {q.tolist()}: not a unit quaternion"
+    if np.isnan(q).any() and not np.isnan(q).all():
+        return f"{hand.side} palm_orientation = {q.tolist()}: partly unknown"
+    return None
 
 
 @dataclass(frozen=True)
@@ -144,7 +176,9 @@ def _frames_to_batch(frames: list[HandFrame]) -> pa.RecordBatch:
     return pa.record_batch(columns, schema=SCHEMA)
 
 
-def _batch_to_frames(batch: pa.RecordBatch) -> list[HandFrame]:
+def _batch_to_frames(batch: pa.RecordBatch, first: int) -> list[HandFrame]:
+    """The frames of one batch, the recording's frames ``first`` on; ValueError names the first
+    frame that no hand can make (``implausible``, or what ``Hand`` refuses)."""
     n = batch.num_rows
     timestamps = batch.column("timestamp").to_numpy()
     sides = {}
@@ -155,9 +189,17 @@ def _batch_to_frames(batch: pa.RecordBatch) -> list[HandFrame]:
                        *arrays)
     frames = []
     for i in range(n):
-        hands = tuple(Hand(side, joints[i], widths[i], palm[i], orientation[i], int(ids[i]))
-                      for side, (present, ids, palm, orientation, joints, widths) in sides.items() if present[i])
-        frames.append(HandFrame(float(timestamps[i]), hands))
+        try:
+            with np.errstate(over="ignore"):  # absurd coordinates are refused just below, by name
+                hands = tuple(Hand(side, joints[i], widths[i], palm[i], orientation[i], int(ids[i]))
+                              for side, (present, ids, palm, orientation, joints, widths) in sides.items()
+                              if present[i])
+            problem = next((p for p in map(implausible, hands) if p is not None), None)
+            if problem is not None:
+                raise ValueError(problem)
+            frames.append(HandFrame(float(timestamps[i]), hands))
+        except ValueError as error:
+            raise ValueError(f"frame {first + i} (timestamp = {timestamps[i]:g} s): {error}") from None
     return frames
 
 
@@ -238,9 +280,9 @@ def read_recording(path: str | Path) -> Recording:
         try:
             for batch in reader:
                 try:
-                    frames.extend(_batch_to_frames(batch))
+                    frames.extend(_batch_to_frames(batch, len(frames)))
                 except ValueError as error:
-                    raise RecordingError(f"{path}: frame {len(frames)} onward: {error}") from None
+                    raise RecordingError(f"{path}: {error}") from None
         except (pa.ArrowInvalid, OSError) as error:
             problem = f"the last batch is incomplete ({error})"
         size = source.size()
@@ -263,8 +305,11 @@ def load_recording(path: str | Path) -> Recording:
     if head == STREAM_START:
         return read_recording(path)
     if head[:2] == b"\x1f\x8b":
-        with gzip.open(path, "rb") as stream:
-            head = stream.read(64).lstrip()[:1]
+        try:
+            with gzip.open(path, "rb") as stream:
+                head = stream.read(64).lstrip()[:1]
+        except (OSError, EOFError) as error:
+            raise RecordingError(f"{path}: a gzip file that does not unpack: {error}") from None
     if head.lstrip()[:1] == b"{":
         return read_leapjs(path)
     raise RecordingError(f"{path}: neither a microg hand recording ({SUFFIX}) nor LeapJS v2 JSON "
@@ -294,7 +339,7 @@ class ReplaySource:
                           f"replaying its {len(recording.frames)} complete frames", stacklevel=2)
         return cls(recording.frames, f"replay:{recording.path}", realtime=realtime)
 
-    def next_frame(self, world: World | None = None) -> HandFrame | None:
+    def next_frame(self, observation=None) -> HandFrame | None:
         if self._next >= len(self.frames):
             return None
         frame = self.frames[self._next]

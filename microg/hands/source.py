@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+import time
+from typing import Callable, Protocol, runtime_checkable
 
 from microg.sim.hand import HandFrame
-from microg.sim.world import World
 
 
 @runtime_checkable
@@ -13,13 +13,43 @@ class HandSource(Protocol):
     """Delivers hand frames one at a time, in SI units, with timestamps in seconds.
 
     ``next_frame`` returns the next frame, or None once the source has ended. A closed-loop
-    source (the simulated participant) looks at ``world`` to decide what the hand does next;
-    open-loop sources (live tracker, replay) ignore it. Timestamps strictly increase.
+    source (the simulated participant) looks at ``observation``, what the last frame showed of
+    the task's object and what the task displays (``microg.task.Observation``), to decide what
+    the hand does next; open-loop sources (live tracker, replay) ignore it. Timestamps strictly
+    increase.
     """
 
     description: str
     """What produces the frames, for the session's provenance: e.g. ``replay:grab.json.gz``."""
 
-    def next_frame(self, world: World | None = None) -> HandFrame | None: ...
+    def next_frame(self, observation=None) -> HandFrame | None: ...
 
     def close(self) -> None: ...
+
+
+class Paced:
+    """``source`` with its frames handed out no faster than their timestamps say: ``speed`` times
+    real time from the first frame on (a recording or a simulated participant, watched live)."""
+
+    def __init__(self, source: HandSource, speed: float = 1.0, clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep):
+        if not speed > 0:
+            raise ValueError(f"pace speed = {speed!r}: must be positive")
+        self.source, self.speed, self._clock, self._sleep = source, speed, clock, sleep
+        self.description = source.description
+        self._origin: tuple[float, float] | None = None
+
+    def next_frame(self, observation=None) -> HandFrame | None:
+        frame = self.source.next_frame(observation)
+        if frame is None:
+            return None
+        if self._origin is None:
+            self._origin = (self._clock(), frame.timestamp)
+        due = self._origin[0] + (frame.timestamp - self._origin[1]) / self.speed
+        wait = due - self._clock()
+        if wait > 0:
+            self._sleep(wait)
+        return frame
+
+    def close(self) -> None:
+        self.source.close()

@@ -7,12 +7,13 @@ A point-to-point movement of duration T that minimises the integrated squared je
 with zero velocity and acceleration at both ends and a bell-shaped speed whose peak, at mid-time,
 is 1.875 times the mean speed. The participant moves every degree of freedom (palm position,
 palm orientation by slerp, joint angles) along ``s``; a target that moves while the hand travels
-(a drifting object) is followed by re-evaluating x1 at each frame.
+(a drifting object) is followed by re-aiming x1 at each frame (``Movement.toward``).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,3 +39,37 @@ def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
         return q / np.linalg.norm(q)
     theta = math.acos(dot)
     return (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4)."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+    posture: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class Movement:
+    """A minimum-jerk movement of every degree of freedom from ``start`` to ``end``, beginning at
+    ``begin`` (s) and lasting ``duration`` (s)."""
+
+    start: Pose
+    end: Pose
+    begin: float
+    duration: float
+
+    def progress(self, t: float) -> float:
+        """The fraction of the movement's time elapsed at ``t``, in [0, 1]."""
+        return min(max((t - self.begin) / self.duration, 0.0), 1.0)
+
+    def at(self, t: float) -> Pose:
+        s = float(minimum_jerk(self.progress(t)))
+        start, end = self.start, self.end
+        return Pose(start.position + s * (end.position - start.position), slerp(start.orientation, end.orientation, s),
+                    start.posture + s * (end.posture - start.posture))
+
+    def toward(self, end: Pose) -> Movement:
+        """The same movement re-aimed at ``end`` (a target that moved while the hand travels)."""
+        return Movement(self.start, end, self.begin, self.duration)

@@ -31,14 +31,15 @@ import numpy as np
 
 
 class NormalStream:
-    """Standard normal draws from a generator, fetched in blocks (a frame needs a few dozen)."""
+    """Standard normal draws from a generator, fetched in blocks as they are needed (a frame needs
+    a few dozen). With the generator, the one mutable thing of a participant: a take advances it."""
 
     BLOCK = 4096
 
     def __init__(self, rng: np.random.Generator):
         self.rng = rng
-        self.block = rng.standard_normal(self.BLOCK)
-        self.used = 0
+        self.block = np.empty(0)
+        self.used = self.BLOCK
 
     def take(self, count: int) -> np.ndarray:
         if self.used + count > self.BLOCK:
@@ -87,56 +88,85 @@ class TrackingNoiseLevels:
         return scale * np.array([self.palm_position, self.palm_rotation, self.digit_angle])
 
 
+@dataclass(frozen=True, eq=False)
 class TrackingNoise:
-    """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters."""
+    """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters: the
+    state of its two filter stages."""
 
     SIZE = 16
 
-    def __init__(self, levels: TrackingNoiseLevels, rng: np.random.Generator):
-        self.tau = 1.0 / (2.0 * math.pi * levels.corner)
-        sd = levels.stationary_sd()
-        self.sd = np.repeat(sd, [3, 3, 10])
-        self.normals = NormalStream(rng)
-        # Two equal first-order stages: the output's variance is half the first stage's.
-        self.first = math.sqrt(2.0) * self.sd * self.normals.take(self.SIZE)
-        self.second = self.sd * self.normals.take(self.SIZE)
+    tau: float
+    """Time constant of each stage (s)."""
+    sd: np.ndarray
+    """(16,) stationary SD of each parameter."""
+    first: np.ndarray
+    second: np.ndarray
 
-    def advance(self, dt: float) -> np.ndarray:
-        """The noise after ``dt`` seconds: (16,) = palm offset (3, m), rotation vector (3, rad),
-        digit base angles (5, 2; rad)."""
+    @classmethod
+    def start(cls, levels: TrackingNoiseLevels, normals: NormalStream) -> TrackingNoise:
+        """Both stages drawn from their stationary distributions."""
+        sd = np.repeat(levels.stationary_sd(), [3, 3, 10])
+        # Two equal first-order stages: the output's variance is half the first stage's.
+        first = math.sqrt(2.0) * sd * normals.take(cls.SIZE)
+        return cls(1.0 / (2.0 * math.pi * levels.corner), sd, first, sd * normals.take(cls.SIZE))
+
+    def advance(self, dt: float, draws: np.ndarray) -> TrackingNoise:
+        """The noise ``dt`` seconds later, driven by 16 standard normal ``draws``; its ``value``
+        is the offset."""
         decay = math.exp(-dt / self.tau)
-        self.first = decay * self.first + math.sqrt(2.0 * (1.0 - decay * decay)) * self.sd * self.normals.take(self.SIZE)
-        self.second = decay * self.second + (1.0 - decay) * self.first
+        first = decay * self.first + math.sqrt(2.0 * (1.0 - decay * decay)) * self.sd * draws
+        return TrackingNoise(self.tau, self.sd, first, decay * self.second + (1.0 - decay) * first)
+
+    @property
+    def value(self) -> np.ndarray:
+        """(16,) = palm offset (3, m), rotation vector (3, rad), digit base angles (5, 2; rad)."""
         return self.second
 
 
+def _ou(value, dt: float, tau: float, sd: float, noise):
+    """An Ornstein-Uhlenbeck process of time constant ``tau`` and stationary SD ``sd``, ``dt`` later."""
+    decay = math.exp(-dt / tau)
+    return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
+
+
+@dataclass(frozen=True, eq=False)
 class Tremor:
-    """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and amplitude."""
+    """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and
+    amplitude; the state of the oscillators."""
 
     LOW, HIGH = 8.0, 12.0
     FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
     """Hz and s: the frequency wanders around the participant's own as an Ornstein-Uhlenbeck process."""
     AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
 
-    def __init__(self, rms: float, rng: np.random.Generator):
-        self.centre = rng.uniform(self.LOW + 1.0, self.HIGH - 1.0)
-        self.offset = 0.0
-        self.phase = rng.uniform(0.0, 2.0 * math.pi, 3)
-        self.normals = NormalStream(rng)
-        self.log_amplitude = self.AMPLITUDE_LOG_SD * self.normals.take(3)
+    centre: float
+    """The participant's own frequency (Hz)."""
+    offset: float
+    """How far the frequency has wandered from it (Hz)."""
+    phase: np.ndarray
+    """(3,) phase of each axis (rad)."""
+    log_amplitude: np.ndarray
+    base: float
+    """Amplitude at log-amplitude 0 (m)."""
+
+    @classmethod
+    def start(cls, rms: float, normals: NormalStream) -> Tremor:
+        """A tremor of ``rms`` metres per axis, its frequency and phases drawn from ``normals``' generator."""
+        rng = normals.rng
+        centre = rng.uniform(cls.LOW + 1.0, cls.HIGH - 1.0)
+        phase = rng.uniform(0.0, 2.0 * math.pi, 3)
+        log_amplitude = cls.AMPLITUDE_LOG_SD * normals.take(3)
         # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
-        self.base = rms * math.sqrt(2.0) * math.exp(-self.AMPLITUDE_LOG_SD ** 2)
+        return cls(centre, 0.0, phase, log_amplitude, rms * math.sqrt(2.0) * math.exp(-cls.AMPLITUDE_LOG_SD ** 2))
 
-    @staticmethod
-    def _ou(value, dt, tau, sd, noise):
-        decay = math.exp(-dt / tau)
-        return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
+    def advance(self, dt: float, draws: np.ndarray) -> Tremor:
+        """The tremor ``dt`` seconds later, driven by 4 standard normal ``draws``."""
+        offset = _ou(self.offset, dt, self.FREQUENCY_TAU, self.FREQUENCY_SD, float(draws[0]))
+        frequency = min(max(self.centre + offset, self.LOW), self.HIGH)
+        log_amplitude = _ou(self.log_amplitude, dt, self.AMPLITUDE_TAU, self.AMPLITUDE_LOG_SD, draws[1:])
+        return Tremor(self.centre, offset, self.phase + 2.0 * math.pi * frequency * dt, log_amplitude, self.base)
 
-    def advance(self, dt: float) -> np.ndarray:
-        """The tremor displacement (3,) in metres after ``dt`` seconds."""
-        draws = self.normals.take(4)
-        self.offset = self._ou(self.offset, dt, self.FREQUENCY_TAU, self.FREQUENCY_SD, float(draws[0]))
-        frequency = min(max(self.centre + self.offset, self.LOW), self.HIGH)
-        self.phase = self.phase + 2.0 * math.pi * frequency * dt
-        self.log_amplitude = self._ou(self.log_amplitude, dt, self.AMPLITUDE_TAU, self.AMPLITUDE_LOG_SD, draws[1:])
+    @property
+    def value(self) -> np.ndarray:
+        """The tremor displacement (3,) in metres."""
         return self.base * np.exp(self.log_amplitude) * np.sin(self.phase)

@@ -4,20 +4,29 @@
     world = make_world(scene)
     world = step(world, hand_frame)
 
-Plain data (``Scene``, ``World``) and functions that advance it; no study logic lives here.
+    batch = make_batch(scene, 256)
+    batch = step_batch(batch, frames)     # one frame per world, one compiled call
+
+Plain data (``Scene``, ``World``, ``Batch``) and functions that advance it; no study logic lives here.
+Compiled code is cached in the user's cache directory (``cache``).
 """
 
-from .bodies import Material, ObjectSpec, SceneError, load_object
-from .hand import BONES, DIGITS, SIDES, SLOTS, Hand, HandFrame, slot, slot_name
-from .observe import (angular_momentum, grasped, highlighted, kinetic_energy, object_states,
+from .cache import use_user_cache
+
+use_user_cache()
+
+from .bodies import Material, ObjectSpec, SceneError, load_object  # noqa: E402
+from .hand import BONES, DIGITS, SIDES, SLOTS, Hand, HandFrame, slot, slot_name  # noqa: E402
+from .observe import (angular_momentum, grasped, highlighted, kinetic_energy, object_states,  # noqa: E402
                       rendered_phalanges, touching)
-from .scene import (EFFECTS, INTERACTION_MODELS, PlacedObject, Scene, TableParameters, compose_scene, load_scene,
-                    with_interaction)
-from .world import World, make_world, step
+from .scene import (EFFECTS, INTERACTION_MODELS, PlacedObject, Scene, TableParameters, compose_scene,  # noqa: E402
+                    load_scene, with_interaction)
+from .world import Batch, HandFrames, World, make_batch, make_world, step, step_batch  # noqa: E402
 
 __all__ = [
-    "BONES", "DIGITS", "EFFECTS", "INTERACTION_MODELS", "SIDES", "SLOTS", "Hand", "HandFrame", "Material",
-    "ObjectSpec", "PlacedObject", "Scene", "SceneError", "TableParameters", "World", "angular_momentum", "compose_scene",
-    "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene", "make_world", "object_states",
-    "rendered_phalanges", "slot", "slot_name", "step", "touching", "with_interaction",
+    "BONES", "DIGITS", "EFFECTS", "INTERACTION_MODELS", "SIDES", "SLOTS", "Batch", "Hand", "HandFrame", "HandFrames",
+    "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "TableParameters", "World", "angular_momentum",
+    "compose_scene", "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene", "make_batch",
+    "make_world", "object_states", "rendered_phalanges", "slot", "slot_name", "step", "step_batch", "touching",
+    "with_interaction",
 ]

@@ -16,33 +16,45 @@ mean spring force until then and nothing else, so it never pulls.
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit
 
 from .contact import point_velocity
-from .wrench import add_point_force, add_point_matrix
+from .vec import add, dot, kernel, mat_vec, norm, scale, sub
+from .wrench import add_point_force, add_point_matrix, outer
 
 
-@njit(cache=True)
+@kernel
 def add_compliant_contact(wrench, stiffness, damping, r, n, depth, other_velocity, velocity, angular_velocity,
                           spring, damper, friction, slip_velocity, h):
     """Accumulate one compliant contact at offset r; returns True when it slides."""
-    relative = other_velocity - point_velocity(velocity, angular_velocity, r)
-    w_n = relative @ n
+    relative = sub(other_velocity, point_velocity(velocity, angular_velocity, r))
+    w_n = dot(relative, n)
     press = spring * depth - damper * w_n
     if press <= 0.0:
         return False
-    on_object = -spring * depth * n
+    on_object = scale(-spring * depth, n)
     if depth <= h * w_n:
-        add_point_force(wrench, r, depth / (2.0 * h * w_n) * on_object)
+        add_point_force(wrench, r, scale(depth / (2.0 * h * w_n), on_object))
         return False
-    normal_part = np.outer(n, n)
-    local_damping = damper * normal_part
-    w_t = relative - w_n * n
-    speed = np.sqrt(w_t @ w_t)
+    normal_part = outer(1.0, n, n)
+    speed = norm(sub(relative, scale(w_n, n)))
+    local_damping = outer(damper, n, n)
     if friction > 0.0:
-        local_damping += friction * press / max(speed, slip_velocity) * (np.eye(3) - normal_part)
-    add_point_force(wrench, r, on_object + (local_damping + h * spring * normal_part) @ other_velocity)
-    add_point_matrix(stiffness, r, spring * normal_part)
+        c = friction * press / max(speed, slip_velocity)
+        local_damping = tuple_sum(local_damping, ((c * (1.0 - normal_part[0][0]), c * (0.0 - normal_part[0][1]),
+                                                   c * (0.0 - normal_part[0][2])),
+                                                  (c * (0.0 - normal_part[1][0]), c * (1.0 - normal_part[1][1]),
+                                                   c * (0.0 - normal_part[1][2])),
+                                                  (c * (0.0 - normal_part[2][0]), c * (0.0 - normal_part[2][1]),
+                                                   c * (1.0 - normal_part[2][2]))))
+    spring_part = outer(h * spring, n, n)
+    pushing = mat_vec(tuple_sum(local_damping, spring_part), other_velocity)
+    add_point_force(wrench, r, add(on_object, pushing))
+    add_point_matrix(stiffness, r, outer(spring, n, n))
     add_point_matrix(damping, r, local_damping)
     return speed > slip_velocity
+
+
+@kernel
+def tuple_sum(a, b):
+    """a + b for 3x3 tuples."""
+    return (add(a[0], b[0]), add(a[1], b[1]), add(a[2], b[2]))

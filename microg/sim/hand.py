@@ -13,9 +13,11 @@ its centroid with radius ``width / 2`` (paper, section 3.3).
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 DIGITS = ("thumb", "index", "middle", "ring", "pinky")
 BONES = ("metacarpal", "proximal", "intermediate", "distal")
@@ -43,7 +45,6 @@ def slot_name(index: int) -> str:
 
 
 SLOT_DIGIT = np.array([(i % BONES_PER_HAND) // N_BONES for i in range(SLOTS)], dtype=np.int64)
-SLOT_SIDE = np.array([i // BONES_PER_HAND for i in range(SLOTS)], dtype=np.int64)
 
 
 def bone_lengths(joints: np.ndarray) -> np.ndarray:
@@ -64,17 +65,23 @@ def phalanx_mask(joints: np.ndarray, widths: np.ndarray) -> np.ndarray:
         return np.isfinite(lengths) & (lengths >= MIN_PHALANX_LENGTH) & (widths > 0)
 
 
-def displacement(points: np.ndarray, previous: np.ndarray) -> float:
+@njit(cache=True)
+def displacement(points, previous):
     """The largest distance (m) any point known in both (palm, joints: ``Hand.points``) moved."""
-    distances = np.linalg.norm(points - previous, axis=1)
-    distances = distances[np.isfinite(distances)]
-    return float(distances.max()) if distances.size else 0.0
+    largest = 0.0
+    for i in range(points.shape[0]):
+        distance = math.sqrt((points[i, 0] - previous[i, 0]) ** 2 + (points[i, 1] - previous[i, 1]) ** 2
+                             + (points[i, 2] - previous[i, 2]) ** 2)
+        if math.isfinite(distance):
+            largest = max(largest, distance)
+    return largest
 
 
-def is_jump(points: np.ndarray, previous: np.ndarray, jump_distance: float) -> bool:
+@njit(cache=True)
+def is_jump(points, previous, jump_distance):
     """The jump rule: a hand whose palm or some joint moved ``jump_distance`` or more between two
     frames did not get there by moving; it is a new track (no velocity, no filter history). The
-    tracking guard and the world both ask this, here."""
+    tracking guard and the world both ask this, here (the world from compiled code)."""
     return displacement(points, previous) >= jump_distance
 
 
@@ -145,6 +152,15 @@ class Hand:
         so renumbering costs no validation: the tracking guard does it every frame."""
         hand = copy.copy(self)
         object.__setattr__(hand, "track_id", track_id)
+        return hand
+
+    def with_joints(self, joints: np.ndarray) -> Hand:
+        """The same hand with other joint positions of the same shape, e.g. filtered ones (a weighted
+        mean of this track's checked joints): it costs no validation, like ``renumbered``."""
+        hand = copy.copy(self)
+        joints = np.asarray(joints, dtype=np.float64)
+        joints.setflags(write=False)
+        object.__setattr__(hand, "joints", joints)
         return hand
 
     def moved(self, offset: np.ndarray) -> Hand:

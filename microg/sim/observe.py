@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .hand import SIDES, SLOT_DIGIT, SLOT_SIDE
+from .hand import BONES_PER_HAND, N_BONES, SIDES
 from .rotation import quat_to_matrix
 from .world import World
 
@@ -30,18 +30,25 @@ def highlighted(world: World) -> np.ndarray:
 def grasped(world: World) -> np.ndarray:
     """(N,) True for each object held between a thumb and an opposing digit (module rule)."""
     data = world.data
+    active, normal = data.active, data.normal
     result = np.zeros(world.model.n_objects, dtype=bool)
-    for o in range(world.model.n_objects):
-        for side in range(len(SIDES)):
-            mine = data.active[:, o] & (SLOT_SIDE == side)
-            thumb = np.flatnonzero(mine & (SLOT_DIGIT == 0))
-            other = np.flatnonzero(mine & (SLOT_DIGIT != 0))
-            if len(thumb) and len(other):
-                cosines = data.normal[thumb, o] @ data.normal[other, o].T
-                if (cosines < OPPOSITION).any():
-                    result[o] = True
-                    break
+    for side in range(len(SIDES)):
+        thumb = slice(side * BONES_PER_HAND, side * BONES_PER_HAND + N_BONES)
+        other = slice(side * BONES_PER_HAND + N_BONES, (side + 1) * BONES_PER_HAND)
+        if not (active[thumb].any() and active[other].any()):
+            continue
+        cosines = np.einsum("kni,lni->kln", normal[thumb], normal[other])  # (thumb, other, object)
+        result |= (active[thumb][:, None] & active[other][None] & (cosines < OPPOSITION)).any(axis=(0, 1))
     return result
+
+
+def rotations(orientation: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) rotation matrices of (N, 4) unit quaternions (w, x, y, z)."""
+    w, x, y, z = orientation.T
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)],
+                    axis=1)
 
 
 def rendered_phalanges(world: World) -> np.ndarray:
@@ -49,11 +56,12 @@ def rendered_phalanges(world: World) -> np.ndarray:
     in contact (its deepest contact), at the tracked position elsewhere; NaN where untracked."""
     data = world.data
     rendered = np.where(data.valid[:, None], data.hand_position, np.nan)
-    depth = np.where(data.active, data.depth, -np.inf)
-    for k in np.flatnonzero(data.active.any(axis=1)):
-        o = int(np.argmax(depth[k]))
-        rot = quat_to_matrix(data.orientation[o])
-        rendered[k] = data.position[o] + rot @ (data.anchor[k, o] + data.radius[k] * data.normal[k, o])
+    touching = np.flatnonzero(data.active.any(axis=1))
+    if touching.size:
+        deepest = np.argmax(np.where(data.active[touching], data.depth[touching], -np.inf), axis=1)
+        centre = data.anchor[touching, deepest] + data.radius[touching, None] * data.normal[touching, deepest]
+        turned = np.einsum("kij,kj->ki", rotations(data.orientation)[deepest], centre)
+        rendered[touching] = data.position[deepest] + turned
     return rendered
 
 

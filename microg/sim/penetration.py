@@ -17,7 +17,7 @@ the step (both move; see ``wrench``), and a spring only pushes: a contact predic
 within the step (depth < h times its separating speed, Eq. 8) acts with its mean force until the
 release and adds no stiffness, so an object leaving a finger is never pulled back.
 
-Two stages. ``friction_cone`` (Eqs. 19-20) runs first: inside the cone, f . n > 0 and
+Two kernels. ``friction_cone`` (Eqs. 19-20) runs first: inside the cone, f . n > 0 and
 |f_t| <= mu (f . n), the contact sticks and the anchor stays; outside it the anchor slides along
 the surface until the tangential pull is the dynamic friction, |f_t| = phi (f . n) (Eq. 20 read
 as Coulomb's law: kinetic friction is phi times the normal force, so a fast tangential jerk cannot
@@ -28,89 +28,80 @@ face and only f_n acts.
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit
 
 from .contact import point_velocity, project_to_surface
-from .rotation import quat_to_matrix
-from .wrench import add_point_force, add_point_matrix
+from .hand import SLOTS
+from .vec import add, cell, dot, kernel, mat_t_vec, mat_vec, norm, row, scale, set_cell, sub
+from .wrench import add_point_force, add_point_matrix, outer
 
 
-@njit(cache=True)
-def _spring_offset(rot, position, hand_position, radius, anchor, normal):
-    """c - s in the body frame, its normal length delta and its tangential part."""
-    p = rot.T @ (hand_position - position)
-    offset = anchor - (p - radius * normal)
-    delta = offset @ normal
-    return offset, delta, offset - delta * normal
+@kernel
+def spring_offset(rot, position, hand_position, radius, anchor, normal):
+    """c - s in the body frame, its normal length delta and its tangential part (Eqs. 16-18)."""
+    p = mat_t_vec(rot, sub(hand_position, position))
+    offset = sub(anchor, sub(p, scale(radius, normal)))
+    delta = dot(offset, normal)
+    return offset, delta, sub(offset, scale(delta, normal))
 
 
-@njit(cache=True)
-def _friction_cone(static_friction, dynamic_friction, shape, half_size, position, orientation,
-                   hand_position, radius, active, anchor, normal, sliding):
-    n_slots, n_objects = active.shape
-    for o in range(n_objects):
-        rot = quat_to_matrix(orientation[o])
-        for k in range(n_slots):
-            sliding[k, o] = False
-            if not active[k, o]:
-                continue
-            _, delta, tangential = _spring_offset(rot, position[o], hand_position[k], radius[k],
-                                                  anchor[k, o], normal[k, o])
-            length = np.sqrt(tangential @ tangential)
-            if length > static_friction[o] * delta:
-                moved = anchor[k, o] - (length - dynamic_friction[o] * delta) / length * tangential
-                anchor[k, o], normal[k, o] = project_to_surface(shape[o], half_size[o], moved, normal[k, o])
-                sliding[k, o] = True
+@kernel
+def friction_cone(p, s, o, rot):
+    """Eqs. 19-20: each contact with object o sticks inside the cone, or its anchor slides until
+    the tangential pull is phi times the normal one."""
+    position = row(s.position, o)
+    mu, phi = p.static_friction[o], p.dynamic_friction[o]
+    for k in range(SLOTS):
+        s.sliding[k, o] = False
+        if not s.active[k, o]:
+            continue
+        anchor, normal = cell(s.anchor, k, o), cell(s.normal, k, o)
+        _, delta, tangential = spring_offset(rot, position, row(s.hand_position, k), s.radius[k], anchor, normal)
+        length = norm(tangential)
+        if delta > 0.0 and length > mu * delta:
+            moved = sub(anchor, scale((length - phi * delta) / length, tangential))
+            anchor, normal = project_to_surface(p.shape[o], row(p.half_size, o), moved, normal)
+            set_cell(s.anchor, k, o, anchor)
+            set_cell(s.normal, k, o, normal)
+            s.sliding[k, o] = True
 
 
-def friction_cone(model, data, h: float) -> None:
-    """Eqs. 19-20: each contact sticks inside the cone, or its anchor slides to dynamic friction."""
-    _friction_cone(model.static_friction, model.dynamic_friction, model.shape, model.half_size,
-                   data.position, data.orientation, data.hand_position, data.radius, data.active,
-                   data.anchor, data.normal, data.sliding)
-
-
-@njit(cache=True)
-def _penetration(gamma, friction, dynamic_friction, shape, half_size, position, orientation, velocity,
-                 angular_velocity, hand_position, hand_velocity, radius, active, anchor, normal, depth, sliding,
-                 wrench, stiffness, h):
-    n_slots, n_objects = active.shape
-    for o in range(n_objects):
-        rot = quat_to_matrix(orientation[o])
-        for k in range(n_slots):
-            if not active[k, o]:
-                continue
-            offset, delta, tangential = _spring_offset(rot, position[o], hand_position[k], radius[k],
-                                                       anchor[k, o], normal[k, o])
-            if not friction:
-                anchor[k, o], normal[k, o] = project_to_surface(shape[o], half_size[o],
-                                                                anchor[k, o] - tangential, normal[k, o])
-                offset, delta, tangential = _spring_offset(rot, position[o], hand_position[k], radius[k],
-                                                           anchor[k, o], normal[k, o])
-            depth[k, o] = delta
-            if delta <= 0.0:  # off the face it pressed on: nothing presses, nothing pulls
-                continue
-            if not friction or sliding[k, o]:  # an anchor held at a face's edge cannot pull past the cone
-                limit = dynamic_friction[o] * delta if friction else 0.0
-                length = np.sqrt(tangential @ tangential)
-                if length > limit:
-                    offset = delta * normal[k, o] + limit / length * tangential
-            n_world = rot @ normal[k, o]
-            r = rot @ anchor[k, o] + radius[k] * n_world
-            on_object = -gamma * (rot @ offset)
-            separating = n_world @ (hand_velocity[k] - point_velocity(velocity[o], angular_velocity[o], r))
-            if delta <= h * separating:
-                add_point_force(wrench[o], r, delta / (2.0 * h * separating) * on_object)
-                continue
-            local = gamma * np.eye(3) if friction and not sliding[k, o] else gamma * np.outer(n_world, n_world)
-            add_point_force(wrench[o], r, on_object + h * (local @ hand_velocity[k]))
-            add_point_matrix(stiffness[o], r, local)
-
-
-def penetration_forces(model, data, h: float) -> None:
-    """Eqs. 16-18: the spring force of every contact, applied to the object at its god-object phalanx."""
-    _penetration(model.penetration_stiffness, "friction" in model.effects, model.dynamic_friction, model.shape,
-                 model.half_size, data.position, data.orientation, data.velocity, data.angular_velocity,
-                 data.hand_position, data.hand_velocity, data.radius, data.active, data.anchor, data.normal,
-                 data.depth, data.sliding, data.wrench, data.stiffness, h)
+@kernel
+def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h):
+    """Eqs. 16-18: the spring force of every contact with object o, applied at its god-object
+    phalanx, with the stiffness the implicit velocity update needs."""
+    gamma = p.penetration_stiffness
+    position = row(s.position, o)
+    velocity, angular_velocity = row(s.velocity, o), row(s.angular_velocity, o)
+    for k in range(SLOTS):
+        if not s.active[k, o]:
+            continue
+        hand, radius = row(s.hand_position, k), s.radius[k]
+        anchor, normal = cell(s.anchor, k, o), cell(s.normal, k, o)
+        offset, delta, tangential = spring_offset(rot, position, hand, radius, anchor, normal)
+        if not friction:
+            anchor, normal = project_to_surface(p.shape[o], row(p.half_size, o), sub(anchor, tangential), normal)
+            set_cell(s.anchor, k, o, anchor)
+            set_cell(s.normal, k, o, normal)
+            offset, delta, tangential = spring_offset(rot, position, hand, radius, anchor, normal)
+        s.depth[k, o] = delta
+        if delta <= 0.0:  # off the face it pressed on: nothing presses, nothing pulls
+            continue
+        if not friction or s.sliding[k, o]:  # an anchor held at a face's edge cannot pull past the cone
+            limit = p.dynamic_friction[o] * delta if friction else 0.0
+            length = norm(tangential)
+            if length > limit:
+                offset = add(scale(delta, normal), scale(limit / length, tangential))
+        n_world = mat_vec(rot, normal)
+        r = add(mat_vec(rot, anchor), scale(radius, n_world))
+        on_object = scale(-gamma, mat_vec(rot, offset))
+        hand_velocity = row(s.hand_velocity, k)
+        separating = dot(n_world, sub(hand_velocity, point_velocity(velocity, angular_velocity, r)))
+        if delta <= h * separating:
+            add_point_force(wrench, r, scale(delta / (2.0 * h * separating), on_object))
+            continue
+        if friction and not s.sliding[k, o]:
+            local = ((gamma, 0.0, 0.0), (0.0, gamma, 0.0), (0.0, 0.0, gamma))
+        else:
+            local = outer(gamma, n_world, n_world)
+        add_point_force(wrench, r, add(on_object, scale(h, mat_vec(local, hand_velocity))))
+        add_point_matrix(stiffness, r, local)

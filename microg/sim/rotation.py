@@ -45,17 +45,6 @@ def quat_from_rotation_vector(v):
     return np.array([np.cos(0.5 * angle), s * v[0], s * v[1], s * v[2]])
 
 
-@njit(cache=True)
-def cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
-
-
-@njit(cache=True)
-def skew(r):
-    """[r]x, the matrix with [r]x v = r x v."""
-    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
-
-
 def quat_from_euler_deg(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Quaternion from intrinsic x-y-z angles in degrees (object placement in scene files)."""
     qx = quat_from_rotation_vector(np.array([np.radians(roll), 0.0, 0.0]))

@@ -1,6 +1,6 @@
 """A scene: the objects, where they start, and exactly which physical effects act on them.
 
-The step is assembled from the effects a scene names and nothing else (see ``world.substep_stages``).
+The step is compiled for the effects a scene names and nothing else (see ``pipeline.specialise``).
 An interaction model is a named set of contact effects; the three models the toolkit compares:
 
 - ``impulse_penetration``: the paper's model, the impulse phase at contact onset (Eqs. 9-15) plus
@@ -95,7 +95,9 @@ class Scene:
     tracking_rate: float = 110.0
     """Nominal hand-frame rate (Hz); the Leap Motion delivers about 110."""
     substeps: int = 4
-    """Physics steps per nominal tracking frame; dt = 1 / (tracking_rate * substeps)."""
+    """Physics steps per nominal tracking frame; dt = 1 / (tracking_rate * substeps). Four (dt = 1/440 s):
+    impacts obey Newton's law at any step now, but the compliant table (friction, settling) and a
+    pinch under gravity still need it (docs/physics.md, "What accuracy costs")."""
     penetration_stiffness: float = 100.0
     """gamma in Eq. 16 (N/m); the paper's value."""
     angular_integrator: str = "midpoint"

@@ -8,41 +8,33 @@ passes through the table: it is not tracked against it.
 
 from __future__ import annotations
 
-import numpy as np
-from numba import njit
 
 from .bodies import BOX
 from .compliant import add_compliant_contact
-from .rotation import quat_to_matrix
+from .vec import kernel, mat_vec, row
 
-DOWN = np.array([0.0, -1.0, 0.0])
-CORNERS = np.array([[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0) for sz in (-1.0, 1.0)])
-
-
-@njit(cache=True)
-def _table(height, spring, damper, slip_velocity, shape, half_size, static_friction, position, orientation,
-           velocity, angular_velocity, wrench, stiffness, damping, corners, down, h):
-    still = np.zeros(3)
-    for o in range(position.shape[0]):
-        rot = quat_to_matrix(orientation[o])
-        if shape[o] == BOX:
-            for c in range(corners.shape[0]):
-                r = rot @ (corners[c] * half_size[o])
-                depth = height - (position[o, 1] + r[1])
-                if depth > 0.0:
-                    add_compliant_contact(wrench[o], stiffness[o], damping[o], r, down, depth, still, velocity[o],
-                                          angular_velocity[o], spring, damper, static_friction[o], slip_velocity, h)
-        else:
-            r = half_size[o, 0] * down
-            depth = height - (position[o, 1] + r[1])
-            if depth > 0.0:
-                add_compliant_contact(wrench[o], stiffness[o], damping[o], r, down, depth, still, velocity[o],
-                                      angular_velocity[o], spring, damper, static_friction[o], slip_velocity, h)
+DOWN = (0.0, -1.0, 0.0)
+STILL = (0.0, 0.0, 0.0)
 
 
-def table_contacts(model, data, h: float) -> None:
-    """Support, damping and friction from the table on every object corner below its surface."""
-    t = model.scene.table
-    _table(t.height, t.stiffness, t.damping, t.slip_velocity, model.shape, model.half_size, model.static_friction,
-           data.position, data.orientation, data.velocity, data.angular_velocity, data.wrench, data.stiffness,
-           data.damping, CORNERS, DOWN, h)
+@kernel
+def _corner(p, s, o, r, wrench, stiffness, damping, h):
+    depth = p.table_height - (s.position[o, 1] + r[1])
+    if depth > 0.0:
+        add_compliant_contact(wrench, stiffness, damping, r, DOWN, depth, STILL, row(s.velocity, o),
+                              row(s.angular_velocity, o), p.table_stiffness, p.table_damping,
+                              p.static_friction[o], p.table_slip_velocity, h)
+
+
+@kernel
+def table_contacts(p, s, o, rot, wrench, stiffness, damping, h):
+    """Support, damping and friction from the table on every corner of object o below its surface."""
+    half = row(p.half_size, o)
+    if p.shape[o] != BOX:
+        _corner(p, s, o, (0.0, -half[0], 0.0), wrench, stiffness, damping, h)
+        return
+    for sx in (-1.0, 1.0):
+        for sy in (-1.0, 1.0):
+            for sz in (-1.0, 1.0):
+                _corner(p, s, o, mat_vec(rot, (sx * half[0], sy * half[1], sz * half[2])), wrench, stiffness,
+                        damping, h)

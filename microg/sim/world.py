@@ -3,46 +3,53 @@
     world = make_world(scene)
     world = step(world, hand_frame)
 
-``make_world`` validates the scene once and assembles the step from exactly the stages the scene's
-effects call for. ``step`` takes one hand frame (already filtered: ``microg.hands.filter``), notes
-which hands start a new track, then runs as many fixed physics steps of ``scene.dt`` as fit up to
-the frame's timestamp, moving the hand linearly from the previous frame to this one. It returns a new World
-and leaves its argument untouched; inside, the stages update one private copy in place.
+    batch = make_batch(scene, 256)                 # 256 independent worlds of one scene
+    batch = step_batch(batch, frames)              # frames: 256 HandFrames, or HandFrames.stack(...)
+
+``make_world`` validates the scene once and compiles (or loads from the cache) the step for exactly
+the effects the scene names (``pipeline.specialise``). ``step`` takes one hand frame (already
+filtered: ``microg.hands.filter``) and advances the world to the frame's timestamp in one compiled
+call: the frame intake (new tracks by ``hand.is_jump``, the phalanx slots) and every physics step
+of ``scene.dt`` that fits, with the hand moving linearly from the previous frame to this one.
+
+Copy on step: the world's state is three flat buffers (``state``); ``step`` copies them (three
+``memcpy``s, a few kilobytes), advances the copy and returns it in a new World, so its argument is
+left untouched and a World once returned never changes unless its owner writes to it. The named
+fields (``world.data.position`` ...) are views into the buffers, made on first access.
+
+``step_batch`` does the same for a batch of worlds of one model, their buffers stacked on a
+leading world axis, in one compiled call: world i of the batch follows exactly the trajectory
+``step`` gives it alone (tested).
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, fields
-from typing import Callable
+from dataclasses import dataclass
+from typing import Callable, Sequence
 
 import numpy as np
 
 from .bodies import SHAPES, SceneError
-from .contact import detect_contacts, sweep_contacts
-from .hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, bone_centres, is_jump, phalanx_mask
-from .impulse import apply_impulses
-from .integrate import (EXPLICIT_EULER, MIDPOINT, SEMI_IMPLICIT_EULER, apply_gravity, integrate_position,
-                        integrate_velocity, rotate_free, rotate_without_gyroscopic)
-from .penetration import friction_cone, penetration_forces
+from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
+from .pipeline import specialise
 from .scene import Scene
-from .soft_hand import soft_hand_forces
-from .table import table_contacts
+from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, POINTS,
+                    empty_buffers, layout, pack_params, view)
 
-CONTACT_EFFECTS = frozenset({"impulse", "penetration", "soft_hand"})
-MAX_TURN = 0.1
-"""rad: the most an object may turn in one physics step; faster spins cut the step into parts."""
-MAX_PARTS = 64
-_METHODS = {"midpoint": MIDPOINT, "semi_implicit_euler": SEMI_IMPLICIT_EULER, "explicit_euler": EXPLICIT_EULER}
+ANGULAR_METHODS = {"midpoint": 0, "semi_implicit_euler": 1, "explicit_euler": 2}
+"""``integrate.MIDPOINT``, ``SEMI_IMPLICIT_EULER``, ``EXPLICIT_EULER``."""
 
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """What does not change while the world runs: the scene as arrays, and the assembled step."""
+    """What does not change while the world runs: the scene as arrays, and its compiled step."""
 
     scene: Scene
     names: tuple[str, ...]
     effects: frozenset[str]
+    params: np.ndarray
+    """The numbers below packed for the compiled step (``state.pack_params``)."""
+    ints: np.ndarray
     shape: np.ndarray
     half_size: np.ndarray
     """(N, 3) box half extents; a sphere's radius in every column."""
@@ -57,8 +64,8 @@ class Model:
     resting_tolerance: float
     angular_method: int
     dt: float
-    stage_names: tuple[str, ...]
-    stages: tuple[Callable, ...]
+    advance: Callable
+    """The compiled step for this scene's effects (``pipeline.specialise``)."""
 
     @property
     def n_objects(self) -> int:
@@ -72,54 +79,35 @@ class Model:
             raise KeyError(f"no object named {name!r} in this world (objects: {list(self.names)})") from None
 
 
-@dataclass(eq=False)
 class Data:
-    """Everything that changes: object states, the tracked hand, contacts and god-object anchors."""
+    """Everything that changes: object states, the tracked hand, contacts and god-object anchors.
 
-    time: float
-    steps: int
-    start_time: float
-    frame_time: float
-    previous_frame_time: float
-    frames: int
-    # objects (N, ...)
-    position: np.ndarray
-    orientation: np.ndarray
-    velocity: np.ndarray
-    angular_velocity: np.ndarray
-    wrench: np.ndarray
-    stiffness: np.ndarray
-    damping: np.ndarray
-    # tracked hand, per phalanx slot (K, ...)
-    hand_position: np.ndarray
-    hand_previous: np.ndarray
-    hand_from: np.ndarray
-    hand_to: np.ndarray
-    hand_velocity: np.ndarray
-    radius: np.ndarray
-    valid: np.ndarray
-    fresh: np.ndarray
-    # per hand side
-    joints: np.ndarray
-    """(2, 5, 5, 3) the tracked skeleton of each side; NaN when absent."""
-    present: np.ndarray
-    track_id: np.ndarray
-    reference: np.ndarray
-    """(2, 26, 3) palm and joints of each side's last hand, for the jump rule."""
-    # contacts (K, N, ...); anchors and normals in the object's body frame
-    active: np.ndarray
-    ghost: np.ndarray
-    onset: np.ndarray
-    sliding: np.ndarray
-    anchor: np.ndarray
-    normal: np.ndarray
-    depth: np.ndarray
-    normal_velocity: np.ndarray
-    impulse: np.ndarray
+    Three buffers (``reals``, ``flags``, ``counts``); every field of ``state.FIELDS`` is an
+    attribute, a view into them (writing to it writes the state): object poses and velocities (N, ...),
+    the phalanx slots (K, ...), contacts (K, N, ...) with anchors and normals in the body frame.
+    """
+
+    def __init__(self, n_objects: int, reals: np.ndarray, flags: np.ndarray, counts: np.ndarray):
+        self.n_objects, self.reals, self.flags, self.counts = n_objects, reals, flags, counts
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("__") or name in ("n_objects", "reals", "flags", "counts"):
+            raise AttributeError(name)
+        if name not in layout(self.n_objects)[0]:
+            raise AttributeError(f"Data has no field {name!r}")
+        field = view((self.reals, self.flags, self.counts), self.n_objects, name)
+        self.__dict__[name] = field
+        return field
+
+    time = property(lambda self: float(self.reals[CLOCK_TIME]), doc="Simulated time (s).")
+    start_time = property(lambda self: float(self.reals[CLOCK_START]), doc="Time of the first frame (s).")
+    frame_time = property(lambda self: float(self.reals[CLOCK_FRAME]), doc="Time of the last frame (s).")
+    previous_frame_time = property(lambda self: float(self.reals[CLOCK_PREVIOUS_FRAME]))
+    steps = property(lambda self: int(self.counts[COUNT_STEPS]), doc="Physics steps taken.")
+    frames = property(lambda self: int(self.counts[COUNT_FRAMES]), doc="Hand frames taken.")
 
     def copy(self) -> Data:
-        return Data(**{f.name: (v.copy() if isinstance(v := getattr(self, f.name), np.ndarray) else v)
-                       for f in fields(self)})
+        return Data(self.n_objects, self.reals.copy(), self.flags.copy(), self.counts.copy())
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,176 +120,154 @@ class World:
         return self.data.time
 
 
-def move_hand(model: Model, data: Data, h: float) -> None:
-    """Place the phalanges for the end of this step, on the line from the last frame to this one;
-    a new step starts with no contact onsets."""
-    data.onset[:] = False
-    data.hand_previous[:] = data.hand_position
-    interval = data.frame_time - data.previous_frame_time
-    alpha = 1.0 if interval <= 0 else min(1.0, (data.time + h - data.previous_frame_time) / interval)
-    data.hand_position[:] = data.hand_from + alpha * (data.hand_to - data.hand_from)
+def make_model(scene: Scene) -> Model:
+    """Validate the scene and compile (or load) its step."""
+    scene.validate()
+    specs = [p.spec for p in scene.objects]
+    shape = np.array([SHAPES.index(s.shape) for s in specs], dtype=np.int64)
+    half_size = np.array([s.half_extents for s in specs])
+    mass = np.array([s.mass for s in specs], dtype=np.float64)
+    inertia = np.array([s.principal_inertia for s in specs])
+    restitution = np.array([s.material.restitution for s in specs], dtype=np.float64)
+    static_friction = np.array([s.material.static_friction for s in specs], dtype=np.float64)
+    dynamic_friction = np.array([s.material.dynamic_friction for s in specs], dtype=np.float64)
+    gravity = np.asarray(scene.gravity, dtype=np.float64)
+    table, soft = scene.table, scene.soft_hand
+    scalars = {"penetration_stiffness": scene.penetration_stiffness, "resting_tolerance": scene.resting_tolerance,
+               "dt": scene.dt, "jump_distance": scene.jump_distance, "soft_stiffness": soft.stiffness,
+               "soft_damping": soft.damping, "soft_slip_velocity": soft.slip_velocity,
+               "table_height": table.height if table else 0.0, "table_stiffness": table.stiffness if table else 0.0,
+               "table_damping": table.damping if table else 0.0,
+               "table_slip_velocity": table.slip_velocity if table else 0.0}
+    method = ANGULAR_METHODS[scene.angular_integrator]
+    params, ints = pack_params(shape, half_size, mass, inertia, restitution, static_friction, dynamic_friction,
+                               gravity, scalars, method)
+    return Model(scene=scene, names=tuple(s.name for s in specs), effects=scene.effects, params=params, ints=ints,
+                 shape=shape, half_size=half_size, mass=mass, inertia=inertia, restitution=restitution,
+                 static_friction=static_friction, dynamic_friction=dynamic_friction, gravity=gravity,
+                 penetration_stiffness=float(scene.penetration_stiffness),
+                 resting_tolerance=float(scene.resting_tolerance), angular_method=method, dt=scene.dt,
+                 advance=specialise(scene.effects))
 
 
-STAGES: dict[str, Callable] = {
-    "move_hand": move_hand,
-    "detect_contacts": detect_contacts,
-    "continuous_collision": sweep_contacts,
-    "impulse": apply_impulses,
-    "friction": friction_cone,
-    "penetration": penetration_forces,
-    "soft_hand": soft_hand_forces,
-    "gravity": apply_gravity,
-    "table": table_contacts,
-    "integrate_velocity": integrate_velocity,
-    "integrate_position": integrate_position,
-    "gyroscopic": rotate_free,
-    "rotate_without_gyroscopic": rotate_without_gyroscopic,
-}
-"""Every stage by name. ``make_world`` looks stages up here, so a test can count their calls."""
-
-
-def substep_stages(effects: frozenset[str]) -> tuple[str, ...]:
-    """The physics step's stages, in order, for a set of effects: nothing unnamed runs."""
-    names = ["move_hand"]
-    if effects & CONTACT_EFFECTS:
-        if "continuous_collision" in effects:
-            names.append("continuous_collision")
-        names.append("detect_contacts")
-    if "impulse" in effects:
-        names.append("impulse")
-    if {"penetration", "friction"} <= effects:
-        names.append("friction")
-    names += [e for e in ("penetration", "soft_hand", "gravity", "table") if e in effects]
-    names += ["integrate_velocity", "integrate_position"]
-    names.append("gyroscopic" if "gyroscopic" in effects else "rotate_without_gyroscopic")
-    return tuple(names)
+def initial_data(model: Model) -> Data:
+    """The scene's initial state, no hand seen yet."""
+    n = model.n_objects
+    data = Data(n, *empty_buffers(n))
+    objects = model.scene.objects
+    data.position[:] = [p.position for p in objects]
+    data.orientation[:] = [p.orientation for p in objects]
+    data.velocity[:] = [p.velocity for p in objects]
+    data.angular_velocity[:] = [p.angular_velocity for p in objects]
+    for name in ("hand_position", "hand_previous", "hand_from", "hand_to", "reference"):
+        getattr(data, name)[:] = np.nan
+    return data
 
 
 def make_world(scene: Scene) -> World:
     """Validate the scene and build the world at rest at its initial state."""
-    scene.validate()
-    specs = [p.spec for p in scene.objects]
-    names = tuple(s.name for s in specs)
-    stage_names = substep_stages(scene.effects)
-    model = Model(
-        scene=scene, names=names, effects=scene.effects,
-        shape=np.array([SHAPES.index(s.shape) for s in specs], dtype=np.int64),
-        half_size=np.array([s.half_extents for s in specs]),
-        mass=np.array([s.mass for s in specs], dtype=np.float64),
-        inertia=np.array([s.principal_inertia for s in specs]),
-        restitution=np.array([s.material.restitution for s in specs], dtype=np.float64),
-        static_friction=np.array([s.material.static_friction for s in specs], dtype=np.float64),
-        dynamic_friction=np.array([s.material.dynamic_friction for s in specs], dtype=np.float64),
-        gravity=np.asarray(scene.gravity, dtype=np.float64),
-        penetration_stiffness=float(scene.penetration_stiffness),
-        resting_tolerance=float(scene.resting_tolerance),
-        angular_method=_METHODS[scene.angular_integrator],
-        dt=scene.dt, stage_names=stage_names, stages=tuple(STAGES[n] for n in stage_names),
-    )
-    n = len(specs)
-    nan_slots = np.full((SLOTS, 3), np.nan)
-    data = Data(
-        time=0.0, steps=0, start_time=0.0, frame_time=0.0, previous_frame_time=0.0, frames=0,
-        position=np.array([p.position for p in scene.objects], dtype=np.float64),
-        orientation=np.array([p.orientation for p in scene.objects], dtype=np.float64),
-        velocity=np.array([p.velocity for p in scene.objects], dtype=np.float64),
-        angular_velocity=np.array([p.angular_velocity for p in scene.objects], dtype=np.float64),
-        wrench=np.zeros((n, 6)), stiffness=np.zeros((n, 6, 6)), damping=np.zeros((n, 6, 6)),
-        hand_position=nan_slots.copy(), hand_previous=nan_slots.copy(), hand_from=nan_slots.copy(),
-        hand_to=nan_slots.copy(), hand_velocity=np.zeros((SLOTS, 3)), radius=np.zeros(SLOTS),
-        valid=np.zeros(SLOTS, dtype=bool), fresh=np.zeros(SLOTS, dtype=bool),
-        joints=np.full((2, N_DIGITS, N_BONES + 1, 3), np.nan), present=np.zeros(2, dtype=bool),
-        track_id=np.zeros(2, dtype=np.int64), reference=np.full((2, 1 + N_DIGITS * (N_BONES + 1), 3), np.nan),
-        active=np.zeros((SLOTS, n), dtype=bool), ghost=np.zeros((SLOTS, n), dtype=bool),
-        onset=np.zeros((SLOTS, n), dtype=bool), sliding=np.zeros((SLOTS, n), dtype=bool),
-        anchor=np.zeros((SLOTS, n, 3)), normal=np.zeros((SLOTS, n, 3)), depth=np.zeros((SLOTS, n)),
-        normal_velocity=np.zeros((SLOTS, n)), impulse=np.zeros((SLOTS, n)),
-    )
-    return World(model, data)
+    model = make_model(scene)
+    return World(model, initial_data(model))
 
 
-def _track_changes(model: Model, data: Data, hands: tuple[Hand | None, ...]) -> np.ndarray:
-    """Which sides start a new track this frame: the hand (re)appeared, changed id, or jumped
-    (``hand.is_jump``: a caller that skips the tracking guard is protected too)."""
-    new_track = np.zeros(2, dtype=bool)
-    for side, hand in enumerate(hands):
-        if hand is None:
-            data.present[side] = False
-            continue
-        points = hand.points
-        jumped = is_jump(points, data.reference[side], model.scene.jump_distance)
-        new_track[side] = not data.present[side] or hand.track_id != data.track_id[side] or jumped
-        data.present[side] = True
-        data.track_id[side] = hand.track_id
-        data.reference[side] = points
-    return new_track
+@dataclass(frozen=True, eq=False)
+class HandFrames:
+    """Hand frames as arrays with a leading world axis: what the compiled step reads.
 
-
-def _take_hand(data: Data, hands: tuple[Hand | None, ...], joints: list, new_track: np.ndarray,
-               interval: float) -> None:
-    """Set each phalanx's path for the coming steps from the (filtered) joints.
-
-    A phalanx whose track starts here (new track, or newly valid) has no velocity yet, and stays
-    ``fresh`` until a physics step has looked at it: an overlap found then makes it a ghost.
+    ``points`` (B, 2, 26, 3): each side's palm, then its 25 joints digit-major (NaN: unknown);
+    ``widths`` (B, 2, 5, 4); ``present`` (B, 2) and ``track_id`` (B, 2) per side; ``timestamp`` (B,).
     """
-    data.hand_from[:] = data.hand_to
-    restart = np.zeros(SLOTS, dtype=bool)
-    for side, hand in enumerate(hands):
-        slots = slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
-        if joints[side] is None:
-            data.valid[slots] = False
-            data.joints[side] = np.nan
-            data.hand_to[slots] = np.nan
-            continue
-        widths = hand.widths
-        valid = phalanx_mask(joints[side], widths).reshape(-1)
-        data.joints[side] = joints[side]
-        data.hand_to[slots] = bone_centres(joints[side]).reshape(-1, 3)
-        data.radius[slots] = np.where(valid, widths.reshape(-1) / 2, 0.0)
-        restart[slots] = valid & (new_track[side] | ~data.valid[slots])
-        data.valid[slots] = valid
-    data.hand_from[restart] = data.hand_to[restart]
-    data.hand_position[restart] = data.hand_to[restart]
-    data.fresh[:] = data.valid & (restart | data.fresh)
-    moving = data.valid & ~restart
-    data.hand_velocity[:] = 0.0
-    if interval > 0:
-        data.hand_velocity[moving] = (data.hand_to[moving] - data.hand_from[moving]) / interval
+
+    timestamp: np.ndarray
+    present: np.ndarray
+    track_id: np.ndarray
+    points: np.ndarray
+    widths: np.ndarray
+
+    @classmethod
+    def stack(cls, frames: Sequence[HandFrame]) -> HandFrames:
+        """One frame per world."""
+        count = len(frames)
+        arrays = cls(np.empty(count), np.zeros((count, 2), dtype=np.bool_), np.zeros((count, 2), dtype=np.int64),
+                     np.full((count, 2, POINTS, 3), np.nan), np.full((count, 2, N_DIGITS, N_BONES), np.nan))
+        for i, frame in enumerate(frames):
+            arrays.timestamp[i] = frame.timestamp
+            for hand in frame.hands:
+                side = SIDES.index(hand.side)
+                arrays.present[i, side] = True
+                arrays.track_id[i, side] = hand.track_id
+                arrays.points[i, side, 0] = hand.palm_position
+                arrays.points[i, side, 1:] = hand.joints.reshape(-1, 3)
+                arrays.widths[i, side] = hand.widths
+        return arrays
+
+
+def _late(timestamp: float, frame_time: float, frames_seen: int) -> None:
+    if frames_seen and timestamp <= frame_time:
+        raise SceneError(f"hand frame timestamp {timestamp!r} is not after the previous frame's {frame_time!r}; "
+                         "order frames (the tracking guard does) before the physics")
+
+
+def _advance(model: Model, buffers, frames: HandFrames) -> None:
+    model.advance(model.params, model.ints, *buffers, frames.timestamp, frames.present, frames.track_id,
+                  frames.points, frames.widths)
 
 
 def step(world: World, frame: HandFrame) -> World:
     """Advance the world to ``frame.timestamp`` with the hand as the frame shows it."""
-    model, data = world.model, world.data.copy()
-    if data.frames and frame.timestamp <= data.frame_time:
-        raise SceneError(f"hand frame timestamp {frame.timestamp!r} is not after the previous frame's "
-                         f"{data.frame_time!r}; order frames (the tracking guard does) before the physics")
-    if not data.frames:
-        data.start_time = data.time = data.previous_frame_time = frame.timestamp
+    data = world.data
+    _late(frame.timestamp, float(data.reals[CLOCK_FRAME]), int(data.counts[COUNT_FRAMES]))
+    buffers = (data.reals[None].copy(), data.flags[None].copy(), data.counts[None].copy())
+    _advance(world.model, buffers, HandFrames.stack((frame,)))
+    return World(world.model, Data(data.n_objects, buffers[0][0], buffers[1][0], buffers[2][0]))
+
+
+@dataclass(frozen=True, eq=False)
+class Batch:
+    """Independent worlds of one model, their state buffers stacked on a leading world axis."""
+
+    model: Model
+    reals: np.ndarray
+    flags: np.ndarray
+    counts: np.ndarray
+
+    def __len__(self) -> int:
+        return self.reals.shape[0]
+
+    def world(self, i: int) -> World:
+        """World i, as a view into the batch's buffers (the batch's step copies, so it stays as it is)."""
+        return World(self.model, Data(self.model.n_objects, self.reals[i], self.flags[i], self.counts[i]))
+
+    def field(self, name: str) -> np.ndarray:
+        """A state field of every world, stacked: e.g. ``batch.field("position")`` is (B, N, 3)."""
+        return np.stack([getattr(self.world(i).data, name) for i in range(len(self))])
+
+
+def make_batch(scene_or_worlds: Scene | Sequence[World], size: int | None = None) -> Batch:
+    """A batch of ``size`` copies of the scene's initial world, or of the given worlds (one model)."""
+    if isinstance(scene_or_worlds, Scene):
+        world = make_world(scene_or_worlds)
+        worlds = [world] * int(size)
     else:
-        data.previous_frame_time = data.frame_time
-    data.frame_time = frame.timestamp
-    hands = tuple(frame.hand(side) for side in SIDES)
-    new_track = _track_changes(model, data, hands)
-    joints = [None if hand is None else hand.joints for hand in hands]
-    _take_hand(data, hands, joints, new_track, data.frame_time - data.previous_frame_time)
-    data.frames += 1
-    h = model.dt
-    target = math.floor((data.frame_time - data.start_time) / h + 1e-9)
-    while data.steps < target:
-        parts = _parts(data, h)
-        for _ in range(parts):
-            for stage in model.stages:
-                stage(model, data, h / parts)
-            data.fresh[:] = False
-            data.time += h / parts
-        data.steps += 1
-        data.time = data.start_time + data.steps * h
-    return World(model, data)
+        worlds = list(scene_or_worlds)
+    model = worlds[0].model
+    if any(w.model is not model for w in worlds):
+        raise SceneError("a batch's worlds must share one model (make them from one make_world or make_batch)")
+    return Batch(model, np.stack([w.data.reals for w in worlds]), np.stack([w.data.flags for w in worlds]),
+                 np.stack([w.data.counts for w in worlds]))
 
 
-def _parts(data: Data, h: float) -> int:
-    """Into how many parts a step must be cut so that no object turns more than ``MAX_TURN`` in
-    one: a hard impact can spin a light bar up to hundreds of rad/s, which a contact linearised
-    over a whole step would no longer follow (it could even add energy). One part almost always."""
-    fastest = float(np.sqrt((data.angular_velocity ** 2).sum(axis=1).max(initial=0.0)))
-    return min(MAX_PARTS, max(1, math.ceil(fastest * h / MAX_TURN)))
+def step_batch(batch: Batch, frames: HandFrames | Sequence[HandFrame]) -> Batch:
+    """Advance every world of the batch to its own frame's timestamp (one frame per world, in
+    order); returns a new Batch and leaves its argument untouched."""
+    if not isinstance(frames, HandFrames):
+        frames = HandFrames.stack(frames)
+    if frames.timestamp.shape != (len(batch),):
+        raise SceneError(f"step_batch: {frames.timestamp.shape[0]} frames for a batch of {len(batch)} worlds")
+    late = (batch.counts[:, COUNT_FRAMES] > 0) & (frames.timestamp <= batch.reals[:, CLOCK_FRAME])
+    if late.any():
+        i = int(np.argmax(late))
+        _late(float(frames.timestamp[i]), float(batch.reals[i, CLOCK_FRAME]), 1)
+    buffers = (batch.reals.copy(), batch.flags.copy(), batch.counts.copy())
+    _advance(batch.model, buffers, frames)
+    return Batch(batch.model, *buffers)

@@ -10,14 +10,14 @@ The command line (``microg study init``, ``microg participant add``, ``microg se
 
 from .assignment import Participant, ParticipantError, assign_group, assign_order, balanced_latin_square, paper_sample
 from .export import export_study, hand_frames, questionnaire_table, read_tables, run_frames, trials_table
-from .inputs import InputError, ParticipantPlan, ScriptedInputs, open_inputs, participant_plan
+from .inputs import InputError, ScriptedInputs, open_inputs, participant_plan
 from .protocol import Protocol, ProtocolError, load_protocol
 from .questionnaire import RatingError, TerminalRater, parse_rating
 from .session import SimulationClock, WallClock, resume_session, run_session, run_task, task_world
 from .store import Store, StoreError, create_study, open_study, plan_tasks
 
 __all__ = [
-    "InputError", "Participant", "ParticipantError", "ParticipantPlan", "Protocol", "ProtocolError",
+    "InputError", "Participant", "ParticipantError", "Protocol", "ProtocolError",
     "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TerminalRater",
     "WallClock", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
     "hand_frames", "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",

@@ -14,6 +14,7 @@ the square is paired with its mirror image) or from a seeded permutation per par
 
 from __future__ import annotations
 
+import re
 import zlib
 from dataclasses import dataclass
 
@@ -22,6 +23,10 @@ import numpy as np
 from .protocol import Protocol
 
 GENDERS = ("female", "male", "diverse", "undisclosed")
+MAX_ID = 64
+ID = re.compile(rf"[A-Za-z0-9]{{1,{MAX_ID}}}")
+"""A participant id: exactly what a BIDS label keeps, so ids and sub-<label>s map one to one
+(the store also refuses ids that differ only in case)."""
 HANDEDNESS = ("left", "right", "ambidextrous")
 
 
@@ -53,9 +58,9 @@ class Enrolled:
 def check_participant(participant: Participant, protocol: Protocol) -> None:
     """Reject demographics the study cannot use, naming the field and value."""
     p = participant
-    if not isinstance(p.id, str) or not p.id.isalnum():
-        raise ParticipantError(f"participant id = {p.id!r}: must be letters and digits only (e.g. P01); "
-                               "it becomes the sub-<label> of the Motion-BIDS export")
+    if not isinstance(p.id, str) or not ID.fullmatch(p.id):
+        raise ParticipantError(f"participant id = {p.id!r}: must be 1 to {MAX_ID} ASCII letters and digits (e.g. "
+                               "P01); it becomes the sub-<label> of the Motion-BIDS export, which keeps nothing else")
     if p.gender not in GENDERS:
         raise ParticipantError(f"participant {p.id}: gender = {p.gender!r}: must be one of {list(GENDERS)}")
     if p.handedness not in HANDEDNESS:

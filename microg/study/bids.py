@@ -27,14 +27,27 @@ from microg import __version__
 from microg.sim import BONES, DIGITS
 from microg.sim.hand import SIDES
 
-from .export import JOINTS, run_frames, run_list
-from .store import Store
+from . import framelog
+from .export import run_list
+from .framelog import JOINT_NAMES
+from .store import Store, StoreError
 
 BIDS_VERSION = "1.10.0"
 TRACKSYS = "hand"
 REFERENCE_FRAME = "tracker"
 REFERENCE_DESCRIPTION = ("The hand tracker's frame (Leap Motion): origin at the device, x to the right, y up, "
                          "z toward the participant; right-handed; metres. Simulated objects live in the same frame.")
+
+
+ABSENT_CHANNELS = ("ACCEL", "ANGACCEL", "GYRO", "JNTANG", "MAGN", "MISC", "VEL")
+"""Motion channel types the export has none of (the sidecar says 0 of each)."""
+EVENTS_SIDECAR = {
+    "trial_type": {"Description": "the task event (microg.task): e.g. hold, drop, place_lit, place_done, "
+                                  "respawn, completed"},
+    "stage": {"Description": "the task's stage at the event: manipulation, maintenance or release"},
+    "place": {"Description": "index (0-based) of the place the event concerns"},
+    "StimulusPresentation": {"SoftwareName": "microg", "SoftwareVersion": __version__},
+}
 
 
 def label(text: str) -> str:
@@ -56,7 +69,7 @@ def _channels(sides: list[str], obj: str) -> list[dict]:
 
     for side in sides:
         for d in DIGITS:
-            for j in JOINTS:
+            for j in JOINT_NAMES:
                 add(f"{side}_{d}_{j}", [f"{side}_{d}_{j}_{a}" for a in "xyz"], "POS", "xyz", "m")
         add(f"{side}_palm", [f"{side}_palm_{a}" for a in "xyz"], "POS", "xyz", "m")
         add(f"{side}_palm", [f"{side}_palm_q{c}" for c in "xyzw"], "ORNT",
@@ -72,33 +85,56 @@ def _channels(sides: list[str], obj: str) -> list[dict]:
     return rows
 
 
-def _write(path: Path, text: str, overwrite: bool) -> Path:
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; export into another folder or pass --overwrite")
+def _write(path: Path, text: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
     return path
 
 
 def _tsv(table: pd.DataFrame, header: bool = True) -> str:
-    return table.to_csv(sep="\t", index=False, header=header, na_rep="n/a", lineterminator="\n")
+    return table.to_csv(sep="\t", index=False, header=header, na_rep="n/a", lineterminator="\n", float_format="%.7g")
 
 
-def write_motion_bids(store: Store, out_dir: str | Path, overwrite: bool = False) -> list[Path]:
-    """Write the study's task runs as a Motion-BIDS dataset in ``out_dir``; returns the files."""
+README = """# {name}
+
+Hand tracking and simulated-object data of a user study run with microg {version}: each task run
+of each participant is one Motion-BIDS recording (task = the study phase, acq = the object).
+Positions are metres in the hand tracker's frame, orientations unit quaternions; see each
+recording's *_channels.tsv and *_motion.json. Simulated participants are marked in the sidecars
+(TrackingSystemName). Events (*_events.tsv) are the task's stages, places, drops and respawns.
+
+Protocol: {title}
+"""
+
+
+def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]:
+    """Write the study's task runs as a Motion-BIDS dataset into the new folder ``out_dir``;
+    returns the files. ``bar`` (a tqdm bar) counts the runs written."""
     out_dir = Path(out_dir)
     protocol = store.protocol
     rate = protocol.tracking_rate
+    about = protocol.dataset
     written = [
         _write(out_dir / "dataset_description.json", json.dumps({
             "Name": f"{store.name}: {protocol.title}" if protocol.title else store.name,
             "BIDSVersion": BIDS_VERSION, "DatasetType": "raw",
-            "GeneratedBy": [{"Name": "microg", "Version": __version__}]}, indent=2), overwrite)]
+            "License": about.license or "See the study's data sharing agreement",
+            "Authors": list(about.authors) or ["The study's researchers (microg export)"],
+            "GeneratedBy": [{"Name": "microg", "Version": __version__}]}, indent=2)),
+        _write(out_dir / "README.md", README.format(name=store.name, version=__version__,
+                                                     title=protocol.title or protocol.name))]
+    subjects: dict[str, str] = {}
+    for p in store.participants():
+        twin = subjects.setdefault(label(p.id).lower(), p.id)
+        if twin != p.id:
+            raise StoreError(f"participants {twin!r} and {p.id!r} would be one Motion-BIDS subject "
+                             f"(sub-{label(p.id)}): the BIDS export keeps ASCII letters and digits, case aside; "
+                             "export with --no-bids")
     people = pd.DataFrame([{"participant_id": f"sub-{label(p.id)}", "group": p.group, "gender": p.participant.gender,
                             "age": p.participant.age, "handedness": p.participant.handedness,
                             "mr_experience": "yes" if p.participant.mr_experience else "no",
                             "status": p.status} for p in store.participants()])
-    written.append(_write(out_dir / "participants.tsv", _tsv(people), overwrite))
+    written.append(_write(out_dir / "participants.tsv", _tsv(people)))
     written.append(_write(out_dir / "participants.json", json.dumps({
         "group": {"Description": "study group", "Levels": {g.code: g.name for g in protocol.groups}},
         "gender": {"Description": "gender as the participant stated it"},
@@ -106,10 +142,11 @@ def write_motion_bids(store: Store, out_dir: str | Path, overwrite: bool = False
         "handedness": {"Description": "dominant hand", "Levels": {"left": "left", "right": "right",
                                                                    "ambidextrous": "ambidextrous"}},
         "mr_experience": {"Description": "has used mixed reality before"},
-        "status": {"Description": "active, or withdrawn from the study"}}, indent=2), overwrite))
+        "status": {"Description": "active, or withdrawn from the study"}}, indent=2)))
 
+    instructions = " ".join(" ".join(p.text.split()) for p in protocol.timeline if p.name == "instructions") or "n/a"
     for run in run_list(store):
-        frames = run_frames(store, run["run_id"])
+        frames = framelog.frame_table(framelog.read(store.db, run["run_id"]))
         sides = [s for s in SIDES if frames[f"{s}_palm_x"].notna().any()]
         channels = _channels(sides, run["object"])
         values = pd.DataFrame({c["name"]: frames[c["source"]] for c in channels})
@@ -134,7 +171,15 @@ def write_motion_bids(store: Store, out_dir: str | Path, overwrite: bool = False
             "LATENCYChannelCount": int(counts.get("LATENCY", 0)),
             "TrackedPointsCount": len({c["tracked_point"] for c in channels if c["type"] != "LATENCY"}),
             "SubjectArtefactDescription": "n/a",
+            "MissingValues": "n/a",
+            "Instructions": instructions,
+            "ManufacturersModelName": "microg simulated participant" if run["simulated"] else "n/a",
+            "DeviceSerialNumber": "n/a",
+            "InstitutionName": about.institution or "n/a",
+            "InstitutionAddress": about.institution_address or "n/a",
+            "InstitutionalDepartmentName": about.department or "n/a",
         }
+        sidecar |= {f"{kind}ChannelCount": 0 for kind in ABSENT_CHANNELS}
         events = [e for e in store.events(run["session"], run["run_id"]) if "frame_t" in e.data]
         t0 = float(frames["t"].iloc[0])
         event_table = pd.DataFrame([{
@@ -142,14 +187,18 @@ def write_motion_bids(store: Store, out_dir: str | Path, overwrite: bool = False
             "stage": e.data.get("stage", "n/a"), "place": e.data.get("place", "n/a")} for e in events],
             columns=["onset", "duration", "trial_type", "stage", "place"])
         written += [
-            _write(folder / f"{name}_motion.tsv", _tsv(values, header=False), overwrite),
-            _write(folder / f"{name}_channels.tsv",
-                   _tsv(pd.DataFrame(channels).drop(columns="source")), overwrite),
+            _write(folder / f"{name}_motion.tsv", _tsv(values, header=False)),
+            _write(folder / f"{name}_channels.tsv", _tsv(pd.DataFrame(channels).drop(columns="source"))),
             _write(folder / f"{name}_channels.json", json.dumps({"reference_frame": {
                 "Description": "reference frame of the channel",
                 "Levels": {REFERENCE_FRAME: {"Description": REFERENCE_DESCRIPTION, "RotationRule": "right-hand"}}}},
-                indent=2), overwrite),
-            _write(folder / f"{name}_motion.json", json.dumps(sidecar, indent=2), overwrite),
-            _write(folder / f"{name}_events.tsv", _tsv(event_table), overwrite),
+                indent=2)),
+            _write(folder / f"{name}_motion.json", json.dumps(sidecar, indent=2)),
+            _write(folder / f"{name}_events.tsv", _tsv(event_table)),
+            _write(folder / f"{name}_events.json", json.dumps(EVENTS_SIDECAR, indent=2)),
         ]
+        if bar is not None:
+            bar.update()
+    if bar is not None:
+        bar.close()
     return written

@@ -27,8 +27,8 @@ from microg.paths import protocol_file
 from .assignment import paper_sample
 from .export import export_study
 from .inputs import open_inputs
-from .protocol import Protocol, load_protocol
-from microg.study.questionnaire import ModelRater
+from .protocol import Protocol, ProtocolError, load_protocol
+from .model_rater import ModelRater
 from .session import SimulationClock, run_session
 from .store import FINAL_RUN, StoreError, create_study, open_study
 
@@ -57,7 +57,7 @@ def _run_session(study_dir: str, session_id: int) -> str:
 
 
 def _tasks_finished(study_dir: Path) -> int:
-    with open_study(study_dir) as store:
+    with open_study(study_dir, readonly=True) as store:
         return store.db.execute("SELECT COUNT(*) FROM task_runs WHERE status IN (%s)" % ",".join("?" * len(FINAL_RUN)),
                                 FINAL_RUN).fetchone()[0]
 
@@ -74,6 +74,9 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             raise StoreError(f"{out} exists and is not empty; choose another --out or allow --overwrite")
         shutil.rmtree(out)
     rules: Protocol = load_protocol(protocol_file(protocol))
+    problems = rules.simulation_problems()
+    if problems:
+        raise ProtocolError("a simulated study cannot run this protocol:\n  " + "\n  ".join(problems))
     if not 1 <= participants <= rules.total_participants:
         raise StoreError(f"--participants {participants}: the protocol {rules.name!r} has room for "
                          f"1 to {rules.total_participants}")

@@ -1,13 +1,9 @@
 """Tidy tables from the log store: trials, questionnaire answers and frames (CSV, Parquet).
 
-- ``trials``: one row per planned task of every session (its last run decides): study, participant,
-  group, gender, age, handedness, mr_experience, stage, system, object (the paper's code: C, F,
-  L), order_position, completed, time_s, attempts, started_at, ended_at, then status (completed,
-  timeout, aborted, skipped, unfinished, not_run), simulated, object_name, runs, withdrawn,
-  session, task_index. ``time_s`` is empty unless completed; ``attempts`` is the number of drops
-  and is empty for a task that never ran; ``started_at``/``ended_at`` are session-clock seconds.
-- ``questionnaire``: study, participant, group, system, item, rating, source, simulated, withdrawn.
-- ``frames``: one row per logged frame, hand channels flattened (``hand_columns``).
+- ``trials``: one row per planned task of every session (its last run decides);
+- ``questionnaire``: one row per answer;
+  their columns, types and meanings are ``microg.schema`` (what the analysis reads);
+- ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``).
 
 ``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics: from a study's
 database, or from a folder of exported ``trials``/``questionnaire`` files.
@@ -15,39 +11,21 @@ database, or from a folder of exported ``trials``/``questionnaire`` files.
 
 from __future__ import annotations
 
+import errno
 import json
+import shutil
 from pathlib import Path
 from typing import Iterator
 
-import numpy as np
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from microg.sim import BONES, DIGITS, Hand, HandFrame
-from microg.sim.hand import SIDES
+from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
+from microg.sim import HandFrame
 
-from .store import DATABASE, FINAL_RUN, HAND_VALUES, Store, hand_parts, hand_values, open_study
-
-TRIAL_COLUMNS = ["study", "participant", "group", "gender", "age", "handedness", "mr_experience", "stage", "system",
-                 "object", "order_position", "completed", "time_s", "attempts", "started_at", "ended_at", "status",
-                 "simulated", "object_name", "runs", "withdrawn", "session", "task_index"]
-QUESTIONNAIRE_COLUMNS = ["study", "participant", "group", "system", "item", "rating", "source", "simulated",
-                         "withdrawn"]
-JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
-"""Joint j of a digit is where bone j begins (j < 4) or the digit's tip."""
-FRAME_STATE_COLUMNS = ["frame", "t", "stage", "place", "place_lit", "place_timer", "grasped", "held", "touching",
-                       "px", "py", "pz", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz"]
-
-
-def hand_columns(side: str) -> list[str]:
-    """Column names of one side's hand values, in ``HAND_LAYOUT`` order."""
-    names = [f"{side}_{d}_{j}_{axis}" for d in DIGITS for j in JOINTS for axis in "xyz"]
-    names += [f"{side}_{d}_{b}_width" for d in DIGITS for b in BONES]
-    names += [f"{side}_palm_{axis}" for axis in "xyz"] + [f"{side}_palm_q{c}" for c in "wxyz"]
-    names += [f"rendered_{side}_{d}_{b}_{axis}" for d in DIGITS for b in BONES for axis in "xyz"]
-    assert len(names) == HAND_VALUES
-    return names
+from . import framelog
+from .store import DATABASE, FINAL_RUN, Store, StoreError, open_study
 
 
 def _status(last_status: str | None) -> str:
@@ -56,7 +34,14 @@ def _status(last_status: str | None) -> str:
     return last_status if last_status in FINAL_RUN else "unfinished"
 
 
+def system_labels(store: Store) -> dict[str, str]:
+    """How the protocol names each system to the reader (its stages' labels)."""
+    return {stage.system: stage.label for stage in store.protocol.stages}
+
+
 def trials_table(store: Store) -> pd.DataFrame:
+    """One row per planned task of every session (the module docstring lists the columns)."""
+    labels = system_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.gender, p.age, p.handedness, p.mr_experience,
                p.status AS participant_status, s.id AS session, s.simulated, t.task_index, t.phase, t.system,
@@ -72,7 +57,8 @@ def trials_table(store: Store) -> pd.DataFrame:
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "gender": r["gender"],
         "age": r["age"], "handedness": r["handedness"], "mr_experience": bool(r["mr_experience"]),
-        "stage": r["phase"], "system": r["system"], "object": r["object_code"], "object_name": r["object"],
+        "stage": r["phase"], "system": r["system"], "system_label": labels.get(r["system"], r["system"]),
+        "object": r["object_code"], "object_name": r["object"],
         "order_position": r["order_position"], "completed": r["status"] == "completed",
         "time_s": r["time_s"] if r["status"] == "completed" else None,
         "attempts": r["attempts"] if r["status"] in ("completed", "timeout", "aborted") else None,
@@ -81,13 +67,12 @@ def trials_table(store: Store) -> pd.DataFrame:
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
     } for r in rows], columns=TRIAL_COLUMNS)
-    return table.astype({"age": "Int64", "order_position": "Int64", "attempts": "Int64", "runs": "Int64",
-                         "session": "Int64", "task_index": "Int64", "time_s": "float64", "started_at": "float64",
-                         "ended_at": "float64", "completed": "bool", "simulated": "bool", "withdrawn": "bool",
-                         "mr_experience": "bool"})
+    return table.astype(TRIAL_DTYPES)
 
 
 def questionnaire_table(store: Store) -> pd.DataFrame:
+    """One row per answer (the module docstring lists the columns)."""
+    labels = system_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, a.system, a.item,
                a.rating, a.source
@@ -95,36 +80,21 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
         ORDER BY p.number, a.system, a.item""").fetchall()
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "system": r["system"],
-        "item": r["item"], "rating": r["rating"], "source": r["source"],
+        "system_label": labels.get(r["system"], r["system"]), "item": r["item"], "rating": r["rating"], "source": r["source"],
         "simulated": bool(r["simulated"]) or r["source"] == "model",
         "withdrawn": r["participant_status"] == "withdrawn",
     } for r in rows], columns=QUESTIONNAIRE_COLUMNS)
-    return table.astype({"rating": "Int64", "simulated": "bool", "withdrawn": "bool"})
+    return table.astype(QUESTIONNAIRE_DTYPES)
 
 
 def run_frames(store: Store, run_id: int) -> pd.DataFrame:
-    """Every logged frame of one task run, hand channels flattened (NaN where not tracked)."""
-    rows = store.db.execute("SELECT * FROM frames WHERE run_id = ? ORDER BY frame", (run_id,)).fetchall()
-    state = pd.DataFrame([tuple(r[c] for c in FRAME_STATE_COLUMNS) for r in rows], columns=FRAME_STATE_COLUMNS)
-    hands = [pd.DataFrame(np.array([hand_values(r[side]) for r in rows]).reshape(len(rows), HAND_VALUES),
-                          columns=hand_columns(side)) for side in SIDES]
-    return pd.concat([state] + hands, axis=1)
+    """Every logged frame of one task run as a flat table (``framelog.frame_table``)."""
+    return framelog.frame_table(framelog.read(store.db, run_id))
 
 
 def hand_frames(store: Store, run_id: int) -> list[HandFrame]:
-    """The hand frames of a task run exactly as its source delivered them: feed them to
-    ``microg.sim.step`` on ``session.task_world`` to simulate the run again."""
-    frames = []
-    for row in store.db.execute("SELECT t, left, right FROM frames WHERE run_id = ? ORDER BY frame", (run_id,)):
-        hands = []
-        for side in SIDES:
-            if row[side] is None:
-                continue
-            parts = hand_parts(hand_values(row[side]))
-            hands.append(Hand(side, parts["joints"].reshape(5, 5, 3), parts["widths"].reshape(5, 4),
-                              parts["palm_position"], parts["palm_orientation"]))
-        frames.append(HandFrame(row["t"], tuple(hands)))
-    return frames
+    """The hand frames of a task run exactly as the physics received them (``framelog.hand_frames``)."""
+    return framelog.hand_frames(framelog.read(store.db, run_id))
 
 
 def run_list(store: Store) -> list[dict]:
@@ -138,9 +108,9 @@ def run_list(store: Store) -> list[dict]:
     return [dict(r) for r in rows]
 
 
-def frames_tables(store: Store) -> Iterator[pd.DataFrame]:
+def frames_tables(store: Store, runs: list[dict] | None = None) -> Iterator[pd.DataFrame]:
     """The frames table, one task run at a time (a study's frames may not fit in memory at once)."""
-    for run in run_list(store):
+    for run in run_list(store) if runs is None else runs:
         table = run_frames(store, run["run_id"])
         keys = {"study": store.name, "participant": run["participant"], "session": run["session"],
                 "run_id": run["run_id"], "task_index": run["task_index"], "run": run["run"],
@@ -152,7 +122,7 @@ def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(trials, questionnaire) of a study folder (with ``study.db``) or of an export folder."""
     study_dir = Path(study_dir)
     if (study_dir / DATABASE).exists():
-        with open_study(study_dir) as store:
+        with open_study(study_dir, readonly=True) as store:
             return trials_table(store), questionnaire_table(store)
     tables = []
     for name in ("trials", "questionnaire"):
@@ -166,59 +136,90 @@ def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     return tables[0], tables[1]
 
 
-def _claim(path: Path, overwrite: bool) -> Path:
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{path} exists; export into another folder or pass --overwrite")
-    return path
+PARTIAL = ".partial"
+"""An export is written into ``<out>.partial`` and renamed to ``<out>`` when complete."""
 
 
 def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),
-                 frames: bool = True, bids: bool = True, overwrite: bool = False, progress: bool = True) -> list[Path]:
-    """Write the tables (and Motion-BIDS) into ``out_dir``; existing files are replaced only with
-    ``overwrite``. Returns the files written."""
-    from tqdm import tqdm
+                 frames: bool = True, frames_csv: bool = False, bids: bool = True, overwrite: bool = False,
+                 accept_damaged: bool = False, progress: bool = True, say=print) -> list[Path]:
+    """Write the trials and questionnaire tables (``formats``), the frames (Parquet; also CSV with
+    ``frames_csv``) and Motion-BIDS into the folder ``out_dir``; returns the files written.
 
-    from .bids import write_motion_bids
-
+    The export is atomic: it is written into ``<out_dir>.partial`` and renamed at the end, so a
+    folder named ``out_dir`` always holds a complete export. An existing ``out_dir`` is replaced
+    only with ``overwrite``; a ``.partial`` folder left by an earlier export that was cut off is
+    reported through ``say`` and replaced. A study that fails its integrity check is exported only
+    with ``accept_damaged``, and its ``export.json`` lists the problems. A write that fails (a full
+    disk) removes the partial folder and leaves ``out_dir`` as it was.
+    """
     out_dir = Path(out_dir)
     unknown = set(formats) - {"csv", "parquet"}
     if unknown or not formats:
         raise ValueError(f"formats = {list(formats)}: choose from csv, parquet")
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    with open_study(study_dir) as store:
-        planned = [out_dir / f"{n}.{f}" for n in ("trials", "questionnaire") + (("frames",) if frames else ())
-                   for f in formats] + [out_dir / "export.json"]
-        for path in planned:
-            _claim(path, overwrite)
-        for name, table in (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store))):
-            for fmt in formats:
-                path = out_dir / f"{name}.{fmt}"
-                if fmt == "csv":
-                    table.to_csv(path, index=False)
-                else:
-                    table.to_parquet(path, index=False)
-                written.append(path)
-        if frames:
-            runs = run_list(store)
-            writers: dict[str, object] = {}
-            try:
-                for i, table in enumerate(tqdm(frames_tables(store), total=len(runs), unit="run", desc="frames",
-                                               disable=not progress)):
-                    if "csv" in formats:
-                        table.to_csv(out_dir / "frames.csv", index=False, mode="w" if i == 0 else "a", header=i == 0)
-                    if "parquet" in formats:
-                        arrow = pa.Table.from_pandas(table, preserve_index=False)
-                        if "parquet" not in writers:
-                            writers["parquet"] = pq.ParquetWriter(out_dir / "frames.parquet", arrow.schema)
-                        writers["parquet"].write_table(arrow)
-            finally:
-                for writer in writers.values():
-                    writer.close()
-            written += [out_dir / f"frames.{f}" for f in formats if runs]
-        if bids:
-            written += write_motion_bids(store, out_dir / "bids", overwrite=overwrite)
-    meta = out_dir / "export.json"
-    meta.write_text(json.dumps({"study": str(Path(study_dir).resolve()), "files": [str(p.relative_to(out_dir))
-                                                                                  for p in written]}, indent=2))
-    return written + [meta]
+    if out_dir.exists() and not overwrite:
+        raise FileExistsError(f"{out_dir} exists; export into another folder or pass --overwrite")
+    partial = out_dir.with_name(out_dir.name + PARTIAL)
+    with open_study(study_dir, readonly=True, accept_damaged=accept_damaged) as store:
+        for problem in store.problems:
+            say(f"warning: exporting a damaged study: {problem}")
+        if partial.exists():
+            say(f"note: {partial} holds an earlier export that was cut off before it finished; it is replaced now")
+            shutil.rmtree(partial)
+        try:
+            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress)
+        except OSError as error:
+            shutil.rmtree(partial, ignore_errors=True)
+            full = error.errno == errno.ENOSPC
+            raise StoreError(f"{partial}: {'the disk is full' if full else 'cannot write the export'} "
+                             f"({error.strerror or error}); the export stopped and was removed, {out_dir} is as it "
+                             f"was. {'Free space on that disk' if full else 'Fix that'}, then export again") from None
+    if out_dir.exists():
+        shutil.rmtree(out_dir)
+    partial.rename(out_dir)
+    return [out_dir / p for p in written]
+
+
+def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
+                  progress: bool) -> list[Path]:
+    """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it."""
+    from tqdm import tqdm
+
+    from .bids import write_motion_bids
+
+    folder.mkdir(parents=True)
+    for name, table in (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store))):
+        for fmt in formats:
+            if fmt == "csv":
+                table.to_csv(folder / f"{name}.csv", index=False)
+            else:
+                table.to_parquet(folder / f"{name}.parquet", index=False)
+    runs = run_list(store)
+    if frames and runs:
+        _write_frames(store, runs, folder, frames_csv, tqdm(total=len(runs), unit="run", desc="frames",
+                                                            disable=not progress))
+    if bids:
+        write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
+                                                      disable=not progress))
+    written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())
+    (folder / "export.json").write_text(json.dumps({"study": str(store.dir.resolve()),
+                                                    "files": [str(p) for p in written],
+                                                    "damaged": store.problems}, indent=2))
+    return written + [Path("export.json")]
+
+
+def _write_frames(store: Store, runs: list[dict], folder: Path, csv: bool, bar) -> None:
+    """frames.parquet (and frames.csv), one task run at a time: a study's frames may not fit in memory."""
+    writer = None
+    try:
+        for i, table in enumerate(frames_tables(store, runs)):
+            arrow = pa.Table.from_pandas(table, preserve_index=False)
+            writer = writer or pq.ParquetWriter(folder / "frames.parquet", arrow.schema, compression="zstd")
+            writer.write_table(arrow)
+            if csv:
+                table.to_csv(folder / "frames.csv", index=False, mode="w" if i == 0 else "a", header=i == 0)
+            bar.update()
+    finally:
+        bar.close()
+        if writer is not None:
+            writer.close()

@@ -3,18 +3,17 @@
 ``open_inputs(spec)`` gives an ``Inputs``: it opens one ``HandSource`` per task (a live tracker
 stays open across tasks; a recording replays from its start; a simulated participant gets the
 task's plan and seed). The hand-input and participant modules are imported only when used.
-``participant_plan`` is the one place that turns a protocol task into what a simulated
-participant needs to know.
+``participant_plan`` is the one place that turns a protocol task into what its player knows.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable, Protocol as Interface
 
-from microg.sim import HandFrame, ObjectSpec, World
-from microg.participant import TaskDisplay
 from microg.hands.source import HandSource
+from microg.participant.plan import TaskPlan
+from microg.sim import HandFrame
 
 from .protocol import Protocol
 from .store import PlannedTask
@@ -24,47 +23,16 @@ PRACTICE = "practice"
 """The simulated profile whose skill grows with the tasks done (see ``SimulatedInputs``)."""
 
 
-Display = Callable[[], TaskDisplay]
-"""What the task shows right now (the place marks, the stage): a simulated participant watches it."""
-
-
 class InputError(ValueError):
     """An ``--input`` that cannot be opened; the message says what is missing."""
 
 
-@dataclass(frozen=True)
-class ParticipantPlan:
-    """One task as a simulated participant sees it (positions in metres, tracker frame)."""
-
-    object: str
-    spec: ObjectSpec
-    start: tuple[float, float, float]
-    start_orientation: tuple[float, float, float, float]
-    places: tuple[tuple[float, float, float], ...]
-    place_radius: float
-    hold_s: float
-    timeout_s: float
-    gravity: tuple[float, float, float]
-    table_height: float | None
-    """The table the object starts on (m), or None (microgravity)."""
-    system: str
-    phase: str
-    tracking_rate: float
-    hand: str = "right"
-    """The hand the participant uses (their dominant one)."""
-    tasks_done: int = 0
-    """Tasks this participant did before this one in the session (training included)."""
-
-
-def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right") -> ParticipantPlan:
-    rules = protocol.task
-    start, start_orientation = protocol.start_pose(task.object)
-    return ParticipantPlan(object=task.object, spec=protocol.object(task.object).spec, start=start,
-                           start_orientation=start_orientation, places=rules.places,
-                           place_radius=rules.place_radius, hold_s=rules.hold_s, timeout_s=rules.timeout_s,
-                           gravity=protocol.gravity, table_height=protocol.table_height, system=task.system,
-                           phase=task.phase, tracking_rate=protocol.tracking_rate,
-                           hand=hand, tasks_done=task.index)
+def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right", participant: str = "") -> TaskPlan:
+    """The one place that turns a protocol's task into what its player knows of it."""
+    start, _ = protocol.start_pose(task.object)
+    return TaskPlan(object=protocol.object(task.object).spec, start=start, rules=protocol.task,
+                    gravity=protocol.gravity, hand=hand, tasks_done=task.index, participant=participant,
+                    phase=task.phase)
 
 
 class Inputs(Interface):
@@ -75,8 +43,8 @@ class Inputs(Interface):
     clock: str
     """``wall`` for live input, ``simulation`` otherwise."""
 
-    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
-        """The hand source for one task; ``display`` shows the task's marks to a simulated participant."""
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
+        """The hand source for one task."""
 
     def close(self) -> None: ...
 
@@ -88,8 +56,8 @@ class _Borrowed:
         self._source = source
         self.description = source.description
 
-    def next_frame(self, world: World | None = None) -> HandFrame | None:
-        return self._source.next_frame(world)
+    def next_frame(self, observation=None) -> HandFrame | None:
+        return self._source.next_frame(observation)
 
     def close(self) -> None:
         pass
@@ -103,7 +71,7 @@ class LiveInputs:
         self.spec = spec
         self._source: HandSource | None = source
 
-    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
         if self._source is None:
             self._source = _open_tracking(self.spec)
         return _Borrowed(self._source)
@@ -112,20 +80,6 @@ class LiveInputs:
         if self._source is not None:
             self._source.close()
             self._source = None
-
-
-class ReplayInputs:
-    clock = "simulation"
-    simulated = False
-
-    def __init__(self, spec: str):
-        self.spec = spec
-
-    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
-        return _open_tracking(self.spec)
-
-    def close(self) -> None:
-        pass
 
 
 class SimulatedInputs:
@@ -139,26 +93,41 @@ class SimulatedInputs:
     def __init__(self, spec: str, profile: str):
         self.spec, self.profile = spec, profile
 
-    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
-        from microg.participant import PickPlacePlan, SimulatedParticipant
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
+        from microg.participant import SimulatedParticipant
 
         skill = f"practised:{plan.tasks_done}" if self.profile == PRACTICE else self.profile
-        task = PickPlacePlan(object_name=plan.object, places=plan.places, hold_s=plan.hold_s,
-                             place_radius=plan.place_radius, side=plan.hand)
-        return SimulatedParticipant(task, skill, seed, time_limit_s=plan.timeout_s + 10.0, display=display)
+        return SimulatedParticipant(plan, skill, seed, time_limit_s=plan.rules.timeout_s + 10.0)
 
     def close(self) -> None:
         pass
 
 
+class PacedInputs:
+    """Another ``Inputs`` whose frames come no faster than their timestamps say (``speed`` times real
+    time): a replayed or simulated session that a person watches on the participant's display."""
+
+    def __init__(self, inputs: Inputs, speed: float = 1.0):
+        self.inputs, self.speed = inputs, speed
+        self.spec, self.simulated, self.clock = inputs.spec, inputs.simulated, inputs.clock
+
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
+        from microg.hands.source import Paced
+
+        return Paced(self.inputs.open(plan, seed), self.speed)
+
+    def close(self) -> None:
+        self.inputs.close()
+
+
 class ScriptedInputs:
     """Any function ``(plan, seed) -> HandSource`` as a session's input (tests, custom drivers)."""
 
-    def __init__(self, make: Callable[[ParticipantPlan, int], HandSource], spec: str = "scripted",
+    def __init__(self, make: Callable[[TaskPlan, int], HandSource], spec: str = "scripted",
                  simulated: bool = True, clock: str = "simulation"):
         self.make, self.spec, self.simulated, self.clock = make, spec, simulated, clock
 
-    def open(self, plan: ParticipantPlan, seed: int, display: Display | None = None) -> HandSource:
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
         return self.make(plan, seed)
 
     def close(self) -> None:
@@ -175,19 +144,29 @@ def _open_tracking(spec: str) -> HandSource:
 
 
 def parse_input(spec: str) -> tuple[str, str]:
-    """(kind, argument) of an ``--input``: ``leap``, ``replay:FILE`` or ``simulated[:PROFILE]``."""
+    """(kind, argument) of an ``--input``: ``leap``, ``webxr``, ``lsl:STREAM_NAME``, ``replay:FILE``
+    or ``simulated[:PROFILE]``."""
     kind, _, argument = spec.partition(":")
-    if spec == "leap" or kind == "simulated" or (kind == "replay" and argument):
+    if spec in ("leap", "webxr") or kind == "simulated" or (kind in ("replay", "lsl") and argument):
         return kind, argument
-    if kind == "replay":
-        raise InputError(f"--input {spec!r}: give the recording, as replay:FILE")
-    raise InputError(f"--input {spec!r}: must be leap, replay:FILE or simulated[:PROFILE]")
+    if kind in ("replay", "lsl"):
+        raise InputError(f"--input {spec!r}: give the " + ("recording, as replay:FILE" if kind == "replay"
+                                                            else "stream's name, as lsl:STREAM_NAME"))
+    raise InputError(f"--input {spec!r}: must be leap, webxr, lsl:STREAM_NAME, replay:FILE or simulated[:PROFILE]")
 
 
-def open_inputs(spec: str, group_profile: str | None = None) -> Inputs:
+def open_inputs(spec: str, group_profile: str | None = None, webxr: HandSource | None = None,
+                align: str | None = None) -> Inputs:
     """Parse ``--input`` and check that what it needs is installed; ``simulated`` without a
-    profile plays ``group_profile``."""
+    profile plays ``group_profile``; ``webxr`` is the source the participant's page feeds
+    (``microg.hands.webxr``); ``align`` places replayed recordings (``microg.study.replay``)."""
     kind, argument = parse_input(spec)
+    if align is not None and kind != "replay":
+        raise InputError(f"--align {align}: only replayed recordings are placed in the workspace")
+    if kind == "webxr":
+        if webxr is None:
+            raise InputError("--input webxr: the hands come from the participant's page; run with --display")
+        return LiveInputs(spec, webxr)
     if kind == "simulated":
         from microg.participant import skill_profile
 
@@ -201,8 +180,14 @@ def open_inputs(spec: str, group_profile: str | None = None) -> Inputs:
             except ValueError as error:
                 raise InputError(f"--input {spec!r}: {error}; or {PRACTICE}") from None
         return SimulatedInputs(f"simulated:{profile}", profile)
-    source = _open_tracking(spec)  # the device answers, the recording reads: before any session starts
-    if kind == "leap":
-        return LiveInputs(spec, source)
-    source.close()
-    return ReplayInputs(spec)
+    if kind in ("leap", "lsl"):
+        return LiveInputs(spec, _open_tracking(spec))  # the device answers before any session starts
+    from .replay import ReplayError, ReplayInputs
+
+    target = Path(argument)
+    try:
+        if target.suffix != ".toml":
+            _open_tracking(spec).close()  # the recording reads before any session starts
+        return ReplayInputs(spec, target, align)
+    except ReplayError as error:
+        raise InputError(str(error)) from None

@@ -1,12 +1,30 @@
-"""Task and stage events as a Lab Streaming Layer marker stream (optional: ``pip install microg[lsl]``).
+"""The session on the Lab Streaming Layer (optional: ``pip install microg[lsl]``), with ``--lsl``.
 
-Other recordings (EEG, eye tracking, ...) running in LabRecorder get the session's events on the
-same clock. Each marker is one JSON string: ``{"kind": "place_lit", "place": 0, ...}``.
+Other recordings (EEG, eye tracking, ...) running in LabRecorder get the session on the same
+clock, in the same XDF file: a ``Markers`` stream of the task and stage events (each marker one
+JSON string: ``{"kind": "place_lit", "place": 0, ...}``), and a ``MoCap`` stream of every frame at
+the tracking rate: the tracked and the rendered (god-object) hands and the object's pose
+(``MOCAP_CHANNELS``, metres and unit quaternions in the tracker's frame; NaN where a hand is not
+tracked). The markers line an XDF recording up with the study's log. LSL opens
+network ports to do that (``NETWORK_NOTICE`` says which, and how to keep them on this machine).
 """
 
 from __future__ import annotations
 
 import json
+
+import numpy as np
+
+from microg.sim import BONES, DIGITS, SIDES, rendered_phalanges
+
+NETWORK_NOTICE = (
+    "--lsl: the session's LSL streams are open to the network, as LSL does by default: announced on UDP port 16571 "
+    "(multicast and broadcast) and served on TCP/UDP ports from 16572 up, to every machine that can reach this "
+    "one. To keep it on this machine, give LSL a configuration file with\n"
+    "    [multicast]\n    ResolveScope = machine\n    ListenAddress = 127.0.0.1\n"
+    "as ./lsl_api.cfg, ~/lsl_api/lsl_api.cfg, or any file named by the environment variable LSLAPICFG (see LSL's "
+    "documentation, 'LSL configuration files'). Without --lsl nothing is opened.")
+"""What ``--lsl`` says on the terminal before it opens the stream."""
 
 
 class MarkerOutlet:
@@ -22,3 +40,53 @@ class MarkerOutlet:
 
     def __call__(self, kind: str, data: dict) -> None:
         self._outlet.push_sample([json.dumps({"kind": kind, **data}, sort_keys=True)])
+
+
+JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
+MOCAP_CHANNELS = tuple(
+    [(f"{side}_tracked", "", "Tracked") for side in SIDES]
+    + [(f"{side}_{d}_{j}_{a}", "meters", f"Position{a.upper()}") for side in SIDES for d in DIGITS for j in JOINTS
+       for a in "xyz"]
+    + [(f"{side}_palm_{a}", "meters", f"Position{a.upper()}") for side in SIDES for a in "xyz"]
+    + [(f"{side}_palm_q{c}", "normalized", f"Orientation{c.upper()}") for side in SIDES for c in "wxyz"]
+    + [(f"rendered_{side}_{d}_{b}_{a}", "meters", f"Position{a.upper()}") for side in SIDES for d in DIGITS
+       for b in BONES for a in "xyz"]
+    + [(f"object_{a}", "meters", f"Position{a.upper()}") for a in "xyz"]
+    + [(f"object_q{c}", "normalized", f"Orientation{c.upper()}") for c in "wxyz"])
+"""(label, unit, type) of each MoCap channel, as XDF's channel meta-data describes them."""
+
+
+def mocap_sample(moment) -> np.ndarray:
+    """One MoCap sample (``MOCAP_CHANNELS``) of a task's frame (``microg.task.Moment``)."""
+    hands = [moment.frame.hand(side) for side in SIDES]
+    rendered = rendered_phalanges(moment.world).reshape(2, -1)
+    nan = np.full(len(JOINTS) * len(DIGITS) * 3, np.nan)
+    data = moment.world.data
+    return np.concatenate(
+        [[float(h is not None) for h in hands]]
+        + [nan if h is None else h.joints.ravel() for h in hands]
+        + [np.full(3, np.nan) if h is None else h.palm_position for h in hands]
+        + [np.full(4, np.nan) if h is None else h.palm_orientation for h in hands]
+        + [rendered[0], rendered[1], data.position[0], data.orientation[0]])
+
+
+class MocapOutlet:
+    """An LSL outlet of type ``MoCap`` at the tracking rate; call it with each frame's ``Moment``."""
+
+    def __init__(self, rate: float, name: str = "microg-mocap", source_id: str = "microg-mocap"):
+        try:
+            import pylsl
+        except ImportError:
+            raise ImportError("the LSL MoCap stream needs pylsl: pip install 'microg[lsl]'") from None
+        info = pylsl.StreamInfo(name, "MoCap", len(MOCAP_CHANNELS), rate, "float32", source_id)
+        channels = info.desc().append_child("channels")
+        for label, unit, kind in MOCAP_CHANNELS:
+            channel = channels.append_child("channel")
+            channel.append_child_value("label", label)
+            channel.append_child_value("unit", unit)
+            channel.append_child_value("type", kind)
+        info.desc().append_child("acquisition").append_child_value("manufacturer", "microg")
+        self._outlet = pylsl.StreamOutlet(info)
+
+    def __call__(self, moment) -> None:
+        self._outlet.push_sample(mocap_sample(moment).tolist())

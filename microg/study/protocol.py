@@ -10,6 +10,12 @@ training, the questionnaire and the timeline. ``protocols/paper.toml`` is the pa
 Every error names the file, the key and the value::
 
     protocols/mine.toml: task.hold_s = -3: must be a positive number (seconds)
+
+Each section of the file has its own reader below (``_read_scene``, ``_read_groups``, ...); the
+checks that span sections (every object in every stage's world, object codes, the timeline's
+minutes) run once all sections are read. What only simulated participants need (skill profiles,
+questionnaire items the rating model rates) is reported by ``Protocol.simulation_problems``:
+``microg study init`` warns about it, and a simulated session refuses to start.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from microg.paths import OBJECTS
-from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError
+from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
 from microg.task.rules import TaskRules
@@ -38,6 +45,8 @@ SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_
 """Physics settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
 FILTER_WINDOW = 3
 """F in Eq. 1 unless the protocol's ``scene.filter_window`` says otherwise; the paper found 3 best."""
+LABEL = re.compile(r"[A-Za-z0-9]+")
+"""What a name must be when it becomes a BIDS label or a file name part (ASCII letters and digits)."""
 
 
 class ProtocolError(ValueError):
@@ -63,6 +72,17 @@ class StudyObject:
     spec: ObjectSpec
     source: str = field(repr=False)
     """The object file's text, kept with the study so a session can be re-simulated exactly."""
+
+
+@dataclass(frozen=True)
+class Viewpoint:
+    """The participant's view on a screen (the protocol's ``display`` table): where the eyes are
+    relative to the tracker and where the view centres (m, tracker frame), and the vertical field
+    of view the screen spans (degrees). None: frame the task's start and places."""
+
+    eye: tuple[float, float, float] | None = None
+    look_at: tuple[float, float, float] | None = None
+    fov_deg: float = 40.0
 
 
 @dataclass(frozen=True)
@@ -106,6 +126,18 @@ class Phase:
 
 
 @dataclass(frozen=True)
+class Dataset:
+    """Who made the study's data and under which terms (the protocol's optional ``dataset`` table):
+    what the Motion-BIDS export's dataset description and sidecars say about it."""
+
+    authors: tuple[str, ...] = ()
+    license: str = ""
+    institution: str = ""
+    institution_address: str = ""
+    department: str = ""
+
+
+@dataclass(frozen=True)
 class Protocol:
     name: str
     title: str
@@ -131,8 +163,10 @@ class Protocol:
     questionnaire: Questionnaire | None
     timeline: tuple[Phase, ...]
     frame_batch: int
+    viewpoint: Viewpoint
     resolved: dict = field(repr=False, compare=False)
     """The merged protocol as plain data, with object file texts: what the study database keeps."""
+    dataset: Dataset = Dataset()
 
     def group(self, code: str) -> Group:
         return next(g for g in self.groups if g.code == code)
@@ -149,6 +183,36 @@ class Protocol:
             rot = quat_to_matrix(np.asarray(self.task.start_orientation, dtype=float))
             y = self.table_height + float(np.abs(rot[1]) @ self.object(name).spec.half_extents)
         return (x, y, z), self.task.start_orientation
+
+    def scene(self, name: str, system: str) -> Scene:
+        """The physics scene of a task with object ``name`` under ``system``: the object alone at its
+        start pose (on the table, if there is one), the protocol's gravity and scene options."""
+        position, orientation = self.start_pose(name)
+        placed = PlacedObject(self.object(name).spec, position, orientation)
+        table = None if self.table_height is None else TableParameters(height=self.table_height)
+        return compose_scene([placed], system, self.gravity, table=table, **self.scene_options)
+
+    def simulation_problems(self) -> list[str]:
+        """What a simulated participant could not do with this protocol (each names file, key and
+        value): a group's skill profile that does not exist, a questionnaire item the rating model
+        does not rate. Empty when simulated sessions can run it."""
+        from microg.participant.ratings import PENALTIES
+        from microg.participant.skill import PROFILES
+
+        from .inputs import PRACTICE
+
+        problems = []
+        profiles = sorted(PROFILES) + [PRACTICE]
+        for i, group in enumerate(self.groups):
+            if group.simulated_profile not in profiles:
+                problems.append(f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: "
+                                f"simulated participants play one of the skill profiles {profiles} (the default "
+                                "is the group's name)")
+        for i, item in enumerate(self.questionnaire.items if self.questionnaire else ()):
+            if item.name not in PENALTIES:
+                problems.append(f"{self.where}: questionnaire.items[{i}].name = {item.name!r}: the rating model of "
+                                f"simulated participants rates only {sorted(PENALTIES)}")
+        return problems
 
     def phases_for(self, group: str) -> tuple[Phase, ...]:
         """The timeline as a participant of ``group`` goes through it."""
@@ -175,11 +239,21 @@ def canonical_json(data: dict) -> str:
 # ---------------------------------------------------------------- reading files
 
 
-def _read_toml(path: Path) -> tuple[dict, str]:
+def _read_text(path: Path, what: str) -> str:
+    """A file's text, or ProtocolError naming the file and why it cannot be read."""
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as error:
-        raise ProtocolError(f"{path}: cannot read protocol file: {error.strerror}") from None
+        raise ProtocolError(f"{path}: cannot read {what}: {error.strerror or error}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ProtocolError(f"{path}: not UTF-8 text (byte {raw[error.start]:#04x} at position {error.start}); "
+                            f"save the {what} as UTF-8") from None
+
+
+def _read_toml(path: Path) -> tuple[dict, str]:
+    text = _read_text(path, "protocol file")
     try:
         return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as error:
@@ -206,19 +280,21 @@ def _resolve(path: Path, chain: tuple[Path, ...] = ()) -> tuple[dict, list[dict]
     base_name = data.pop("extends", None)
     if base_name is None:
         return data, sources
-    if not isinstance(base_name, str):
+    if not isinstance(base_name, str) or not base_name:
         raise ProtocolError(f"{path}: extends = {base_name!r}: must be a file name")
     base_path = path.parent / base_name
-    if not base_path.exists():
+    if not base_path.is_file():
         raise ProtocolError(f"{path}: extends = {base_name!r}: no such file {base_path}")
     base, base_sources = _resolve(base_path, chain + (path,))
     return _merge(base, data), base_sources + sources
 
 
 def _object_file(name: str, protocol_dir: Path | None) -> Path | None:
+    if not LABEL.fullmatch(name.replace("_", "").replace("-", "")):
+        return None  # not a file name of an object (the validation below names the key)
     for folder in ([protocol_dir / "objects"] if protocol_dir else []) + [OBJECTS]:
         candidate = folder / f"{name}.toml"
-        if candidate.exists():
+        if candidate.is_file():
             return candidate
     return None
 
@@ -227,35 +303,38 @@ def load_protocol(path: str | Path) -> Protocol:
     """Read and validate a protocol file (and the files it extends, and its object files)."""
     path = Path(path)
     data, sources = _resolve(path)
-    objects = {}
-    names = []
-    reader = _Reader(str(path), data)
+    objects, files = {}, {}
     for section, key in (("objects", "names"), ("training", "objects")):
         table = data.get(section)
-        if isinstance(table, dict) and isinstance(table.get(key), list):
-            names += table[key]
-    for name in names:
-        if not isinstance(name, str):
-            continue  # reported by the validation below, with its key
-        found = _object_file(name, path.parent)
-        if found is None:
-            known = sorted(p.stem for p in OBJECTS.glob("*.toml"))
-            raise ProtocolError(f"{path}: object {name!r}: no object file {name}.toml next to the protocol "
-                                f"(objects/) or shipped (shipped objects: {known})")
-        objects[name] = found.read_text()
+        names = table.get(key) if isinstance(table, dict) else None
+        for i, name in enumerate(names if isinstance(names, list) else ()):
+            if not isinstance(name, str) or not name or name in objects:
+                continue  # reported by the validation below, with its key
+            found = _object_file(name, path.parent)
+            if found is None:
+                known = sorted(p.stem for p in OBJECTS.glob("*.toml"))
+                raise ProtocolError(f"{path}: {section}.{key}[{i}] = {name!r}: no object file {name}.toml next to "
+                                    f"the protocol (objects/) or shipped (shipped objects: {known})")
+            objects[name], files[name] = _read_text(found, "object file"), str(found)
     resolved = dict(data, object_files=objects, sources=sources)
-    return _build(reader, resolved)
+    return _build(_Reader(str(path), data), resolved, files)
 
 
 def protocol_from_resolved(resolved: dict, where: str) -> Protocol:
     """The protocol a study database keeps (see ``Protocol.resolved``)."""
+    if not isinstance(resolved, dict) or not isinstance(resolved.get("object_files", {}), dict):
+        raise ProtocolError(f"{where}: the stored protocol is not a protocol table")
     data = {k: v for k, v in resolved.items() if k not in ("object_files", "sources")}
-    return _build(_Reader(where, data), resolved)
+    return _build(_Reader(where, data), resolved, {})
 
 
 # ---------------------------------------------------------------- validation
 
 _MISSING = object()
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 class _Reader:
@@ -283,11 +362,17 @@ class _Reader:
             raise self.fail(key, value, f"must be one of {list(choices)}")
         return value
 
+    def label(self, key: str, why: str) -> str:
+        """A name that becomes part of file names and BIDS labels: ASCII letters and digits."""
+        value = self.text(key)
+        if not LABEL.fullmatch(value):
+            raise self.fail(key, value, f"must be ASCII letters and digits only ({why})")
+        return value
+
     def number(self, key: str, default=_MISSING, *, positive: bool = True, unit: str = "") -> float:
         value = self.raw(key, default)
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
-                or (positive and value <= 0):
-            raise self.fail(key, value, f"must be a {'positive ' if positive else ''}number{unit}")
+        if not _is_number(value) or (positive and value <= 0) or (not positive and value < 0):
+            raise self.fail(key, value, f"must be a {'positive' if positive else 'non-negative'} number{unit}")
         return float(value)
 
     def integer(self, key: str, default=_MISSING, minimum: int = 1):
@@ -306,8 +391,7 @@ class _Reader:
 
     def vector(self, key: str, length: int = 3, default=_MISSING) -> tuple[float, ...]:
         value = self.raw(key, default)
-        if not isinstance(value, list) or len(value) != length or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value):
+        if not isinstance(value, list) or len(value) != length or not all(_is_number(v) for v in value):
             raise self.fail(key, value, f"must be a list of {length} finite numbers"
                             + (" (metres, tracker frame: x right, y up, z toward the user)" if length == 3 else ""))
         return tuple(float(v) for v in value)
@@ -332,83 +416,105 @@ class _Reader:
             raise self.fail(key, value, f"must be a non-empty array of tables ([[{self.prefix}{key}]])")
         return [_Reader(self.where, v, f"{self.prefix}{key}[{i}].") for i, v in enumerate(value)]
 
+    def unique(self, key: str, values: list, what: str) -> None:
+        """Refuse a list in which two entries are the same (case-insensitively for strings: they
+        name files, and many disks do not tell case apart)."""
+        folded = [v.casefold() if isinstance(v, str) else v for v in values]
+        twice = next((v for v, f in zip(values, folded) if folded.count(f) > 1), None)
+        if twice is not None:
+            raise self.fail(key, list(values), f"{what} {twice!r} appears twice (case does not count)")
+
     def done(self) -> None:
-        unknown = sorted(set(self.data) - self.read)
+        unknown = sorted(set(self.data) - self.read, key=str)
         if unknown:
             raise ProtocolError(f"{self.where}: unknown key {self.prefix}{unknown[0]} "
                                 f"(known here: {sorted(self.read)})")
 
 
-def _study_object(reader: _Reader, key: str, name: str, sources: dict) -> StudyObject:
-    text = sources.get(name)
-    if text is None:
-        raise reader.fail(key, name, "no object file for this object in the protocol's data")
-    where = f"{reader.where}: object {name}"
-    try:
-        data = tomllib.loads(text)
-        spec = object_from_dict(data, where)
-    except (tomllib.TOMLDecodeError, SceneError, TypeError) as error:
-        raise ProtocolError(f"{where}: {error}") from None
-    return StudyObject(name=name, code=str(data.get("code", name)), spec=spec, source=text)
+# ---------------------------------------------------------------- one reader per section
 
 
-def _build(top: _Reader, resolved: dict) -> Protocol:
-    sources = resolved.get("object_files", {})
-    name = top.text("name")
-    title = top.text("title", "")
-    top.text("description", "")
-    seed = top.integer("seed", None, minimum=0)
-    duration = top.number("duration_minutes", unit=" (minutes)")
-
+def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None, dict, int]:
+    """``[scene]``: gravity, table height, physics options, the window filter's F."""
     scene = top.table("scene")
     gravity = scene.vector("gravity")
     table_height = scene.raw("table_height", "none")
     if table_height == "none":
         table_height = None
-    elif isinstance(table_height, bool) or not isinstance(table_height, (int, float)) \
-            or not math.isfinite(table_height):
+    elif not _is_number(table_height):
         raise scene.fail("table_height", table_height, 'must be a height (m) or "none"')
-    options = {}
-    for key in SCENE_OPTIONS:
-        if key in scene.data:
-            options[key] = scene.raw(key)
+    options = {key: scene.raw(key) for key in SCENE_OPTIONS if key in scene.data}
     filter_window = scene.integer("filter_window", FILTER_WINDOW)
     scene.done()
+    return gravity, None if table_height is None else float(table_height), options, filter_window
 
+
+def _read_participants(top: _Reader) -> tuple[_Reader, int, str, tuple[int, int] | None]:
+    """``[participants]``: how many, the balancing, the age range."""
     people = top.table("participants")
     total = people.integer("total")
     balance = people.text("balance", "gender", BALANCING)
     age_range = people.raw("age_range", None)
     if age_range is not None:
-        if not (isinstance(age_range, list) and len(age_range) == 2 and all(isinstance(a, int) for a in age_range)
+        if not (isinstance(age_range, list) and len(age_range) == 2
+                and all(isinstance(a, int) and not isinstance(a, bool) for a in age_range)
                 and 0 < age_range[0] <= age_range[1]):
             raise people.fail("age_range", age_range, "must be [youngest, oldest] in whole years")
         age_range = tuple(age_range)
     people.done()
+    return people, total, balance, age_range
 
+
+def _read_groups(top: _Reader, people: _Reader, total: int) -> tuple[Group, ...]:
+    """``[[groups]]``: codes, names, sizes (adding up to the total), who trains."""
     groups = []
     for g in top.tables("groups"):
-        code = g.text("code")
-        if not code.isalnum():
-            raise g.fail("code", code, "must be letters and digits only")
+        code = g.label("code", "it names the group in every table")
         groups.append(Group(code=code, name=g.text("name"), size=g.integer("size"),
                             training=g.boolean("training", False),
                             simulated_profile=g.text("simulated_profile", g.data.get("name", code))))
         g.done()
-    codes = [g.code for g in groups]
-    if len(set(codes)) != len(codes):
-        raise top.fail("groups", codes, "two groups share a code")
+    top.unique("groups", [g.code for g in groups], "group code")
     if sum(g.size for g in groups) != total:
         raise people.fail("total", total, f"the group sizes add up to {sum(g.size for g in groups)}")
+    return tuple(groups)
 
-    objects_table = top.table("objects")
-    object_names = objects_table.strings("names")
-    if len(set(object_names)) != len(object_names):
-        raise objects_table.fail("names", list(object_names), "an object is named twice")
-    objects = tuple(_study_object(objects_table, "names", n, sources) for n in object_names)
-    order = objects_table.text("order", choices=ORDER_SCHEMES)
-    objects_table.done()
 
+def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: dict) -> StudyObject:
+    """One object from its file's text; errors name the object file (or, for a study's stored copy,
+    the database and the file's name)."""
+    text = sources.get(name)
+    if not isinstance(text, str):
+        raise reader.fail(key, name, "no object file for this object in the protocol's data")
+    where = files.get(name) or f"{reader.where}: object file {name}.toml (as kept with the protocol)"
+    try:
+        data = tomllib.loads(text)
+        spec = object_from_dict(data, where)
+    except tomllib.TOMLDecodeError as error:
+        raise ProtocolError(f"{where}: not valid TOML: {error}") from None
+    except SceneError as error:
+        raise ProtocolError(str(error)) from None
+    except (TypeError, ValueError) as error:
+        raise ProtocolError(f"{where}: not a usable object file: {error}") from None
+    code = data.get("code", name)
+    if not isinstance(code, str) or not code.strip():
+        raise ProtocolError(f"{where}: code = {code!r}: must be a non-empty string (it names the object in tables)")
+    return StudyObject(name=name, code=code, spec=spec, source=text)
+
+
+def _read_objects(top: _Reader, sources: dict, files: dict) -> tuple[tuple[StudyObject, ...], str]:
+    """``[objects]``: the tested objects (from their object files) and the order scheme."""
+    table = top.table("objects")
+    names = table.strings("names")
+    table.unique("names", list(names), "object")
+    objects = tuple(_study_object(table, f"names[{i}]", n, sources, files) for i, n in enumerate(names))
+    order = table.text("order", choices=ORDER_SCHEMES)
+    table.done()
+    return objects, order
+
+
+def _read_task(top: _Reader) -> TaskRules:
+    """``[task]``: start, places, radii, holds, timeouts, the workspace."""
     t = top.table("task")
     t.text("kind", "pick_and_place", ("pick_and_place",))
     places = t.raw("places")
@@ -427,9 +533,6 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
         workspace_min=t.vector("workspace_min"),
         workspace_max=t.vector("workspace_max"),
     )
-    if task.grasp_settle_s < 0 or task.drop_grace_s < 0:
-        bad = "grasp_settle_s" if task.grasp_settle_s < 0 else "drop_grace_s"
-        raise t.fail(bad, getattr(task, bad), "must be >= 0 (seconds)")
     if abs(math.hypot(*task.start_orientation) - 1.0) > 1e-6:
         raise t.fail("start_orientation", list(task.start_orientation), "must be a unit quaternion [w, x, y, z]")
     if not all(lo < hi for lo, hi in zip(task.workspace_min, task.workspace_max)):
@@ -437,98 +540,219 @@ def _build(top: _Reader, resolved: dict) -> Protocol:
                      f"{list(task.workspace_min)} on every axis")
     for i, point in enumerate((task.start,) + task.places):
         key = "start" if i == 0 else f"places[{i - 1}]"
-        if not all(lo <= p <= hi for lo, p, hi in zip(task.workspace_min, point, task.workspace_max)):
+        if not _inside(point, task):
             raise t.fail(key, list(point), "lies outside the workspace (workspace_min .. workspace_max)")
     t.done()
-    try:
-        placed = PlacedObject(objects[0].spec, task.start, task.start_orientation)
-        Scene(objects=(placed,), effects=frozenset({"gravity"}), gravity=gravity, **options).validate("scene")
-    except SceneError as error:
-        raise ProtocolError(f"{top.where}: {error}") from None
+    return task
 
+
+def _inside(point, task: TaskRules) -> bool:
+    return all(lo <= p <= hi for lo, p, hi in zip(task.workspace_min, point, task.workspace_max))
+
+
+def _read_stages(top: _Reader) -> tuple[Stage, ...]:
+    """``[[stages]]``: each stage's name, the system it runs and how the participant hears it named;
+    a study compares different systems, so no two stages run the same one."""
     stages = []
     for s in top.tables("stages"):
         system = s.text("system", choices=tuple(INTERACTION_MODELS))
-        stage_name = s.text("name")
-        if not stage_name.isalnum():
-            raise s.fail("name", stage_name, "must be letters and digits only (it names files in exports)")
-        stages.append(Stage(name=stage_name, system=system, label=s.text("label")))
+        stages.append(Stage(name=s.label("name", "it names files in exports"), system=system, label=s.text("label")))
         s.done()
-    stage_names = [s.name for s in stages]
-    if len(set(stage_names)) != len(stage_names):
-        raise top.fail("stages", stage_names, "two stages share a name")
+    top.unique("stages", [s.name for s in stages], "stage name")
+    for i, stage in enumerate(stages):
+        earlier = next((j for j in range(i) if stages[j].system == stage.system), None)
+        if earlier is not None:
+            raise top.fail(f"stages[{i}].system", stage.system, f"stages[{earlier}] runs this system already; "
+                           "a study compares different systems (answers and tables are kept per system)")
+    top.unique("stages", [s.label for s in stages], "label")
+    return tuple(stages)
 
-    training = None
+
+def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files: dict) -> Training | None:
+    """``[training]``: who trains (the groups marked ``training = true``), with what system and objects."""
     tr = top.table("training", None)
-    if tr is not None:
-        training_groups = tr.strings("groups")
-        for code in training_groups:
-            if code not in codes:
-                raise tr.fail("groups", list(training_groups), f"names group {code!r}; groups are {codes}")
-        training_objects = tr.strings("objects")
-        training = Training(groups=training_groups, system=tr.text("system", choices=tuple(INTERACTION_MODELS)),
-                            objects=tuple(_study_object(tr, "objects", n, sources) for n in training_objects))
-        tr.done()
-        flagged = tuple(g.code for g in groups if g.training)
-        if set(flagged) != set(training_groups):
-            raise tr.fail("groups", list(training_groups), f"differs from the groups marked training = true "
-                          f"({list(flagged)})")
+    if tr is None:
+        return None
+    codes = [g.code for g in groups]
+    training_groups = tr.strings("groups")
+    for code in training_groups:
+        if code not in codes:
+            raise tr.fail("groups", list(training_groups), f"names group {code!r}; groups are {codes}")
+    names = tr.strings("objects")
+    tr.unique("objects", list(names), "object")
+    training = Training(groups=training_groups, system=tr.text("system", choices=tuple(INTERACTION_MODELS)),
+                        objects=tuple(_study_object(tr, f"objects[{i}]", n, sources, files)
+                                      for i, n in enumerate(names)))
+    tr.done()
+    flagged = tuple(g.code for g in groups if g.training)
+    if set(flagged) != set(training_groups):
+        raise tr.fail("groups", list(training_groups), f"differs from the groups marked training = true "
+                      f"({list(flagged)})")
+    return training
 
-    questionnaire = None
+
+def _read_questionnaire(top: _Reader) -> Questionnaire | None:
+    """``[questionnaire]``: the scale and the items, each asked once per system."""
     q = top.table("questionnaire", None)
-    if q is not None:
-        scale_min = q.integer("scale_min", minimum=0)
-        scale_max = q.integer("scale_max", minimum=1)
-        if scale_max <= scale_min:
-            raise q.fail("scale_max", scale_max, f"must exceed scale_min = {scale_min}")
-        items = []
-        for it in q.tables("items"):
-            items.append(Item(name=it.text("name"), question=it.text("question"), low=it.text("low"),
-                              high=it.text("high")))
-            it.done()
-        questionnaire = Questionnaire(scale_min, scale_max, tuple(items))
-        q.done()
+    if q is None:
+        return None
+    scale_min = q.integer("scale_min", minimum=0)
+    scale_max = q.integer("scale_max", minimum=1)
+    if scale_max <= scale_min:
+        raise q.fail("scale_max", scale_max, f"must exceed scale_min = {scale_min}")
+    items = []
+    for it in q.tables("items"):
+        items.append(Item(name=it.text("name"), question=it.text("question"), low=it.text("low"),
+                          high=it.text("high")))
+        it.done()
+    q.unique("items", [i.name for i in items], "item name")
+    q.done()
+    return Questionnaire(scale_min, scale_max, tuple(items))
 
+
+def _read_timeline(top: _Reader, groups: tuple[Group, ...], stages: tuple[Stage, ...], training: Training | None,
+                   questionnaire: Questionnaire | None) -> tuple[Phase, ...]:
+    """``[[timeline]]``: the phases in order; every stage, the training and the questionnaire
+    exactly once, the questionnaire after the stages it asks about."""
+    codes = [g.code for g in groups]
+    stage_names = tuple(s.name for s in stages)
+    required = (("training",) if training else ()) + stage_names + (("questionnaire",) if questionnaire else ())
     timeline = []
-    known_phases = PHASES_INFO + (("training",) if training else ()) + tuple(stage_names) \
-        + (("questionnaire",) if questionnaire else ())
     for p in top.tables("timeline"):
-        phase_name = p.text("phase", choices=known_phases)
+        name = p.text("phase", choices=PHASES_INFO + required)
         phase_groups = p.strings("groups") if "groups" in p.data else None
         for code in phase_groups or ():
             if code not in codes:
                 raise p.fail("groups", list(phase_groups), f"names group {code!r}; groups are {codes}")
-        if phase_name == "training":
-            phase_groups = training.groups
-        timeline.append(Phase(name=phase_name, minutes=p.number("minutes", unit=" (minutes)"),
-                              text=p.text("text", ""), groups=phase_groups))
+        timeline.append(Phase(name=name, minutes=p.number("minutes", unit=" (minutes)"), text=p.text("text", ""),
+                              groups=training.groups if name == "training" else phase_groups))
         p.done()
-    order_seen = [p.name for p in timeline]
-    for required in (("training",) if training else ()) + tuple(stage_names) \
-            + (("questionnaire",) if questionnaire else ()):
-        if order_seen.count(required) != 1:
-            raise top.fail("timeline", order_seen, f"must list phase {required!r} exactly once")
-    if questionnaire and order_seen.index("questionnaire") < max(order_seen.index(s) for s in stage_names):
-        raise top.fail("timeline", order_seen, "puts the questionnaire before a stage it asks about")
-    total_minutes = sum(p.minutes for p in timeline)
-    if total_minutes > duration + 1e-9:
-        raise top.fail("duration_minutes", duration, f"the timeline's phases take {total_minutes:g} minutes")
-    for phase in timeline:
-        count = len(training.objects) if phase.name == "training" else \
-            len(objects) if phase.name in stage_names else 0
-        if count * task.timeout_s > phase.minutes * 60 + 1e-9:
+    seen = [p.name for p in timeline]
+    for name in required:
+        if seen.count(name) != 1:
+            raise top.fail("timeline", seen, f"must list phase {name!r} exactly once")
+    if questionnaire and seen.index("questionnaire") < max(seen.index(s) for s in stage_names):
+        raise top.fail("timeline", seen, "puts the questionnaire before a stage it asks about")
+    return tuple(timeline)
+
+
+def _read_display(top: _Reader) -> Viewpoint:
+    """``[display]``: the participant's viewpoint on a screen."""
+    view = top.table("display", {})
+    viewpoint = Viewpoint(view.vector("eye") if "eye" in view.data else None,
+                          view.vector("look_at") if "look_at" in view.data else None,
+                          view.number("fov_deg", 40.0, unit=" (degrees)"))
+    view.done()
+    return viewpoint
+
+
+def _read_dataset(top: _Reader) -> Dataset:
+    """``[dataset]``: authors, licence and institution, for the Motion-BIDS export."""
+    table = top.table("dataset", {})
+    dataset = Dataset(authors=table.strings("authors", []), license=table.text("license", ""),
+                      institution=table.text("institution", ""),
+                      institution_address=table.text("institution_address", ""),
+                      department=table.text("department", ""))
+    table.done()
+    return dataset
+
+
+# ---------------------------------------------------------------- checks across sections
+
+
+def _check_timeline_fits(top: _Reader, protocol: Protocol) -> None:
+    """The phases fit the study's minutes, and each task phase's tasks fit its minutes at their timeout."""
+    total = sum(p.minutes for p in protocol.timeline)
+    if total > protocol.duration_minutes + 1e-9:
+        raise top.fail("duration_minutes", protocol.duration_minutes, f"the timeline's phases take {total:g} minutes")
+    stage_names = [s.name for s in protocol.stages]
+    for phase in protocol.timeline:
+        count = len(protocol.training.objects) if phase.name == "training" else \
+            len(protocol.objects) if phase.name in stage_names else 0
+        if count * protocol.task.timeout_s > phase.minutes * 60 + 1e-9:
             raise ProtocolError(
                 f"{top.where}: timeline phase {phase.name!r} has minutes = {phase.minutes:g}, but its {count} "
-                f"task(s) may take {count} x task.timeout_s = {count * task.timeout_s / 60:g} minutes")
+                f"task(s) may take {count} x task.timeout_s = {count * protocol.task.timeout_s / 60:g} minutes")
 
+
+def _check_objects(top: _Reader, protocol: Protocol) -> None:
+    """Across tested and training objects: one code per object and one BIDS label per object name
+    (the tables and the Motion-BIDS export tell objects apart by them)."""
+    distinct = {o.name: o for o in protocol.objects + (protocol.training.objects if protocol.training else ())}
+    for what, key in (("code", lambda o: o.code), ("BIDS label", lambda o: re.sub(r"[^A-Za-z0-9]", "", o.name))):
+        seen: dict[str, str] = {}
+        for obj in distinct.values():
+            value = key(obj).casefold()
+            if value in seen:
+                raise ProtocolError(f"{top.where}: objects {seen[value]!r} and {obj.name!r} have the same {what} "
+                                    f"{key(obj)!r} (case does not count); the tables would merge them: give each "
+                                    "object its own code in its object file")
+            seen[value] = obj.name
+
+
+def _check_worlds(top: _Reader, protocol: Protocol) -> None:
+    """Every task's world as the sessions will build it: the physics accepts each scene (each
+    stage's system with each object), the object waits inside the workspace (on the table, if
+    there is one: else every task would end in a respawn loop and time out), and every place can
+    hold the object's centre above the table top."""
+    tasks = [(s.system, o.name) for s in protocol.stages for o in protocol.objects]
+    if protocol.training:
+        tasks += [(protocol.training.system, o.name) for o in protocol.training.objects]
+    rules = protocol.task
+    for system, name in dict.fromkeys(tasks):
+        try:
+            protocol.scene(name, system).validate("scene")
+        except SceneError as error:
+            raise ProtocolError(f"{top.where}: {error} (in the world of {system} with the {name})") from None
+        if protocol.table_height is None:
+            continue
+        start, _ = protocol.start_pose(name)
+        if not _inside(start, rules):
+            raise ProtocolError(
+                f"{top.where}: scene.table_height = {protocol.table_height:g}: the {name} stands on the table with "
+                f"its centre at {[round(v, 4) for v in start]}, outside the workspace (task.workspace_min "
+                f"{list(rules.workspace_min)} .. task.workspace_max {list(rules.workspace_max)})")
+        lowest = protocol.table_height + float(np.min(protocol.object(name).spec.half_extents))
+        for k, place in enumerate(rules.places):
+            if place[1] + rules.place_radius < lowest:
+                raise ProtocolError(
+                    f"{top.where}: task.places[{k}] = {list(place)}: the {name} on the table (scene.table_height = "
+                    f"{protocol.table_height:g}) keeps its centre at y >= {lowest:.4f}, so it can never reach this "
+                    f"place (task.place_radius = {rules.place_radius:g})")
+
+
+def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
+    """The protocol from its merged data: each section by its reader, then the checks across sections."""
+    sources = resolved.get("object_files", {})
+    name = top.text("name")
+    title = top.text("title", "")
+    top.text("description", "")
+    seed = top.integer("seed", None, minimum=0)
+    duration = top.number("duration_minutes", unit=" (minutes)")
+    gravity, table_height, options, filter_window = _read_scene(top)
+    people, total, balance, age_range = _read_participants(top)
+    groups = _read_groups(top, people, total)
+    objects, order = _read_objects(top, sources, files)
+    task = _read_task(top)
+    stages = _read_stages(top)
+    training = _read_training(top, groups, sources, files)
+    questionnaire = _read_questionnaire(top)
+    timeline = _read_timeline(top, groups, stages, training, questionnaire)
     logging = top.table("logging", {})
     frame_batch = logging.integer("frame_batch", 64)
     logging.done()
+    viewpoint = _read_display(top)
+    dataset = _read_dataset(top)
     top.raw("object_files", None)
     top.raw("sources", None)
     top.done()
-    return Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
-                    gravity=gravity, table_height=table_height, scene_options=options, filter_window=filter_window, total_participants=total, balance=balance,
-                    age_range=age_range, groups=tuple(groups), objects=objects, order=order, task=task,
-                    training=training, stages=tuple(stages), questionnaire=questionnaire, timeline=tuple(timeline),
-                    frame_batch=frame_batch, resolved=resolved)
+    protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
+                        gravity=gravity, table_height=table_height, scene_options=options,
+                        filter_window=filter_window, total_participants=total, balance=balance, age_range=age_range,
+                        groups=groups, objects=objects, order=order, task=task, training=training, stages=stages,
+                        questionnaire=questionnaire, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
+                        resolved=resolved, dataset=dataset)
+    _check_timeline_fits(top, protocol)
+    _check_objects(top, protocol)
+    _check_worlds(top, protocol)
+    return protocol

@@ -25,21 +25,16 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Protocol as Interface
 
-import numpy as np
 from tqdm import tqdm
 
-from microg.sim import HandFrame, PlacedObject, Scene, TableParameters, World, compose_scene, grasped, make_world, \
-    rendered_phalanges, step, touching
 from microg.hands.filter import HandFilter
-from microg.sim.hand import BONES_PER_HAND, SIDES
-from microg.participant import TaskDisplay
+from microg.sim import Scene, World, make_world
+from microg.task import COMPLETED, Moment, TaskRules, TaskState, play
 
+from . import framelog
 from .inputs import Inputs, participant_plan
-from microg.task.rules import TaskRules
-
 from .protocol import FILTER_WINDOW, Phase, Protocol
 from .questionnaire import Rater
-from microg.task.stages import COMPLETED, Observation, TaskState, advance
 from .store import Event, PlannedTask, Store, derived_seed
 
 Markers = Callable[[str, dict], None]
@@ -97,6 +92,9 @@ class Operator(Interface):
     def ready(self, task: PlannedTask) -> bool:
         """Before a task: True to run it, False to skip it (recorded as skipped)."""
 
+    def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        """After a task (completed, timeout, aborted or skipped)."""
+
 
 class Unattended:
     """No researcher at the keyboard (replayed and simulated sessions): run everything."""
@@ -106,6 +104,9 @@ class Unattended:
 
     def ready(self, task: PlannedTask) -> bool:
         return True
+
+    def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        pass
 
 
 @dataclass(frozen=True)
@@ -123,59 +124,7 @@ class TaskResult:
 def task_world(protocol: Protocol, task: PlannedTask) -> World:
     """The task's object alone at its start pose (on the table, if there is one), under the stage's
     interaction model."""
-    position, orientation = protocol.start_pose(task.object)
-    placed = PlacedObject(protocol.object(task.object).spec, position, orientation)
-    table = None if protocol.table_height is None else TableParameters(height=protocol.table_height)
-    return make_world(compose_scene([placed], task.system, protocol.gravity, table=table, **protocol.scene_options))
-
-
-def put_back(world: World, rules: TaskRules, state: TaskState, start) -> tuple[World, list[Event]]:
-    """Bring an object that left the workspace while not held back to its start pose, at rest."""
-    position = world.data.position[0]
-    inside = all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, position, rules.workspace_max))
-    if inside or state.held:
-        return world, []
-    data = world.data.copy()
-    data.position[0], data.orientation[0] = start
-    data.velocity[0] = 0.0
-    data.angular_velocity[0] = 0.0
-    return World(world.model, data), [Event(world.time, "respawn", {"position": [float(v) for v in position]})]
-
-
-@dataclass
-class TaskBoard:
-    """What the task shows the participant right now: the stage, the current place, whether its
-    mark is lit and its timer. The runner updates it every frame; a simulated participant reads it."""
-
-    display: TaskDisplay = field(default_factory=TaskDisplay)
-
-    def read(self) -> TaskDisplay:
-        return self.display
-
-    def show(self, state: TaskState, t: float) -> None:
-        self.display = TaskDisplay(state.stage, state.place, state.lit_since is not None, state.place_timer(t))
-
-
-def _hand_blob(frame: HandFrame, rendered: np.ndarray, side: int) -> bytes | None:
-    hand = frame.hand(SIDES[side])
-    if hand is None:
-        return None
-    slots = slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
-    values = np.concatenate([hand.joints.ravel(), hand.widths.ravel(), hand.palm_position, hand.palm_orientation,
-                             rendered[slots].ravel()])
-    return values.astype("<f8").tobytes()
-
-
-def frame_row(run_id: int, index: int, frame: HandFrame, world: World, state: TaskState, is_grasped: bool) -> tuple:
-    """One row of the ``frames`` table (layout in ``microg.study.store``)."""
-    d = world.data
-    rendered = rendered_phalanges(world)
-    mask = sum(1 << int(k) for k in np.flatnonzero(touching(world)[:, 0]))
-    t = frame.timestamp
-    return (run_id, index, t, state.stage, state.place, int(state.lit_since is not None), state.place_timer(t),
-            int(is_grasped), int(state.held), mask, *map(float, d.position[0]), *map(float, d.orientation[0]),
-            *map(float, d.velocity[0]), *map(float, d.angular_velocity[0]),
-            _hand_blob(frame, rendered, 0), _hand_blob(frame, rendered, 1))
+    return make_world(protocol.scene(task.object, task.system))
 
 
 def guarded(source, scene: Scene):
@@ -189,61 +138,50 @@ def guarded(source, scene: Scene):
 
 
 def run_task(store: Store, session_id: int, run_id: int, world: World, source, rules: TaskRules, clock: Clock,
-             markers: Markers | None = None, batch: int = 64, on_frame: Callable[[int], None] | None = None,
-             board: TaskBoard | None = None, filter_window: int = FILTER_WINDOW) -> TaskResult:
-    """Drive one task from ``source`` until it completes, times out or the source ends; log it all.
+             markers: Markers | None = None, batch: int = 64, on_moment: Callable[[Moment], None] | None = None,
+             filter_window: int = FILTER_WINDOW) -> TaskResult:
+    """Play one task (``microg.task.play``) from ``source`` until it completes, times out or the
+    source ends; log every frame and event. ``on_moment`` sees each frame's outcome as it happens
+    (the participant's display, a progress bar).
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
-    state = TaskState()
+    state, pending, logged, last_t = TaskState(), [], 0, None
     smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
-    start = (world.data.position[0].copy(), world.data.orientation[0].copy())
-    buffer: list[tuple] = []
-    index, last_t = 0, None
     try:
-        while not state.finished:
-            frame = source.next_frame(world)
-            if frame is None:
-                break
-            world = step(world, smooth(frame))
-            is_grasped = bool(grasped(world)[0])
-            clock.elapse(0.0 if last_t is None else frame.timestamp - last_t)
-            last_t = frame.timestamp
-            state, task_events = advance(state, Observation(frame.timestamp, is_grasped,
-                                                            tuple(world.data.position[0])), rules)
-            if board is not None:
-                board.show(state, frame.timestamp)
-            world, support_events = put_back(world, rules, state, start)
-            events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in task_events] + \
-                     [Event(clock.now(), e.kind, dict(e.data, frame_t=frame.timestamp)) for e in support_events]
+        for moment in play(world, source, rules, smooth):
+            state, t = moment.state, moment.frame.timestamp
+            clock.elapse(0.0 if last_t is None else t - last_t)
+            last_t = t
+            events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in moment.events]
             if events:
                 store.log(session_id, events, run_id)
                 if markers:
                     for event in events:
                         markers(event.kind, event.data)
-            buffer.append(frame_row(run_id, index, frame, world, state, is_grasped))
-            index += 1
-            if len(buffer) >= batch:
-                store.add_frames(buffer)
-                buffer = []
-            if on_frame:
-                on_frame(index)
+            pending.append(framelog.record(moment.frame, moment.world, state, moment.observation))
+            if len(pending) >= batch:
+                store.add_frames(run_id, logged, pending)
+                logged, pending = logged + len(pending), []
+            if on_moment:
+                on_moment(moment)
     except BaseException as error:
-        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops, frames=buffer,
+        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops, frames=(logged, pending),
                       reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
         raise
     finally:
         source.close()
+    frames = logged + len(pending)
     if state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
-        result = TaskResult(status, state.completion_time, state.drops, index)
+        result = TaskResult(status, state.completion_time, state.drops, frames)
         reason = None if status == COMPLETED else f"not completed within task.timeout_s = {rules.timeout_s:g} s"
     else:
-        result = TaskResult("aborted", None, state.drops, index)
+        result = TaskResult("aborted", None, state.drops, frames)
         reason = f"the hand source ({source.description}) ended before the task did"
     counts = getattr(source, "counts", None)
     store.end_run(run_id, result.status, clock.now(), time_s=result.time_s, attempts=result.attempts,
-                  reason=reason, frames=buffer,
+                  reason=reason, frames=(logged, pending),
                   events=[Event(clock.now(), "tracking_guard", counts.as_dict())] if counts is not None else [])
     if markers:
         markers("task_end", {"status": result.status, "time_s": result.time_s, "attempts": result.attempts})
@@ -254,8 +192,11 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
 
 
 def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, operator: Operator | None = None,
-                rater: Rater | None = None, markers: Markers | None = None, progress: bool = True) -> str:
-    """Run (or carry on) a session to its end; returns the session's status."""
+                rater: Rater | None = None, markers: Markers | None = None, progress: bool = True,
+                on_moment: Callable[[Moment], None] | None = None) -> str:
+    """Run (or carry on) a session to its end; returns the session's status (``completed``, or
+    ``incomplete`` when a task was aborted or skipped: ``Store.finish_session``). ``on_moment``
+    sees every frame's outcome as the physics computes it (the participant's display)."""
     operator = operator or Unattended()
     protocol = store.protocol
     session = store.session(session_id)
@@ -282,7 +223,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
             elif phase.name == "training" or phase.name in stages:
                 for task in tasks:
                     if task.phase == phase.name and task.index not in finished:
-                        _run_planned(store, session, task, inputs, clock, operator, markers, bar)
+                        _run_planned(store, session, task, inputs, clock, operator, markers, bar, on_moment)
                         finished.add(task.index)
                         bar.update(1)
             else:
@@ -292,34 +233,42 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
                 markers("phase_end", {"phase": phase.name})
     finally:
         bar.close()
-    store.end_session(session_id, "completed", clock.now())
-    return "completed"
+    return store.finish_session(session_id, clock.now())
 
 
 def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock: Clock, operator: Operator,
-                 markers: Markers | None, bar) -> TaskResult:
+                 markers: Markers | None, bar, on_moment: Callable[[Moment], None] | None) -> TaskResult:
     protocol = store.protocol
     seed = derived_seed(session.seed, task.index)
     label = f"{task.phase} {task.object_code} ({task.system})"
     if not operator.ready(task):
         run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
         store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator")
+        operator.finished(task, "skipped", None)
         return TaskResult("skipped", None, None, 0)
     hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
-    board = TaskBoard()
     world = task_world(protocol, task)
-    source = guarded(inputs.open(participant_plan(protocol, task, hand), seed, board.read), world.model.scene)
+    source = guarded(inputs.open(participant_plan(protocol, task, hand, session.participant_id), seed),
+                     world.model.scene)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     if markers:
         markers("task_start", {"task": task.index, "phase": task.phase, "system": task.system, "object": task.object})
     started = time.monotonic()
 
-    def show(frames: int) -> None:
+    frames = 0
+
+    def show(moment: Moment) -> None:
+        nonlocal frames
+        frames += 1
         if frames % 110 == 0:
             bar.set_postfix_str(f"{label}: {frames} frames, {frames / max(time.monotonic() - started, 1e-9):.0f} fps")
+        if on_moment:
+            on_moment(moment)
 
-    return run_task(store, session.id, run_id, world, source, protocol.task, clock, markers, protocol.frame_batch,
-                    show, board, protocol.filter_window)
+    result = run_task(store, session.id, run_id, world, source, protocol.task, clock, markers, protocol.frame_batch,
+                      show, protocol.filter_window)
+    operator.finished(task, result.status, result.time_s)
+    return result
 
 
 def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol) -> None:

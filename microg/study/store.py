@@ -7,25 +7,29 @@ in progress and never a task result. Nothing is overwritten: triggers make event
 answers, plans and protocols append-only, and a task run, session or participant can only move
 forward from its open state (running -> finished, active -> withdrawn), never back or twice.
 
-Tables (see ``SCHEMA``): ``study`` (one row: name, seed, version), ``protocols`` (the resolved
+Tables (``schema.sql`` beside this file): ``study`` (one row: name, seed, version), ``protocols`` (the resolved
 protocol with its object files, as JSON, plus the file's own text), ``participants``
 (demographics, group, object order, status), ``sessions`` (one per participant, with provenance:
 protocol, seed, package and Python version, input, clock), ``tasks`` (the session's planned
 tasks), ``task_runs`` (each time a task is run; a run cut off by a crash is marked
-``interrupted`` on resume and the task runs again), ``events``, ``answers`` and ``frames``.
+``interrupted`` on resume and the task runs again), ``events``, ``answers`` and ``frames``
+(batches of logged frames, written and read by ``microg.study.framelog`` only).
 
-A frame row holds the task state (stage, current place, lit, timer, grasped, held), the phalanx
-slots touching the object as a bit mask (bit k = slot k, ``microg.sim.slot_name(k)``), the
-object's pose and velocities, and one blob per hand side (NULL when that hand was not tracked):
-float64 little-endian, ``HAND_LAYOUT`` in order. That is enough to draw a session again, and the
-tracked joints (exactly as the source delivered them) are enough to simulate it again.
+Every statement goes through ``StudyConnection``, so a database that is locked by another program
+(longer than ``BUSY_TIMEOUT_S``), a full disk, a damaged file or a refused change ends in a
+``StoreError`` that says what happened and what to do, never in a half-written step. Opening a
+study checks its integrity (``check_integrity``: the append-only triggers are there, the stored
+protocol matches its SHA-256, finished task runs have their frames and events, participant ids map
+one-to-one onto BIDS labels) and refuses a damaged study unless the caller accepts it.
 """
 
 from __future__ import annotations
 
 import datetime
 import fcntl
+import hashlib
 import json
+import re
 import os
 import platform
 import sqlite3
@@ -39,188 +43,82 @@ import numpy as np
 
 from microg import __version__
 
+from . import framelog
 from .assignment import Enrolled, Participant, ParticipantError, assign_group, assign_order, check_participant
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 3
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
 RUN_STATUSES = FINAL_RUN + ("running", "interrupted")
-HAND_LAYOUT = (("joints", 75), ("widths", 20), ("palm_position", 3), ("palm_orientation", 4), ("rendered", 60))
-"""A hand blob: joints (5 digits x 5 joints x 3, the source's values), bone widths (5 x 4), palm
-position (3), palm orientation (w, x, y, z), rendered (god-object) phalanx centres (20 x 3)."""
-HAND_VALUES = sum(n for _, n in HAND_LAYOUT)
-
-
-def hand_values(blob: bytes | None) -> np.ndarray:
-    """The ``HAND_VALUES`` numbers of a logged hand blob; all NaN where the hand was not tracked (NULL)."""
-    return np.full(HAND_VALUES, np.nan) if blob is None else np.frombuffer(blob, dtype="<f8")
-
-
-def hand_parts(values: np.ndarray) -> dict[str, np.ndarray]:
-    """Hand values split by name as ``HAND_LAYOUT`` says (flat views)."""
-    parts, start = {}, 0
-    for name, size in HAND_LAYOUT:
-        parts[name] = values[start:start + size]
-        start += size
-    return parts
-
-SCHEMA = """
-CREATE TABLE study (
-    id INTEGER PRIMARY KEY CHECK (id = 1),
-    name TEXT NOT NULL,
-    seed INTEGER NOT NULL,
-    protocol_id INTEGER NOT NULL REFERENCES protocols(id),
-    created_at TEXT NOT NULL,
-    microg_version TEXT NOT NULL,
-    schema_version INTEGER NOT NULL
-);
-CREATE TABLE protocols (
-    id INTEGER PRIMARY KEY,
-    name TEXT NOT NULL,
-    sha256 TEXT NOT NULL UNIQUE,
-    resolved TEXT NOT NULL,
-    source_text TEXT NOT NULL,
-    added_at TEXT NOT NULL
-);
-CREATE TABLE participants (
-    id TEXT PRIMARY KEY,
-    number INTEGER NOT NULL UNIQUE,
-    group_code TEXT NOT NULL,
-    gender TEXT NOT NULL,
-    age INTEGER NOT NULL,
-    handedness TEXT NOT NULL,
-    mr_experience INTEGER NOT NULL,
-    order_row INTEGER,
-    object_order TEXT NOT NULL,
-    status TEXT NOT NULL DEFAULT 'active' CHECK (status IN ('active', 'withdrawn')),
-    added_at TEXT NOT NULL,
-    withdrawn_at TEXT,
-    withdraw_reason TEXT
-);
-CREATE TABLE sessions (
-    id INTEGER PRIMARY KEY,
-    participant_id TEXT NOT NULL UNIQUE REFERENCES participants(id),
-    protocol_id INTEGER NOT NULL REFERENCES protocols(id),
-    seed INTEGER NOT NULL,
-    input TEXT NOT NULL,
-    simulated INTEGER NOT NULL,
-    clock TEXT NOT NULL,
-    object_order TEXT NOT NULL,
-    microg_version TEXT NOT NULL,
-    python TEXT NOT NULL,
-    platform TEXT NOT NULL,
-    status TEXT NOT NULL CHECK (status IN ('running', 'completed', 'aborted')),
-    created_at TEXT NOT NULL,
-    ended_at TEXT
-);
-CREATE TABLE tasks (
-    session_id INTEGER NOT NULL REFERENCES sessions(id),
-    task_index INTEGER NOT NULL,
-    phase TEXT NOT NULL,
-    system TEXT NOT NULL,
-    object TEXT NOT NULL,
-    object_code TEXT NOT NULL,
-    order_position INTEGER NOT NULL,
-    PRIMARY KEY (session_id, task_index)
-);
-CREATE TABLE task_runs (
-    id INTEGER PRIMARY KEY,
-    session_id INTEGER NOT NULL,
-    task_index INTEGER NOT NULL,
-    run INTEGER NOT NULL,
-    status TEXT NOT NULL CHECK (status IN ('running', 'completed', 'timeout', 'aborted', 'skipped', 'interrupted')),
-    reason TEXT,
-    source TEXT NOT NULL,
-    seed INTEGER NOT NULL,
-    started_at REAL NOT NULL,
-    ended_at REAL,
-    time_s REAL,
-    attempts INTEGER,
-    frames INTEGER,
-    started_wall TEXT NOT NULL,
-    ended_wall TEXT,
-    UNIQUE (session_id, task_index, run),
-    FOREIGN KEY (session_id, task_index) REFERENCES tasks(session_id, task_index)
-);
-CREATE TABLE events (
-    id INTEGER PRIMARY KEY,
-    session_id INTEGER NOT NULL REFERENCES sessions(id),
-    run_id INTEGER REFERENCES task_runs(id),
-    t REAL NOT NULL,
-    wall TEXT NOT NULL,
-    kind TEXT NOT NULL,
-    data TEXT NOT NULL
-);
-CREATE INDEX events_by_session ON events(session_id, run_id);
-CREATE TABLE answers (
-    session_id INTEGER NOT NULL REFERENCES sessions(id),
-    system TEXT NOT NULL,
-    item TEXT NOT NULL,
-    rating INTEGER NOT NULL,
-    source TEXT NOT NULL CHECK (source IN ('participant', 'model')),
-    t REAL NOT NULL,
-    wall TEXT NOT NULL,
-    PRIMARY KEY (session_id, system, item)
-);
-CREATE TABLE frames (
-    run_id INTEGER NOT NULL REFERENCES task_runs(id),
-    frame INTEGER NOT NULL,
-    t REAL NOT NULL,
-    stage TEXT NOT NULL,
-    place INTEGER NOT NULL,
-    place_lit INTEGER NOT NULL,
-    place_timer REAL NOT NULL,
-    grasped INTEGER NOT NULL,
-    held INTEGER NOT NULL,
-    touching INTEGER NOT NULL,
-    px REAL NOT NULL, py REAL NOT NULL, pz REAL NOT NULL,
-    qw REAL NOT NULL, qx REAL NOT NULL, qy REAL NOT NULL, qz REAL NOT NULL,
-    vx REAL NOT NULL, vy REAL NOT NULL, vz REAL NOT NULL,
-    wx REAL NOT NULL, wy REAL NOT NULL, wz REAL NOT NULL,
-    left BLOB,
-    right BLOB,
-    PRIMARY KEY (run_id, frame)
-);
-"""
-
-_INSERT_FRAMES = f"INSERT INTO frames VALUES ({', '.join('?' * 25)})"
-"""A ``frames`` row has 25 columns (``microg.study.session.frame_row``)."""
-
-_APPEND_ONLY = ("study", "protocols", "tasks", "events", "answers", "frames")
-_GUARDS = "".join(
-    f"""
-CREATE TRIGGER {table}_no_update BEFORE UPDATE ON {table}
-BEGIN SELECT RAISE(ABORT, '{table} rows are never changed: the log is append-only'); END;
-CREATE TRIGGER {table}_no_delete BEFORE DELETE ON {table}
-BEGIN SELECT RAISE(ABORT, '{table} rows are never deleted: the log is append-only'); END;
-""" for table in _APPEND_ONLY) + """
-CREATE TRIGGER task_runs_once BEFORE UPDATE ON task_runs
-WHEN OLD.status != 'running' OR NEW.status = 'running'
-  OR NEW.session_id IS NOT OLD.session_id OR NEW.task_index IS NOT OLD.task_index OR NEW.run IS NOT OLD.run
-  OR NEW.started_at IS NOT OLD.started_at OR NEW.seed IS NOT OLD.seed OR NEW.source IS NOT OLD.source
-BEGIN SELECT RAISE(ABORT, 'a finished task run is never changed'); END;
-CREATE TRIGGER sessions_once BEFORE UPDATE ON sessions
-WHEN OLD.status != 'running' OR NEW.status = 'running' OR NEW.participant_id IS NOT OLD.participant_id
-  OR NEW.seed IS NOT OLD.seed OR NEW.protocol_id IS NOT OLD.protocol_id OR NEW.created_at IS NOT OLD.created_at
-BEGIN SELECT RAISE(ABORT, 'a finished session is never changed'); END;
-CREATE TRIGGER participants_withdraw_only BEFORE UPDATE ON participants
-WHEN OLD.status != 'active' OR NEW.status != 'withdrawn' OR NEW.id IS NOT OLD.id OR NEW.number IS NOT OLD.number
-  OR NEW.group_code IS NOT OLD.group_code OR NEW.gender IS NOT OLD.gender OR NEW.age IS NOT OLD.age
-  OR NEW.handedness IS NOT OLD.handedness OR NEW.mr_experience IS NOT OLD.mr_experience
-  OR NEW.object_order IS NOT OLD.object_order OR NEW.order_row IS NOT OLD.order_row
-BEGIN SELECT RAISE(ABORT, 'a participant can only be withdrawn, once; demographics are never changed'); END;
-CREATE TRIGGER runs_no_delete BEFORE DELETE ON task_runs
-BEGIN SELECT RAISE(ABORT, 'task_runs rows are never deleted'); END;
-CREATE TRIGGER sessions_no_delete BEFORE DELETE ON sessions
-BEGIN SELECT RAISE(ABORT, 'sessions rows are never deleted'); END;
-CREATE TRIGGER participants_no_delete BEFORE DELETE ON participants
-BEGIN SELECT RAISE(ABORT, 'participants rows are never deleted (withdraw instead)'); END;
-"""
+OUTCOMES = ("completed", "timeout")
+"""Final statuses that measured the participant; ``aborted`` and ``skipped`` measured nothing."""
+SCHEMA = Path(__file__).with_name("schema.sql")
+SQLITE_HEADER = b"SQLite format 3\x00"
+BUSY_TIMEOUT_S = 30.0
+"""How long a statement waits for a database that another program holds before it gives up."""
 
 
 class StoreError(RuntimeError):
     """The study database refuses an operation; the message says why and what to do."""
+
+
+class DamagedStudyError(StoreError):
+    """The integrity check on open found problems (``problems``); the message lists them."""
+
+    def __init__(self, message: str, problems: list[str]):
+        super().__init__(message)
+        self.problems = problems
+
+
+def database_error(error: sqlite3.Error, path: Path | str) -> StoreError:
+    """A StoreError that says what a failed statement on ``path`` means and what to do."""
+    code = getattr(error, "sqlite_errorcode", -1) & 0xFF
+    if code in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED):
+        return StoreError(f"{path}: another program has held the study database for more than {BUSY_TIMEOUT_S:g} s "
+                          f"({error}); this step was not written, everything committed before it is kept. Close the "
+                          "program that holds it (a database browser, a backup or sync tool), then run the command "
+                          "again (a session carries on with: microg session resume)")
+    if code == sqlite3.SQLITE_FULL:
+        return StoreError(f"{path}: the disk is full ({error}); this step was not written, everything committed "
+                          "before it is kept. Free space on that disk, then run the command again (a session "
+                          "carries on with: microg session resume)")
+    if code in (sqlite3.SQLITE_NOTADB, sqlite3.SQLITE_CORRUPT):
+        return StoreError(f"{path}: the study database is damaged ({error}); keep a copy of the study folder and see "
+                          "what is wrong with: microg study check")
+    if code == sqlite3.SQLITE_READONLY:
+        return StoreError(f"{path}: the study database cannot be written ({error}); check the permissions of the "
+                          "file and its folder")
+    if code in (sqlite3.SQLITE_IOERR, sqlite3.SQLITE_CANTOPEN):
+        return StoreError(f"{path}: the disk failed to read or write the study database ({error}); check the disk "
+                          "(is it full, unplugged, or read-only?), then run the command again")
+    if code == sqlite3.SQLITE_CONSTRAINT:
+        return StoreError(f"{path}: the study database refused the change: {error}")
+    return StoreError(f"{path}: {error}")
+
+
+class StudyConnection(sqlite3.Connection):
+    """A connection to a study database whose failures are ``StoreError``s (see ``database_error``)."""
+
+    path: Path
+
+    def execute(self, *args):
+        try:
+            return super().execute(*args)
+        except sqlite3.Error as error:
+            raise database_error(error, self.path) from None
+
+    def executemany(self, *args):
+        try:
+            return super().executemany(*args)
+        except sqlite3.Error as error:
+            raise database_error(error, self.path) from None
+
+    def executescript(self, *args):
+        try:
+            return super().executescript(*args)
+        except sqlite3.Error as error:
+            raise database_error(error, self.path) from None
 
 
 @dataclass(frozen=True)
@@ -303,11 +201,22 @@ def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...]) ->
     return tasks
 
 
-def _connect(path: Path) -> sqlite3.Connection:
-    connection = sqlite3.connect(path, isolation_level=None, timeout=30.0)
-    connection.execute("PRAGMA page_size = 16384")
-    connection.execute("PRAGMA journal_mode = WAL")
-    connection.execute("PRAGMA synchronous = FULL")
+def _connect(path: Path, readonly: bool = False) -> StudyConnection:
+    """A connection to ``path``: WAL, durable commits and foreign keys; read-only ones never write
+    into the file (and may be shared by the view's threads)."""
+    try:
+        if readonly:
+            connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, isolation_level=None,
+                                         timeout=BUSY_TIMEOUT_S, check_same_thread=False, factory=StudyConnection)
+        else:
+            connection = sqlite3.connect(path, isolation_level=None, timeout=BUSY_TIMEOUT_S, factory=StudyConnection)
+    except sqlite3.Error as error:
+        raise database_error(error, path) from None
+    connection.path = path
+    if not readonly:
+        connection.execute("PRAGMA page_size = 16384")
+        connection.execute("PRAGMA journal_mode = WAL")
+        connection.execute("PRAGMA synchronous = FULL")
     connection.execute("PRAGMA foreign_keys = ON")
     connection.row_factory = sqlite3.Row
     return connection
@@ -316,28 +225,43 @@ def _connect(path: Path) -> sqlite3.Connection:
 class Store:
     """An open study database. Create with ``create_study``, open with ``open_study``."""
 
-    def __init__(self, study_dir: Path, connection: sqlite3.Connection):
+    def __init__(self, study_dir: Path, connection: StudyConnection, problems: list[str] = ()):
         self.dir = study_dir
         self.db = connection
+        self.problems = list(problems)
+        """What the integrity check on open found (empty for a sound study)."""
+        self._locks: dict[int, int] = {}
         row = self.db.execute("SELECT s.name, s.seed, p.resolved FROM study s JOIN protocols p ON p.id = s.protocol_id"
                               ).fetchone()
+        where = study_dir / DATABASE
+        if row is None:
+            raise StoreError(f"{where}: the study row or its protocol is missing; see: microg study check {study_dir}")
         self.name: str = row["name"]
         self.seed: int = row["seed"]
-        self.protocol: Protocol = protocol_from_resolved(json.loads(row["resolved"]), f"{study_dir / DATABASE}")
-        self._locks: dict[int, int] = {}
+        try:
+            resolved = json.loads(row["resolved"])
+        except (TypeError, ValueError) as error:
+            raise StoreError(f"{where}: the stored protocol is not readable JSON ({error}); see: microg study check "
+                             f"{study_dir}") from None
+        self.protocol: Protocol = protocol_from_resolved(resolved, str(where))
 
     # ------------------------------------------------------------ plumbing
 
     @contextmanager
     def transaction(self) -> Iterator[sqlite3.Connection]:
-        """One atomic, durable write: everything inside commits together or not at all."""
+        """One atomic, durable write: everything inside commits together or not at all (a failed
+        commit, e.g. on a full disk, rolls back too)."""
         self.db.execute("BEGIN IMMEDIATE")
         try:
             yield self.db
+            self.db.execute("COMMIT")
         except BaseException:
-            self.db.execute("ROLLBACK")
+            if self.db.in_transaction:
+                try:
+                    self.db.execute("ROLLBACK")
+                except StoreError:
+                    pass  # the database rolls the transaction back itself when the connection closes
             raise
-        self.db.execute("COMMIT")
 
     def close(self) -> None:
         for fd in self._locks.values():
@@ -353,6 +277,8 @@ class Store:
 
     def lock_session(self, session_id: int) -> None:
         """Hold the session for this process; the operating system frees it when the process ends."""
+        if session_id in self._locks:
+            return
         folder = self.dir / "locks"
         folder.mkdir(exist_ok=True)
         fd = os.open(folder / f"session-{session_id}.lock", os.O_RDWR | os.O_CREAT, 0o644)
@@ -362,6 +288,11 @@ class Store:
             os.close(fd)
             raise StoreError(f"session {session_id} is being run by another process right now") from None
         self._locks[session_id] = fd
+
+    def unlock_session(self, session_id: int) -> None:
+        fd = self._locks.pop(session_id, None)
+        if fd is not None:
+            os.close(fd)
 
     # ------------------------------------------------------------ participants
 
@@ -376,6 +307,11 @@ class Store:
             if db.execute("SELECT 1 FROM participants WHERE id = ?", (participant.id,)).fetchone():
                 raise ParticipantError(f"participant {participant.id} is already in study {self.name!r}; "
                                        "ids are never reused")
+            twin = db.execute("SELECT id FROM participants WHERE lower(id) = lower(?)", (participant.id,)).fetchone()
+            if twin is not None:
+                raise ParticipantError(f"participant id = {participant.id!r}: collides with participant {twin[0]!r} "
+                                       f"of study {self.name!r}; ids that differ only in case name the same folder "
+                                       "on many disks and in the Motion-BIDS export: choose another id")
             number = db.execute("SELECT COALESCE(MAX(number), 0) + 1 FROM participants").fetchone()[0]
             enrolled = self._enrolled()
             group = assign_group(self.protocol, enrolled, participant.gender,
@@ -390,18 +326,34 @@ class Store:
 
     def withdraw(self, participant_id: str, reason: str) -> None:
         """Withdraw a participant: their data stays, their slot and order row are free again, and an
-        unfinished session of theirs ends as aborted."""
+        unfinished session of theirs ends as aborted. A session that another process is running is
+        left alone: stop it first."""
         record = self.participant(participant_id)
         if record.status == "withdrawn":
             raise ParticipantError(f"participant {participant_id} is already withdrawn")
-        with self.transaction() as db:
-            db.execute("UPDATE participants SET status = 'withdrawn', withdrawn_at = ?, withdraw_reason = ? "
-                       "WHERE id = ?", (utc_now(), reason, participant_id))
         session = self.session_of(participant_id)
-        if session is not None and session.status == "running":
-            t = self.last_time(session.id)
-            self.interrupt_open_runs(session.id, t)
-            self.end_session(session.id, "aborted", t, reason=f"participant withdrawn: {reason}")
+        running = session is not None and session.status == "running"
+        if running:
+            held = session.id in self._locks
+            try:
+                self.lock_session(session.id)
+            except StoreError:
+                raise StoreError(f"participant {participant_id}: session {session.id} is running right now (another "
+                                 "process holds it); stop that session first (Ctrl-C pauses it), then withdraw") \
+                    from None
+        try:
+            with self.transaction() as db:
+                db.execute("UPDATE participants SET status = 'withdrawn', withdrawn_at = ?, withdraw_reason = ? "
+                           "WHERE id = ?", (utc_now(), reason, participant_id))
+                if running:
+                    t = self.last_time(session.id)
+                    for run_id in self._open_runs(session.id):
+                        self._end_run(db, run_id, "interrupted", t, reason="the process running it had ended "
+                                      "during the task (found when the participant was withdrawn)")
+                    self._end_session(db, session.id, "aborted", t, reason=f"participant withdrawn: {reason}")
+        finally:
+            if running and not held:
+                self.unlock_session(session.id)
 
     @staticmethod
     def _participant(row: sqlite3.Row) -> ParticipantRecord:
@@ -516,34 +468,44 @@ class Store:
                 "task": task.index, "run": number, "phase": task.phase, "system": task.system, "object": task.object})])
         return run_id
 
-    def add_frames(self, rows: list[tuple]) -> None:
-        """Commit a batch of frame rows (see ``frame_row``)."""
-        if rows:
+    def add_frames(self, run_id: int, first: int, frames: list[np.ndarray]) -> None:
+        """Commit a batch of logged frames (``framelog.record``), the run's frames ``first`` on."""
+        if frames:
             with self.transaction() as db:
-                db.executemany(_INSERT_FRAMES, rows)
+                framelog.insert(db, run_id, first, frames)
 
     def end_run(self, run_id: int, status: str, t: float, *, time_s: float | None = None,
-                attempts: int | None = None, reason: str | None = None, frames: list[tuple] = (),
+                attempts: int | None = None, reason: str | None = None, frames: tuple[int, list] = (0, []),
                 events: list[Event] = ()) -> None:
         """Close a run: its last frames, its result and its end event in one transaction."""
+        with self.transaction() as db:
+            self._end_run(db, run_id, status, t, time_s=time_s, attempts=attempts, reason=reason, frames=frames,
+                          events=events)
+
+    def _end_run(self, db: sqlite3.Connection, run_id: int, status: str, t: float, *, time_s: float | None = None,
+                 attempts: int | None = None, reason: str | None = None, frames: tuple[int, list] = (0, []),
+                 events: list[Event] = ()) -> None:
         if status not in RUN_STATUSES or status == "running":
             raise ValueError(f"end_run(status = {status!r}): must be one of {RUN_STATUSES[:-2] + ('interrupted',)}")
-        session_id, = self.db.execute("SELECT session_id FROM task_runs WHERE id = ?", (run_id,)).fetchone()
-        with self.transaction() as db:
-            if frames:
-                db.executemany(_INSERT_FRAMES, frames)
-            count = db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (run_id,)).fetchone()[0]
-            db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
-                       "frames = ?, ended_wall = ? WHERE id = ?",
-                       (status, reason, t, time_s, attempts, count, utc_now(), run_id))
-            self._insert_events(db, session_id, run_id, list(events) + [Event(t, "task_end", {
-                "status": status, "time_s": time_s, "attempts": attempts, "reason": reason})])
+        session_id, = db.execute("SELECT session_id FROM task_runs WHERE id = ?", (run_id,)).fetchone()
+        framelog.insert(db, run_id, *frames)
+        count = framelog.count(db, run_id)
+        db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
+                   "frames = ?, ended_wall = ? WHERE id = ?",
+                   (status, reason, t, time_s, attempts, count, utc_now(), run_id))
+        self._insert_events(db, session_id, run_id, list(events) + [Event(t, "task_end", {
+            "status": status, "time_s": time_s, "attempts": attempts, "reason": reason})])
+
+    def _open_runs(self, session_id: int) -> list[int]:
+        return [r.id for r in self.runs(session_id) if r.status == "running"]
 
     def interrupt_open_runs(self, session_id: int, t: float) -> list[int]:
-        """Mark runs left ``running`` by a crash as ``interrupted``; their frames stay."""
-        open_runs = [r.id for r in self.runs(session_id) if r.status == "running"]
+        """On resume: mark runs left ``running`` by a process that ended as ``interrupted``; their
+        frames stay. The caller holds the session's lock, so no process is running them."""
+        open_runs = self._open_runs(session_id)
         for run_id in open_runs:
-            self.end_run(run_id, "interrupted", t, reason="the process ended during the task (found on resume)")
+            self.end_run(run_id, "interrupted", t, reason="the process running it ended during the task "
+                         "(found on resume)")
         return open_runs
 
     def save_answer(self, session_id: int, system: str, item: str, rating: int, source: str, t: float) -> None:
@@ -553,45 +515,206 @@ class Store:
             self._insert_events(db, session_id, None, [Event(t, "answer", {
                 "system": system, "item": item, "rating": rating, "source": source})])
 
-    def end_session(self, session_id: int, status: str, t: float, reason: str | None = None) -> None:
+    def _end_session(self, db: sqlite3.Connection, session_id: int, status: str, t: float, reason: str | None,
+                     counts: dict[str, int] | None = None) -> None:
+        """The end event first: nothing is logged for a session once it has ended (a trigger sees to it)."""
+        data = {"status": status, "reason": reason} | ({"tasks": counts} if counts is not None else {})
+        self._insert_events(db, session_id, None, [Event(t, "session_end", data)])
+        db.execute("UPDATE sessions SET status = ?, ended_at = ? WHERE id = ?", (status, utc_now(), session_id))
+
+    def task_counts(self, session_id: int) -> dict[str, int]:
+        """How the session's planned tasks stand, by their last run: completed, timeout, aborted,
+        skipped, interrupted, running, and not_run (no run yet)."""
+        counts = dict.fromkeys(RUN_STATUSES + ("not_run",), 0)
+        rows = self.db.execute("""
+            SELECT (SELECT r.status FROM task_runs r WHERE r.session_id = t.session_id AND r.task_index = t.task_index
+                    ORDER BY r.run DESC LIMIT 1) AS status
+            FROM tasks t WHERE t.session_id = ?""", (session_id,)).fetchall()
+        for row in rows:
+            counts[row["status"] or "not_run"] += 1
+        return counts
+
+    def finish_session(self, session_id: int, t: float) -> str:
+        """End a session whose timeline has run through, with an honest status: ``completed`` when
+        every task measured the participant (completed or timed out), else ``incomplete`` (a task
+        was aborted or skipped); the end event carries the counts. Returns the status."""
+        counts = self.task_counts(session_id)
+        unmeasured = {k: counts[k] for k in ("aborted", "skipped", "interrupted", "running", "not_run") if counts[k]}
+        status = "incomplete" if unmeasured else "completed"
+        reason = None if not unmeasured else "no measure from " + ", ".join(
+            f"{n} task(s) {k.replace('_', ' ')}" for k, n in unmeasured.items())
         with self.transaction() as db:
-            db.execute("UPDATE sessions SET status = ?, ended_at = ? WHERE id = ?", (status, utc_now(), session_id))
-            self._insert_events(db, session_id, None, [Event(t, "session_end", {"status": status, "reason": reason})])
+            self._end_session(db, session_id, status, t, reason, counts={k: n for k, n in counts.items() if n})
+        return status
+
+
+def describe_counts(counts: dict[str, int]) -> str:
+    """``6 tasks: 4 completed, 1 timed out, 1 aborted`` (only the statuses that occur)."""
+    words = {"timeout": "timed out", "not_run": "not run yet"}
+    parts = [f"{n} {words.get(k, k)}" for k, n in counts.items() if n]
+    return f"{sum(counts.values())} tasks: " + ", ".join(parts)
 
 
 # ---------------------------------------------------------------- creating and opening
 
 
 def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
-    """A new study database in ``study_dir`` (created; it must not hold a study already)."""
+    """A new study database in ``study_dir`` (created; it must not hold a study already). A study
+    that cannot be created whole (a full disk) leaves no database behind."""
     study_dir = Path(study_dir)
     path = study_dir / DATABASE
     if path.exists():
         raise StoreError(f"{path} exists: {study_dir} already holds a study; a study is never overwritten")
     if not isinstance(seed, int) or seed < 0:
         raise StoreError(f"seed = {seed!r}: must be a whole number >= 0")
-    study_dir.mkdir(parents=True, exist_ok=True)
-    connection = _connect(path)
+    try:
+        study_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise StoreError(f"{study_dir}: cannot create the study folder: {error.strerror or error}") from None
     main_text = protocol.resolved["sources"][-1]["text"] if protocol.resolved.get("sources") else ""
-    connection.executescript("BEGIN IMMEDIATE;" + SCHEMA + _GUARDS)  # committed below with the study row
-    now = utc_now()
-    protocol_id = connection.execute(
-        "INSERT INTO protocols (name, sha256, resolved, source_text, added_at) VALUES (?, ?, ?, ?, ?)",
-        (protocol.name, protocol.sha256, canonical_json(protocol.resolved), main_text, now)).lastrowid
-    connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
-                       (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION))
-    connection.execute("COMMIT")
+    connection = None
+    try:
+        connection = _connect(path)
+        connection.executescript("BEGIN IMMEDIATE;" + SCHEMA.read_text())  # committed below with the study row
+        now = utc_now()
+        protocol_id = connection.execute(
+            "INSERT INTO protocols (name, sha256, resolved, source_text, added_at) VALUES (?, ?, ?, ?, ?)",
+            (protocol.name, protocol.sha256, canonical_json(protocol.resolved), main_text, now)).lastrowid
+        connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
+                           (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION))
+        connection.execute("COMMIT")
+    except BaseException:
+        if connection is not None:
+            connection.close()
+        for leftover in (path, path.with_name(DATABASE + "-wal"), path.with_name(DATABASE + "-shm")):
+            leftover.unlink(missing_ok=True)
+        raise
     return Store(study_dir, connection)
 
 
-def open_study(study_dir: str | Path) -> Store:
-    """The study in ``study_dir``."""
+def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged: bool = False) -> Store:
+    """The study in ``study_dir``, after the integrity check (``check_integrity``). A damaged study
+    raises ``DamagedStudyError`` unless ``accept_damaged``; ``Store.problems`` lists what is wrong.
+    ``readonly``: never write into the database (status, check, export, the view)."""
     study_dir = Path(study_dir)
     path = study_dir / DATABASE
     if not path.exists():
         raise StoreError(f"no study in {study_dir} (no {DATABASE}); create one with: microg study init {study_dir}")
-    connection = _connect(path)
-    version = connection.execute("SELECT schema_version FROM study").fetchone()[0]
-    if version != SCHEMA_VERSION:
-        raise StoreError(f"{path}: schema version {version}, this microg {__version__} reads {SCHEMA_VERSION}")
-    return Store(study_dir, connection)
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(len(SQLITE_HEADER))
+    except OSError as error:
+        raise StoreError(f"{path}: cannot read the study database: {error.strerror or error}") from None
+    if not head:
+        raise StoreError(f"{path}: the file is empty, not a study database (was it cut off while the study was "
+                         f"created?); move it away and create the study again with: microg study init")
+    if head != SQLITE_HEADER:
+        raise StoreError(f"{path}: not a SQLite database (it starts with {head!r}); a study's {DATABASE} is "
+                         "written by microg study init")
+    connection = _connect(path, readonly)
+    try:
+        if not connection.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'study'").fetchone():
+            raise StoreError(f"{path}: a SQLite database but not a microg study (it has no study table)")
+        row = connection.execute("SELECT schema_version FROM study").fetchone()
+        if row is None or row[0] != SCHEMA_VERSION:
+            raise StoreError(f"{path}: schema version {None if row is None else row[0]}, this microg "
+                             f"{__version__} reads {SCHEMA_VERSION}")
+        problems = check_integrity(connection)
+        if problems and not accept_damaged:
+            raise DamagedStudyError(
+                f"{path}: the study is damaged:\n" + "\n".join(f"  - {p}" for p in problems)
+                + f"\nNothing was changed. See the full check with: microg study check {study_dir}; an export "
+                  "that knows it is damaged: microg export --accept-damaged", problems)
+        return Store(study_dir, connection, problems)
+    except BaseException:
+        connection.close()
+        raise
+
+
+# ---------------------------------------------------------------- integrity
+
+
+def _schema_triggers() -> dict[str, str]:
+    """Trigger name -> its CREATE statement, as ``schema.sql`` writes it."""
+    text = SCHEMA.read_text()
+    return {m.group(1): m.group(0) for m in re.finditer(r"CREATE TRIGGER (\w+)\b.*?\bEND", text, re.DOTALL)}
+
+
+def _squeeze(sql: str) -> str:
+    return " ".join(sql.split())
+
+
+def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
+    """What is wrong with a study database, each naming the table, row and value (empty: sound).
+
+    Checked on every open: the append-only triggers are all there as ``schema.sql`` writes them;
+    each stored protocol matches its SHA-256; every finished task run has its start and end events
+    and exactly the frames it counted (a completed run at least one, with its time); every ended
+    session has its end event; participant ids are ASCII letters and digits, one per BIDS label.
+    ``full`` adds SQLite's own integrity check and decodes every frame batch (``microg study check``).
+    """
+    problems = []
+    db.execute("BEGIN")  # one snapshot: a session writing meanwhile does not tear the picture
+    try:
+        present = {r[0]: r[1] for r in db.execute("SELECT name, sql FROM sqlite_master WHERE type = 'trigger'")}
+        for name, sql in _schema_triggers().items():
+            if name not in present:
+                problems.append(f"trigger {name} is missing: the log is no longer protected against changes")
+            elif _squeeze(present[name]) != _squeeze(sql):
+                problems.append(f"trigger {name} differs from the one microg wrote: the log may no longer be "
+                                "protected against changes")
+        for row in db.execute("SELECT id, sha256, resolved FROM protocols"):
+            try:
+                digest = hashlib.sha256(canonical_json(json.loads(row[2])).encode()).hexdigest()
+            except (TypeError, ValueError):
+                digest = "(not readable JSON)"
+            if digest != row[1]:
+                problems.append(f"protocols row {row[0]}: the stored protocol does not match its sha256 = "
+                                f"{row[1][:12]}... (it hashes to {digest[:12]}...): it was changed after the study "
+                                "was created")
+        for row in db.execute("""
+                SELECT r.id, r.session_id, r.task_index, r.run, r.status, r.frames, r.time_s,
+                       (SELECT COALESCE(SUM(f.count), 0) FROM frames f WHERE f.run_id = r.id) AS stored,
+                       (SELECT COALESCE(MAX(f.first + f.count), 0) FROM frames f WHERE f.run_id = r.id) AS span,
+                       (SELECT COUNT(*) FROM events e WHERE e.run_id = r.id AND e.kind = 'task_start') AS starts,
+                       (SELECT COUNT(*) FROM events e WHERE e.run_id = r.id AND e.kind = 'task_end') AS ends
+                FROM task_runs r WHERE r.status != 'running' ORDER BY r.id"""):
+            run = f"task_runs row {row['id']} (session {row['session_id']}, task {row['task_index']}, run {row['run']}, " \
+                  f"{row['status']})"
+            if row["starts"] != 1 or row["ends"] != 1:
+                problems.append(f"{run}: has {row['starts']} task_start and {row['ends']} task_end events, not one of "
+                                "each: it was not written by a session")
+            if row["stored"] != row["frames"] or row["span"] != row["stored"]:
+                problems.append(f"{run}: frames = {row['frames']}, but {row['stored']} frames are stored "
+                                f"(spanning {row['span']}): frames are missing")
+            if row["status"] == "completed" and (not row["stored"] or row["time_s"] is None):
+                problems.append(f"{run}: completed with {row['stored']} frames and time_s = {row['time_s']}: a "
+                                "completed task has frames and a time")
+        for row in db.execute("""
+                SELECT s.id, s.status, (SELECT COUNT(*) FROM events e WHERE e.session_id = s.id
+                                          AND e.kind = 'session_end') AS ends
+                FROM sessions s WHERE s.status != 'running'"""):
+            if row["ends"] != 1:
+                problems.append(f"sessions row {row['id']} ({row['status']}): has {row['ends']} session_end events, "
+                                "not one")
+        seen: dict[str, str] = {}
+        for (pid,) in db.execute("SELECT id FROM participants ORDER BY number"):
+            if not isinstance(pid, str) or not re.fullmatch(r"[A-Za-z0-9]+", pid):
+                problems.append(f"participants: id = {pid!r} is not ASCII letters and digits (not a BIDS label)")
+            elif pid.lower() in seen:
+                problems.append(f"participants: ids {seen[pid.lower()]!r} and {pid!r} differ only in case (one "
+                                "BIDS subject)")
+            else:
+                seen[pid.lower()] = pid
+        if full:
+            problems += [f"SQLite integrity check: {r[0]}" for r in db.execute("PRAGMA integrity_check")
+                         if r[0] != "ok"]
+            for row in db.execute("SELECT run_id, first, count, data FROM frames ORDER BY run_id, first"):
+                try:
+                    framelog.decode(row["data"], row["count"])
+                except (ValueError, OSError) as error:
+                    problems.append(f"frames of task run {row['run_id']} from frame {row['first']}: the batch of "
+                                    f"{row['count']} frames does not decode ({error})")
+    finally:
+        db.execute("COMMIT")
+    return problems

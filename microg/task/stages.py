@@ -2,7 +2,9 @@
 
 ``advance(state, observation, rules)`` takes what the world shows at one frame and returns the new
 state and the events that happened. It is a pure function, so a live, replayed or simulated
-participant drives the same rules, and a test can script the observations.
+participant drives the same rules, and a test can script the observations. ``shown(state, t)`` is
+what the task shows the participant at that moment: the stage, the current place, its light and
+its timer.
 
 Rules (times are the observations' clock; a protocol's ``task`` table sets every number):
 
@@ -27,21 +29,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .observation import Observation
 from .rules import TaskRules
 
 MANIPULATION, MAINTENANCE, RELEASE, COMPLETED, TIMEOUT = "manipulation", "maintenance", "release", "completed", "timeout"
 FINAL = (COMPLETED, TIMEOUT)
 _EPS = 1e-9
-
-
-@dataclass(frozen=True)
-class Observation:
-    """What the state machine needs from one frame of the world."""
-
-    t: float
-    grasped: bool
-    position: tuple[float, float, float]
-    """The object's centre (m)."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +68,27 @@ class TaskState:
     def place_timer(self, t: float) -> float:
         """Seconds the current place has been lit at time ``t`` (0 when dark)."""
         return 0.0 if self.lit_since is None else t - self.lit_since
+
+
+@dataclass(frozen=True)
+class TaskDisplay:
+    """What the participant sees of the task besides the scene: the place marks and their timer, as
+    the paper's system shows them ("the mark is highlighted and the timer is triggered").
+
+    ``stage`` is one of manipulation, maintenance, release, completed, timeout; ``place`` is the
+    index of the current place (the number of places, once all are done); ``lit`` whether it is
+    highlighted; ``timer_s`` how long it has been lit.
+    """
+
+    stage: str = MANIPULATION
+    place: int = 0
+    lit: bool = False
+    timer_s: float = 0.0
+
+
+def shown(state: TaskState, t: float) -> TaskDisplay:
+    """What the task shows at time ``t`` in ``state``."""
+    return TaskDisplay(state.stage, state.place, state.lit_since is not None, state.place_timer(t))
 
 
 def advance(state: TaskState, obs: Observation, rules: TaskRules) -> tuple[TaskState, list[TaskEvent]]:

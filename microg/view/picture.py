@@ -181,7 +181,7 @@ def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path,
         raise ValueError(f"--out {out}: an animation is {', '.join(ANIMATION_FORMATS)}")
     if fps <= 0 or speed <= 0:
         raise ValueError(f"fps = {fps}, speed = {speed}: both must be positive")
-    if not track.rows:
+    if not len(track.frames):
         raise ValueError(f"run {track.run.id} has no frames to draw")
     n_places = len(layout.places)
     times = np.arange(0.0, track.duration + 1e-9, speed / fps)

@@ -20,9 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
-from microg.study.store import HAND_VALUES, hand_parts
 
 HAND_MODES = ("rendered", "tracked", "both")
 """Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
@@ -71,7 +69,7 @@ class Capsules:
 
 @dataclass(frozen=True)
 class HandValues:
-    """One side's logged hand blob, split as ``microg.study.store.HAND_LAYOUT`` says."""
+    """One side's hand in a logged frame (``microg.study.framelog.FRAME``), in float64."""
 
     joints: np.ndarray
     """(5, 5, 3)"""
@@ -83,14 +81,10 @@ class HandValues:
     """(20, 3) rendered (god-object) phalanx centres; NaN where untracked."""
 
 
-def split_hand(values: np.ndarray) -> HandValues:
-    """The parts of a 162-value hand blob (all NaN for an untracked hand)."""
-    values = np.asarray(values, dtype=np.float64)
-    if values.shape != (HAND_VALUES,):
-        raise ValueError(f"a hand blob has {HAND_VALUES} values, got shape {values.shape}")
-    parts = hand_parts(values)
-    return HandValues(parts["joints"].reshape(N_DIGITS, N_BONES + 1, 3), parts["widths"].reshape(N_DIGITS, N_BONES),
-                      parts["palm_position"], parts["palm_orientation"], parts["rendered"].reshape(BONES_PER_HAND, 3))
+def hand_values(frame: np.ndarray, side: int) -> HandValues:
+    """Side ``side``'s hand in a logged frame record (all NaN for an untracked hand)."""
+    return HandValues(*(frame[field][side].astype(np.float64) for field in
+                        ("joints", "widths", "palm_position", "palm_orientation", "rendered")))
 
 
 def tracked_bones(hand: HandValues) -> Capsules:
@@ -111,11 +105,6 @@ def rendered_bones(hand: HandValues) -> Capsules:
 def both_sides(capsules: list[Capsules]) -> Capsules:
     """The left and right hands' capsules as one set of 40, in slot order."""
     return Capsules(*(np.concatenate([getattr(c, f) for c in capsules]) for f in ("start", "end", "radius")))
-
-
-def touching_slots(mask: int) -> np.ndarray:
-    """(40,) bool from the logged ``touching`` bit mask (bit k = phalanx slot k)."""
-    return np.array([(int(mask) >> k) & 1 for k in range(len(SIDES) * BONES_PER_HAND)], dtype=bool)
 
 
 def place_states(current: int, lit: bool, n_places: int) -> tuple[str, ...]:

@@ -8,6 +8,7 @@ seeking leaves the live edge, the "follow live" box goes back to it.
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import io
 import threading
@@ -159,6 +160,44 @@ class SceneDrawer:
             self.rendered.draw(scene.rendered, bone_colours(scene.touching, "rendered"))
 
 
+def foreign(headers, port: int) -> str | None:
+    """Why a WebSocket handshake (its request ``headers``) does not come from the view's own page
+    on ``port``, or None: the Host must be this machine's address, the Origin the view's own."""
+    own = {f"{HOST}:{port}", f"localhost:{port}"}
+    hosts, origins = headers.get_all("Host"), headers.get_all("Origin")
+    if len(hosts) != 1 or hosts[0] not in own:
+        return f"Host {', '.join(hosts) or None!r}"
+    if len(origins) != 1 or origins[0] not in {f"http://{address}" for address in own}:
+        return f"Origin {', '.join(origins) or None!r}"
+    return None
+
+
+def _refuse_foreign_pages(server) -> None:
+    """Close every WebSocket that another page opened (a page of another site open in the same
+    browser could otherwise read participant ids and trajectories), before the view sends it anything.
+
+    viser has no Origin option, but its connection server runs each connect callback, in order,
+    before it starts sending to the client (``viser.infra.WebsockServer``); the last one registered
+    here sees the handshake's headers and closes a foreign connection with 1008 (policy violation).
+    Connections made before the callback was registered are swept the same way: the view has drawn
+    nothing yet."""
+    websock = server._websock_server
+
+    async def refuse(client) -> None:
+        connection = websock._live_connections.get(client.client_id)
+        if connection is None:
+            return
+        why = foreign(connection.request.headers, connection.local_address[1])
+        if why is not None:
+            await connection.close(1008, f"{why} is not this view's page")
+
+    websock.on_client_connect(refuse)
+    for connection in tuple(websock._live_connections.values()):
+        if foreign(connection.request.headers, connection.local_address[1]) is not None:
+            asyncio.run_coroutine_threadsafe(connection.close(1008, "not this view's page"),
+                                             websock._background_event_loop)
+
+
 class View:
     """A session's view: the viser server, its controls, and what it shows."""
 
@@ -176,6 +215,7 @@ class View:
         self.hands = hands
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner; ``serve`` says where the view is
             self.server = viser.ViserServer(host=HOST, port=port, label="microg view", verbose=False)
+        _refuse_foreign_pages(self.server)
         self.server.request_share_url = lambda *args, **kwargs: None  # never tunnel the view off this machine
         self.server.gui.configure_theme(show_share_button=False, control_width="medium")
         self.server.scene.set_up_direction("+y")
@@ -321,7 +361,7 @@ class View:
             self._last_poll = now
             self.poll()
         with self.lock:
-            if self.track is None or not self.track.rows:
+            if self.track is None or not len(self.track.frames):
                 self.hud.content = self._waiting_text()
                 return
             self.playback.advance(elapsed, self.track.duration)
@@ -366,6 +406,8 @@ def serve(study_dir: str | Path, spec: str | None = None, port: int = 8080, hand
         raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
     store = open_readonly(study_dir)
     try:
+        for problem in store.problems:
+            announce(f"warning: the study is damaged: {problem}")
         session = find_session(store, spec)
         view = View(store, session, spec, port, hands)
         try:

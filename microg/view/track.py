@@ -2,37 +2,30 @@
 
 The view opens the database read-only. Sessions commit frames in batches (``logging.frame_batch``,
 64 frames, about 0.6 s) in WAL mode, so a reader in another process sees each committed batch
-without ever blocking the session: following a live session is polling for rows after the last
-one read (``Track.refresh``). The view and the session share nothing but the file.
+without ever blocking the session: following a live session is polling for frames after the last
+one read (``Track.refresh``, through ``microg.study.framelog``). The view and the session share
+nothing but the file. (The participant's own view does not wait for batches: the session pushes
+every frame to it.)
 """
 
 from __future__ import annotations
 
 import bisect
-import sqlite3
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from microg.study.store import DATABASE, SessionRecord, Store, StoreError, hand_values
+from microg.study import framelog
+from microg.study.store import SessionRecord, Store, StoreError, open_study
 
-from .scene import FrameScene, both_sides, place_states, rendered_bones, split_hand, touching_slots, tracked_bones
-
-_FRAME_QUERY = ("SELECT frame, t, stage, place, place_lit, place_timer, grasped, held, touching, px, py, pz, "
-                "qw, qx, qy, qz, left, right FROM frames WHERE run_id = ? AND frame > ? ORDER BY frame")
+from .scene import FrameScene, both_sides, hand_values, place_states, rendered_bones, tracked_bones
 
 
 def open_readonly(study_dir: str | Path) -> Store:
-    """The study in ``study_dir``, opened read-only: the view never writes to a study."""
-    study_dir = Path(study_dir)
-    path = study_dir / DATABASE
-    if not path.exists():
-        raise StoreError(f"no study in {study_dir} (no {DATABASE}); create one with: microg study init {study_dir}")
-    connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, isolation_level=None,
-                                 timeout=30.0, check_same_thread=False)
-    connection.row_factory = sqlite3.Row
-    return Store(study_dir, connection)
+    """The study in ``study_dir``, opened read-only: the view never writes to a study. A damaged
+    study is shown all the same (``Store.problems`` says what is wrong with it)."""
+    return open_study(study_dir, readonly=True, accept_damaged=True)
 
 
 def _sessions(store: Store) -> list[SessionRecord]:
@@ -121,7 +114,8 @@ class Track:
     """The frames of one task run read so far, and its drops; grows with ``refresh``."""
 
     run: RunInfo
-    rows: list[tuple] = field(default_factory=list)
+    frames: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=framelog.FRAME))
+    """The run's logged frames read so far (``framelog.FRAME`` records)."""
     times: list[float] = field(default_factory=list)
     drops: list[float] = field(default_factory=list)
     """Frame times of the run's drops (``drop`` events), sorted."""
@@ -146,25 +140,25 @@ class Track:
         status = store.db.execute("SELECT status, time_s, attempts FROM task_runs WHERE id = ?",
                                   (self.run.id,)).fetchone()
         self.run = replace(self.run, status=status[0], time_s=status[1], attempts=status[2])
-        last = self.rows[-1][0] if self.rows else -1
-        new = [tuple(r) for r in store.db.execute(_FRAME_QUERY, (self.run.id, last))]
-        self.rows += new
-        self.times += [r[1] for r in new]
+        new = framelog.read(store.db, self.run.id, len(self.frames))
+        self.frames = np.concatenate([self.frames, new])
+        self.times += new["t"].tolist()
         self.drops = sorted(e.data.get("frame_t", e.t) for e in store.events(self.run.session_id, self.run.id)
                             if e.kind == "drop")
         return len(new)
 
     def scene(self, index: int, n_places: int) -> FrameScene:
         """What frame ``index`` shows."""
-        row = self.rows[index]
-        _frame, t, stage, place, lit, timer, _grasped, held, mask = row[:9]
-        hands = [split_hand(hand_values(blob)) for blob in row[16:18]]
+        f = self.frames[index]
+        t, place, lit = float(f["t"]), int(f["place"]), bool(f["place_lit"])
+        hands = [hand_values(f, side) for side in range(2)]
         return FrameScene(
-            t=t - self.start, stage=stage, place=place, place_lit=bool(lit), place_timer=timer, held=bool(held),
-            attempts=bisect.bisect_right(self.drops, t + 1e-9), object_position=np.array(row[9:12]),
-            object_orientation=np.array(row[12:16]), tracked=both_sides([tracked_bones(h) for h in hands]),
-            rendered=both_sides([rendered_bones(h) for h in hands]), touching=touching_slots(mask),
-            places=place_states(place, bool(lit), n_places))
+            t=t - self.start, stage=framelog.STAGES[f["stage"]], place=place, place_lit=lit,
+            place_timer=float(f["place_timer"]), held=bool(f["held"]),
+            attempts=bisect.bisect_right(self.drops, t + 1e-9), object_position=f["position"].astype(np.float64),
+            object_orientation=f["orientation"].astype(np.float64),
+            tracked=both_sides([tracked_bones(h) for h in hands]), rendered=both_sides([rendered_bones(h) for h in hands]),
+            touching=framelog.touching_slots(f["touching"]), places=place_states(place, lit, n_places))
 
 
 def read_track(store: Store, run: RunInfo) -> Track:
@@ -186,18 +180,19 @@ def key_moments(track: Track, n_places: int) -> list[Moment]:
     """The task's key moments, as in the paper's Figs. 7 and 9: the start, the pick-up (the first
     frame held), each place just before it is done (the last frame it is lit), and the end
     (released, timed out or cut off). Moments the run never reached are left out."""
-    if not track.rows:
+    frames = track.frames
+    if not len(frames):
         return []
     moments = [Moment("start", 0)]
-    held = [i for i, r in enumerate(track.rows) if r[7]]
-    if held:
-        moments.append(Moment("picked up", held[0]))
+    held = np.flatnonzero(frames["held"])
+    if len(held):
+        moments.append(Moment("picked up", int(held[0])))
     for k in range(n_places):
-        lit = [i for i, r in enumerate(track.rows) if r[3] == k and r[4]]
-        if lit:
-            moments.append(Moment(f"place {k + 1}", lit[-1]))
-    last = len(track.rows) - 1
-    end = {"completed": "released", "timeout": "timed out"}.get(track.rows[-1][2], "last frame")
+        lit = np.flatnonzero((frames["place"] == k) & frames["place_lit"])
+        if len(lit):
+            moments.append(Moment(f"place {k + 1}", int(lit[-1])))
+    last = len(frames) - 1
+    end = {"completed": "released", "timeout": "timed out"}.get(framelog.STAGES[frames["stage"][-1]], "last frame")
     if all(m.index != last for m in moments):
         moments.append(Moment(end, last))
     return moments

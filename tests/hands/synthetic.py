@@ -46,16 +46,16 @@ def sweep(start, velocity, n: int, rate: float = RATE, t0: float = 0.0, track_id
 
 
 class ListSource:
-    """A HandSource over a list of frames; remembers the worlds it was shown."""
+    """A HandSource over a list of frames; remembers the observations it was shown."""
 
     def __init__(self, frames, description: str = "list"):
         self.frames = list(frames)
         self.description = description
-        self.worlds = []
+        self.observations = []
         self.closed = False
 
-    def next_frame(self, world=None):
-        self.worlds.append(world)
+    def next_frame(self, observation=None):
+        self.observations.append(observation)
         return self.frames.pop(0) if self.frames else None
 
     def close(self):

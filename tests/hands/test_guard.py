@@ -186,14 +186,14 @@ def test_dropped_frames_are_counted_and_the_arrived_frames_pass_as_they_are():
     assert (counts.gaps, counts.bridged_hands, counts.new_tracks) == (2, 0, 1)
 
 
-def test_the_guard_shows_the_world_to_its_source_and_closes_it():
+def test_the_guard_shows_the_observation_to_its_source_and_closes_it():
     frames = sweep((0, 0.2, 0), (0.1, 0, 0), 2)
     source = ListSource(frames)
     guard = TrackingGuard(source)
     assert isinstance(guard, HandSource)
-    world = object()
-    guard.next_frame(world)
-    assert source.worlds == [world]
+    observation = object()
+    guard.next_frame(observation)
+    assert source.observations == [observation]
     guard.close()
     assert source.closed and guard.description == "list"
 

@@ -32,7 +32,7 @@ def fastest_cube(frames, guard: bool = True) -> float:
     world = make_world(compose_scene([PlacedObject(CUBE, (0.0, 0.0, 0.0))]))
     source = TrackingGuard(ListSource(frames)) if guard else ListSource(frames)
     fastest = 0.0
-    while (frame := source.next_frame(world)) is not None:
+    while (frame := source.next_frame()) is not None:
         world = step(world, frame)
         fastest = max(fastest, float(np.linalg.norm(world.data.velocity[0])))
     return fastest

@@ -16,12 +16,12 @@ def run(*args):
 
 def test_import_then_info_then_filter_report(recordings, tmp_path):
     converted = tmp_path / "grab.arrows"
-    result = run("import", recordings / "grab.json.gz", "-o", converted)
+    result = run("import", recordings / "grab.json.gz", "--out", converted)
     assert result.exit_code == 0, result.output
     assert "374 frames" in result.output
     assert load_recording(converted).frames == load_recording(recordings / "grab.json.gz").frames
 
-    again = run("import", recordings / "grab.json.gz", "-o", converted)
+    again = run("import", recordings / "grab.json.gz", "--out", converted)
     assert again.exit_code == 1 and "already exists" in again.output
 
     info = run("info", converted)
@@ -67,7 +67,7 @@ def test_windows_must_be_positive_sizes(recordings):
 
 @pytest.mark.skipif(importlib.util.find_spec("leap") is not None, reason="a 'leap' module is installed here")
 def test_record_without_the_sdk_says_what_is_missing(tmp_path):
-    result = run("record", tmp_path / "live.arrows", "--duration", 1)
+    result = run("record", "--out", tmp_path / "live.arrows", "--duration", 1)
     assert result.exit_code == 1
     assert "Ultraleap's hand-tracking software" in result.output and 'pip install ".[leap]"' in result.output
     assert not (tmp_path / "live.arrows").exists()

@@ -226,11 +226,17 @@ def fake_leap(events, refuse=None):
                                  TrackingMode=TrackingMode)
 
 
+STARTED = 600.0
+"""Seconds the source may wait for the fake device's first frame: it returns as soon as the frame
+arrives, so the limit only ends a test whose fake device never starts."""
+
+
 def test_the_live_source_delivers_the_devices_frames_in_order():
     rng = np.random.default_rng(7)
     events = [event(1_000_000 + 9_000 * i, [leap_hand(HandType.Right, 3, (0, 200, 0), rng)[0]]) for i in range(20)]
-    source = LeapSource(leap=fake_leap(events), start_timeout=2.0, frame_timeout=0.5)
+    source = LeapSource(leap=fake_leap(events), start_timeout=STARTED, frame_timeout=0.5)
     assert isinstance(source, HandSource) and source.description == "leap"
+    source._connection.thread.join()  # every frame has arrived: reading them waits on nothing
     frames = [source.next_frame() for _ in range(20)]
     assert [f.timestamp for f in frames] == pytest.approx([1.0 + 0.009 * i for i in range(20)])
     assert frames[4] == frame_from_event(events[4])
@@ -242,7 +248,7 @@ def test_the_live_source_delivers_the_devices_frames_in_order():
 
 def test_a_reader_that_falls_behind_loses_the_oldest_frames_and_counts_them():
     events = [event(1_000 + i, []) for i in range(30)]
-    source = LeapSource(leap=fake_leap(events), backlog=10, start_timeout=2.0, frame_timeout=0.5)
+    source = LeapSource(leap=fake_leap(events), backlog=10, start_timeout=STARTED, frame_timeout=0.5)
     source._connection.thread.join()
     frames = [source.next_frame() for _ in range(10)]
     assert [f.timestamp for f in frames] == pytest.approx([(1_000 + i) * 1e-6 for i in range(20, 30)])

@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -14,7 +15,7 @@ from microg.hands import (RecordingError, RecordingInfo, RecordingWriter, Replay
                                  open_source, read_recording, record, write_recording)
 from microg.hands.recording import UNKNOWN
 from microg.hands.source import HandSource
-from microg.paths import SOURCE_ROOT as REPOSITORY
+REPOSITORY = Path(__file__).resolve().parents[2]
 from tests.hands.synthetic import flat_hand, sweep, with_nan
 
 INFO = RecordingInfo(source="test", device="synthetic hand", frame_rate=110.0, start_time="2024-05-01T10:00:00+00:00")
@@ -176,7 +177,7 @@ def test_paced_replay_keeps_the_recorded_timing():
 
 
 def test_open_source_understands_its_specs(tmp_path):
-    with pytest.raises(ValueError, match="'simulated:novice'.*leap, replay:PATH"):
+    with pytest.raises(ValueError, match="'simulated:novice'.*leap, lsl:STREAM_NAME, replay:PATH"):
         open_source("simulated:novice")
     with pytest.raises(ValueError, match="replay:PATH"):
         open_source("replay:")

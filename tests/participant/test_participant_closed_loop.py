@@ -1,36 +1,43 @@
-"""The participant in closed loop with the real physics: reproducible, minimum-jerk, task done, re-grasps."""
+"""The participant in closed loop with the real physics: reproducible, minimum-jerk, task done, re-grasps,
+and, given the task's display, following the task."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from microg.sim import grasped, step
-from microg.participant import VETERAN, PickPlacePlan, SimulatedParticipant
-from microg.participant.bench import EARTH, PLACES, ZERO_G, bench_plan, bench_world
+from microg.hands.filter import HandFilter
+from microg.participant import VETERAN, SimulatedParticipant, TaskPlan
+from microg.participant.bench import EARTH, FILTER_WINDOW, PLACES, START, ZERO_G, bench_plan, bench_rules, \
+    bench_world, run_trial
 from microg.participant.noise import TrackingNoiseLevels
+from microg.sim import World, grasped, step
+from microg.task import COMPLETED, observe, play
 
 STILL = TrackingNoiseLevels(palm_position=0.0, palm_rotation=0.0, digit_angle=0.0)
 
 
 def run(participant, world, until, on_frame=None):
-    """Step ``world`` with the participant's frames until ``until(participant, world)`` or it ends."""
+    """Step ``world`` with the participant's frames, each decided on what the last frame showed
+    (no task display: the participant judges the task itself), until ``until(participant, world)``
+    or it ends."""
     while not until(participant, world):
-        frame = participant.next_frame(world)
+        frame = participant.next_frame(observe(world))
         if frame is None:
             break
         world = step(world, frame)
         if on_frame is not None:
-            world = on_frame(participant, world, frame) or world
+            on_frame(participant, world, frame)
     return world
 
 
 def frames_of(seed, count=400):
-    world = bench_world("cube", "impulse_penetration", ZERO_G)
-    participant = SimulatedParticipant(bench_plan("cube"), "veteran", seed)
+    plan = bench_plan("cube", ZERO_G)
+    world = bench_world(plan, "impulse_penetration")
+    participant = SimulatedParticipant(plan, "veteran", seed)
     frames = []
     for _ in range(count):
-        frame = participant.next_frame(world)
+        frame = participant.next_frame(observe(world))
         frames.append(frame)
         world = step(world, frame)
     return frames, participant.description
@@ -50,18 +57,18 @@ def test_the_same_seed_gives_identical_frames_and_another_seed_different_ones():
 def test_a_reach_follows_the_minimum_jerk_profile():
     """Noise and tremor off: the palm's path to the pre-grasp pose is the Flash-Hogan quintic."""
     skill = dataclasses.replace(VETERAN, tremor_rms=0.0, hesitation_s=0.0)
-    participant = SimulatedParticipant(bench_plan("cube"), skill, 3, noise=STILL)
-    world = bench_world("cube", "impulse_penetration", ZERO_G)
+    plan = bench_plan("cube", ZERO_G)
+    participant = SimulatedParticipant(plan, skill, 3, noise=STILL)
     samples = []
 
     def record(p, w, frame):
-        samples.append((frame.timestamp, p.phase, frame.hands[0].palm_position))
+        samples.append((frame.timestamp, p.state.action, frame.hands[0].palm_position))
 
-    run(participant, world, lambda p, w: p.phase == "descend", record)
+    run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: p.state.action == "descend", record)
     times = np.array([t for t, _, _ in samples])
     palms = np.array([x for _, _, x in samples])
-    phases = [ph for _, ph, _ in samples]
-    first = phases.index("reach")
+    actions = [a for _, a, _ in samples]
+    first = actions.index("reach")
     t0, t1 = times[first - 1], times[-1]   # the reach is planned on the last waiting frame
     start, end = palms[first - 1], palms[-1]
     inside = slice(first, len(times) - 1)
@@ -76,11 +83,11 @@ def test_a_reach_follows_the_minimum_jerk_profile():
     assert speed.max() / (np.linalg.norm(end - start) / (t1 - t0)) == pytest.approx(1.875, rel=0.03)
 
 
-def held_windows(times, positions, plan):
+def held_windows(times, positions, rules):
     """For each place, the start of the first run of ``hold_s`` inside its radius after the previous one."""
     starts, after = [], 0.0
-    for place in plan.places:
-        inside = np.linalg.norm(positions - np.asarray(place), axis=1) <= plan.place_radius
+    for place in rules.places:
+        inside = np.linalg.norm(positions - np.asarray(place), axis=1) <= rules.place_radius
         begin = None
         for t, ok in zip(times, inside):
             if t < after:
@@ -89,18 +96,18 @@ def held_windows(times, positions, plan):
                 begin = t
             elif not ok:
                 begin = None
-            if begin is not None and t - begin >= plan.hold_s:
+            if begin is not None and t - begin >= rules.hold_s:
                 break
         else:
             return starts
         starts.append(begin)
-        after = begin + plan.hold_s
+        after = begin + rules.hold_s
     return starts
 
 
 def test_a_veteran_picks_and_places_the_cube_under_earth_gravity_with_the_papers_model():
-    world = bench_world("cube", "impulse_penetration", EARTH)
-    participant = SimulatedParticipant(bench_plan("cube"), "veteran", 11)
+    plan = bench_plan("cube", EARTH)
+    participant = SimulatedParticipant(plan, "veteran", 11)
     times, positions, palms, holding = [], [], [], []
 
     def record(p, w, frame):
@@ -109,50 +116,90 @@ def test_a_veteran_picks_and_places_the_cube_under_earth_gravity_with_the_papers
         palms.append(frame.hands[0].palm_position)
         holding.append(bool(grasped(w)[0]))
 
-    world = run(participant, world, lambda p, w: w.time > 40.0, record)
-    assert participant.phase == "done"
+    run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: w.time > 40.0, record)
+    assert participant.state.action == "done"
     times, positions, palms = np.array(times), np.array(positions), np.array(palms)
-    starts = held_windows(times, positions, participant.plan)
+    starts = held_windows(times, positions, plan.rules)
     assert len(starts) == 3, "the cube stayed 3 s within each place's radius, in order"
     # Released: after the third hold the cube left the grasp and ended away from the hand.
-    last_hold_end = starts[2] + participant.plan.hold_s
+    last_hold_end = starts[2] + plan.rules.hold_s
     assert not holding[-1]
     assert np.linalg.norm(positions[-1] - palms[-1]) > 0.05
     assert any(holding[i] for i in range(len(times)) if times[i] > last_hold_end)
 
 
+def knocked_out(world: World) -> World:
+    """``world`` with the object back at its start (on the table under gravity), at rest."""
+    data = world.data.copy()
+    data.position[0] = START
+    data.velocity[0] = 0.0
+    data.angular_velocity[0] = 0.0
+    return World(world.model, data)
+
+
 @pytest.mark.parametrize("gravity", [ZERO_G, EARTH], ids=["zero_g", "earth"])
 def test_after_a_forced_drop_the_participant_grasps_the_object_again(gravity):
-    plan = PickPlacePlan("cube", PLACES)
-    world = bench_world("cube", "impulse_penetration", gravity)
+    plan = bench_plan("cube", gravity)
     participant = SimulatedParticipant(plan, "veteran", 5)
-    world = run(participant, world, lambda p, w: p.phase == "hold" and w.time > 0.5 + p._phase_start)
+    world = run(participant, bench_world(plan, "impulse_penetration"),
+                lambda p, w: p.state.action == "hold" and w.time > 0.5 + p.state.since)
     assert grasped(world)[0]
-    # Knock the cube out of the hand: put it back at its start (on the table under gravity), at rest.
-    world.data.position[0] = (0.0, 0.2, 0.0)
-    world.data.velocity[0] = 0.0
-    world.data.angular_velocity[0] = 0.0
+    world = knocked_out(world)
     knocked_at = world.time
-    world = run(participant, world, lambda p, w: p.drops == 1)
-    assert participant.drops == 1 and world.time - knocked_at < 1.0
-    world = run(participant, world, lambda p, w: grasped(w)[0] and p.phase == "carry" or w.time > knocked_at + 8.0)
+    world = run(participant, world, lambda p, w: p.state.drops == 1)
+    assert participant.state.drops == 1 and world.time - knocked_at < 1.0
+    world = run(participant, world,
+                lambda p, w: grasped(w)[0] and p.state.action == "carry" or w.time > knocked_at + 8.0)
     assert grasped(world)[0], "the participant took hold of the cube again"
     assert world.time - knocked_at < 8.0
-    world = run(participant, world, lambda p, w: p.phase == "hold" or w.time > knocked_at + 12.0)
-    assert np.linalg.norm(world.data.position[0] - np.asarray(PLACES[0])) <= plan.place_radius
+    world = run(participant, world, lambda p, w: p.state.action == "hold" or w.time > knocked_at + 12.0)
+    assert np.linalg.norm(world.data.position[0] - np.asarray(PLACES[0])) <= plan.rules.place_radius
 
 
-def test_plan_and_world_errors_name_the_field():
-    with pytest.raises(ValueError, match="places has 2 places"):
-        PickPlacePlan("cube", PLACES[:2])
-    with pytest.raises(ValueError, match=r"places\[1\] = .*three"):
-        PickPlacePlan("cube", (PLACES[0], (0.0, 0.1), PLACES[2]))
-    with pytest.raises(ValueError, match="hold_s = -1"):
-        PickPlacePlan("cube", PLACES, hold_s=-1)
+def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and_stops_when_it_is_over():
+    """Through the task loop (``microg.task.play``): the participant counts a place done on the
+    frame after the task shows it done (not by its own clock, which runs at least ``hold_margin_s``
+    longer), and once the task shows completion it gives one last frame and ends."""
+    plan = bench_plan("cube", EARTH)
+    participant = SimulatedParticipant(plan, "veteran", 2)
+    world = bench_world(plan, "impulse_penetration")
+    smooth = HandFilter(FILTER_WINDOW, 1.0 / world.model.scene.tracking_rate)
+    shown_places, own_places = [], []
+    for moment in play(world, participant, plan.rules, smooth):
+        own_places.append(participant.state.place)
+        shown_places.append(moment.observation.display.place)
+    assert moment.state.stage == COMPLETED and moment.state.drops == 0
+    # own_places[i] was decided on the display of frame i - 1.
+    for i in range(1, len(own_places)):
+        if own_places[i] > own_places[i - 1]:
+            assert shown_places[i - 1] == own_places[i] and shown_places[i - 2] < own_places[i]
+    assert own_places[-1] == 3
+    assert moment.observation.display.stage == COMPLETED
+    assert participant.next_frame(moment.observation) is not None
+    assert participant.state.action == "done" and participant.next_frame(moment.observation) is None
+
+
+def test_the_bench_plays_the_task_by_its_rules():
+    plan = bench_plan("cube", ZERO_G, time_limit_s=60.0)
+    result = run_trial(SimulatedParticipant(plan, "veteran", 4, time_limit_s=70.0), "impulse_penetration")
+    assert result.completed and result.places_done == 3 and result.drops == 0
+    assert 3 * plan.rules.hold_s < result.completion_time < 60.0
+    # Frames come at the tracker's 115 Hz (a few missing), until the release was judged.
+    assert 100 * result.completion_time < result.frames < 120 * (result.completion_time + 1.0)
+    assert result.participant_time > 0 and result.world_time > 0
+
+
+def test_plan_and_participant_errors_name_the_field():
+    spec = bench_plan("cube").object
+    with pytest.raises(ValueError, match="TaskPlan.hand = 'middle'"):
+        TaskPlan(object=spec, start=START, rules=bench_rules(), hand="middle")
+    with pytest.raises(ValueError, match="rules.places is empty"):
+        TaskPlan(object=spec, start=START, rules=dataclasses.replace(bench_rules(), places=()))
+    with pytest.raises(ValueError, match=r"TaskPlan.start = \(0.0, 0.1\): must be three"):
+        TaskPlan(object=spec, start=(0.0, 0.1), rules=bench_rules())
+    with pytest.raises(TypeError, match="must be a TaskPlan"):
+        SimulatedParticipant("cube")
     with pytest.raises(ValueError, match="skill = 'expert'"):
         SimulatedParticipant(bench_plan("cube"), "expert")
-    participant = SimulatedParticipant(PickPlacePlan("ball", PLACES), "veteran", 0)
-    with pytest.raises(ValueError, match="object_name.*'ball'.*cube"):
-        participant.next_frame(bench_world("cube", "impulse_penetration", ZERO_G))
     with pytest.raises(ValueError, match="closed-loop"):
-        participant.next_frame(None)
+        SimulatedParticipant(bench_plan("cube")).next_frame(None)

@@ -6,6 +6,7 @@ from scipy import signal, stats
 
 from microg.participant.noise import (
     FrameTiming,
+    NormalStream,
     TrackingNoise,
     TrackingNoiseLevels,
     Tremor,
@@ -41,8 +42,14 @@ def test_band_fraction_matches_numerical_integration_of_the_spectrum():
     assert band_fraction(5.0, 5.0) == pytest.approx(0.5 - 1.0 / np.pi, rel=1e-9)
 
 
-def _uniform_series(generator, duration, dt):
-    return np.array([generator(dt) for _ in range(int(duration / dt))])
+def _uniform_series(process, normals, draws, duration, dt):
+    """The ``value`` of ``process`` every ``dt`` seconds for ``duration``, advanced on ``draws``
+    standard normals from ``normals`` each time."""
+    values = []
+    for _ in range(int(duration / dt)):
+        process = process.advance(dt, normals.take(draws))
+        values.append(process.value)
+    return np.array(values)
 
 
 def _high_pass_rms(values, dt, cutoff):
@@ -52,9 +59,9 @@ def _high_pass_rms(values, dt, cutoff):
 
 def test_tracking_noise_has_the_measured_size_above_5_hz_and_the_stationary_sd():
     levels = TrackingNoiseLevels()
-    noise = TrackingNoise(levels, np.random.default_rng(RNG_SEED))
+    normals = NormalStream(np.random.default_rng(RNG_SEED))
     dt = 1.0 / 115
-    series = _uniform_series(noise.advance, 400.0, dt)
+    series = _uniform_series(TrackingNoise.start(levels, normals), normals, TrackingNoise.SIZE, 400.0, dt)
     palm, rotation, digits = series[:, :3], series[:, 3:6], series[:, 6:]
     assert np.mean(_high_pass_rms(palm, dt, 5.0)) == pytest.approx(levels.palm_position, rel=0.15)
     assert np.mean(_high_pass_rms(rotation, dt, 5.0)) == pytest.approx(levels.palm_rotation, rel=0.15)
@@ -64,9 +71,9 @@ def test_tracking_noise_has_the_measured_size_above_5_hz_and_the_stationary_sd()
 
 def test_tremor_is_a_narrow_band_oscillation_between_8_and_12_hz_of_the_stated_rms():
     for seed in range(5):
-        tremor = Tremor(100e-6, np.random.default_rng(seed))
+        normals = NormalStream(np.random.default_rng(seed))
         dt = 1.0 / 115
-        series = _uniform_series(tremor.advance, 120.0, dt)
+        series = _uniform_series(Tremor.start(100e-6, normals), normals, 4, 120.0, dt)
         f, psd = signal.welch(series, fs=1.0 / dt, nperseg=1024, axis=0)
         peak = f[np.argmax(psd.sum(axis=1))]
         assert 8.0 <= peak <= 12.0

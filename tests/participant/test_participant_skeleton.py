@@ -30,6 +30,9 @@ def test_a_posed_hand_is_a_full_leap_skeleton_with_rigid_bones():
         q = rng.normal(size=4)
         hand = make_hand(random_posture(rng), rng.normal(size=3) * 0.1, q / np.linalg.norm(q))
         assert isinstance(hand, Hand)
+        # Valid as the hand type checks it (make_hand skips the check: the hand is valid by construction).
+        assert Hand(hand.side, hand.joints, hand.widths, hand.palm_position, hand.palm_orientation, 1) == hand
+        assert not hand.joints.flags.writeable and not hand.palm_position.flags.writeable
         lengths = hand.bone_lengths
         assert lengths[0, 0] == 0.0  # the thumb's metacarpal, as Leap reports it
         np.testing.assert_allclose(lengths[:, 1:], PHALANGES, atol=1e-12)

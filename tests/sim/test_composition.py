@@ -1,25 +1,35 @@
 """Scenes compose only the effects they name; bad scenes and frames are refused with clear errors."""
 
+import io
+import re
+
+import numba
 import numpy as np
 import pytest
 
 from microg.sim import (INTERACTION_MODELS, Hand, HandFrame, Material, ObjectSpec, PlacedObject, Scene, SceneError,
                         compose_scene, load_object, load_scene, make_world, step)
-from microg.sim import world as world_module
-from microg.sim.world import substep_stages
+from microg.sim.pipeline import specialise
 from tests.physics import drive, placed, world_of
 
+KERNELS = ("sweep", "detect", "apply_impulses", "spring_onsets", "friction_cone", "penetration_forces",
+           "soft_hand_forces", "add_gravity", "table_contacts", "update_velocity", "update_position", "rotate_free", "rotate_constant")
+"""Every kernel the step can call (``pipeline.specialise``)."""
 
-@pytest.fixture
-def counted(monkeypatch):
-    """Replace every stage by a counting wrapper; returns the call counts by stage name."""
-    calls = {name: 0 for name in world_module.STAGES}
-    for name, stage in list(world_module.STAGES.items()):
-        def wrapper(*args, _stage=stage, _name=name):
-            calls[_name] += 1
-            return _stage(*args)
-        monkeypatch.setitem(world_module.STAGES, name, wrapper)
-    return calls
+
+def compiled_kernels(world) -> set[str]:
+    """The kernels that the world's compiled step calls, read from numba's typed code.
+
+    The step's function is compiled afresh (without the disk cache, whose code cannot be read
+    back) for the arguments the world passes; numba prunes the branches of unnamed effects before
+    typing, so a kernel appears in the typed code exactly when the machine code calls it."""
+    advance = world.model.advance
+    fresh = numba.njit(advance.py_func, error_model="numpy")
+    signature = advance.signatures[0]
+    fresh.compile(signature)
+    typed = io.StringIO()
+    fresh.inspect_types(file=typed, signature=signature)
+    return {name for name in KERNELS if re.search(rf"global\({name}: CPUDispatcher", typed.getvalue())}
 
 
 def pinch_path(t):
@@ -27,29 +37,30 @@ def pinch_path(t):
     return {"thumb.distal": (-x, 0.2, 0.0), "index.distal": (x, 0.2, 0.0)}
 
 
-def test_stages_not_named_never_run(counted):
-    world = world_of([placed("cube")], effects={"penetration"})
-    world = drive(world, pinch_path, t_end=0.5)
+def test_kernels_of_effects_not_named_are_not_in_the_compiled_step():
+    world = drive(world_of([placed("cube")], effects={"penetration"}), pinch_path, t_end=0.5)
     assert world.data.active.any()
-    for absent in ("gravity", "friction", "impulse", "soft_hand", "continuous_collision", "gyroscopic"):
-        assert counted[absent] == 0, absent
-    assert counted["penetration"] == counted["integrate_velocity"] == world.data.steps > 0
+    assert compiled_kernels(world) == {"detect", "spring_onsets", "penetration_forces", "update_velocity",
+                                       "update_position", "rotate_constant"}
 
 
-def test_named_stages_run_once_per_step(counted):
-    world = world_of([placed("cube")], interaction="impulse_penetration", gravity=(0.0, -9.81, 0.0))
-    world = drive(world, pinch_path, t_end=0.5)
-    steps = world.data.steps
-    for present in ("gravity", "friction", "impulse", "penetration", "continuous_collision", "gyroscopic"):
-        assert counted[present] == steps, present
+def test_every_named_effect_is_in_the_compiled_step():
+    world = drive(world_of([placed("cube")], interaction="impulse_penetration", gravity=(0.0, -9.81, 0.0)),
+                  pinch_path, t_end=0.1)
+    assert compiled_kernels(world) == {"sweep", "detect", "apply_impulses", "friction_cone", "penetration_forces",
+                                       "add_gravity", "update_velocity", "update_position", "rotate_free"}
+
+
+def test_each_set_of_effects_compiles_once():
+    scene = compose_scene([placed("cube")], "soft_hand")
+    assert make_world(scene).model.advance is make_world(scene).model.advance
+    assert specialise(scene.effects) is not specialise(compose_scene([placed("cube")]).effects)
 
 
 def test_interaction_models_are_the_documented_compositions():
     assert INTERACTION_MODELS["impulse_penetration"] == {"impulse", "penetration", "friction"}
     assert INTERACTION_MODELS["penetration_only"] == {"penetration", "friction"}
     assert INTERACTION_MODELS["soft_hand"] == {"soft_hand", "friction"}
-    stages = substep_stages(compose_scene([placed("cube")], "soft_hand").effects)
-    assert "soft_hand" in stages and "impulse" not in stages and "penetration" not in stages
 
 
 def good_scene(**changes):

@@ -5,7 +5,7 @@ import pytest
 
 from microg.sim import ObjectSpec, PlacedObject, grasped, highlighted, rendered_phalanges, slot, touching
 from microg.sim.rotation import quat_to_matrix
-from microg.sim.world import STAGES
+from microg.sim.probe import detect_contacts
 from tests.physics import drive, placed, world_of
 
 RADIUS = 0.008
@@ -51,7 +51,7 @@ def test_contact_velocity_includes_the_objects_rotation():
     data.valid[INDEX_TIP], data.radius[INDEX_TIP] = True, RADIUS
     data.hand_position[INDEX_TIP] = (x, 0.23 + RADIUS - 1e-4, 0.0)
     data.hand_velocity[INDEX_TIP] = (0.0, -0.1, 0.0)
-    STAGES["detect_contacts"](world.model, data, world.model.dt)
+    detect_contacts(world.model, data)
     assert data.onset[INDEX_TIP, 0]
     assert data.normal_velocity[INDEX_TIP, 0] == pytest.approx(-0.1 - w * x, abs=1e-12)
 

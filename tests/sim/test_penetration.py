@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from microg.sim import Material, ObjectSpec, PlacedObject, grasped, slot
-from microg.sim.world import STAGES
+from microg.sim.probe import contact_forces
 from tests.physics import drive, placed, world_of
 
 GAMMA = 100.0
@@ -21,12 +21,9 @@ def press_then_hold(depth, approach=0.1):
 
 
 def forces_now(world):
-    """The generalised force the contact stages would apply at the world's current state."""
+    """The generalised force the contact kernels would apply at the world's current state."""
     data = world.data.copy()
-    for name in world.model.stage_names:
-        if name in ("friction", "penetration", "soft_hand"):
-            STAGES[name](world.model, data, world.model.dt)
-    return data.wrench.copy(), data
+    return contact_forces(world.model, data), data
 
 
 def test_spring_pushes_object_away_from_finger_with_gamma_times_depth():

@@ -1,5 +1,7 @@
-"""Run P01's session of the study in argv[1] with a slow scripted pinch, printing each frame it
-hands over (``frame <task> <n>``). The crash test kills this process with SIGKILL mid-task."""
+"""Run P01's session of the study in argv[1] with a scripted pinch, in lockstep with the test that
+started it: before handing over each frame it prints ``frame <task> <n>`` (n frames made so far)
+and waits for a line on its standard input. The crash test kills this process with SIGKILL while
+it waits, so what was committed then is known exactly, however busy the machine is."""
 
 from __future__ import annotations
 
@@ -14,13 +16,14 @@ from tests.study.scripted import ScriptedPinch, pinch_keyframes
 
 class Reporting(ScriptedPinch):
     def __init__(self, keys, task):
-        super().__init__(keys, pace=0.002)
+        super().__init__(keys)
         self.task = task
 
-    def next_frame(self, world=None):
-        frame = super().next_frame(world)
+    def next_frame(self, observation=None):
+        frame = super().next_frame(observation)
         if frame is not None:
             print(f"frame {self.task} {self.index}", flush=True)
+            sys.stdin.readline()
         return frame
 
 

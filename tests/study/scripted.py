@@ -3,6 +3,7 @@ object from both sides along x, carry it through the places and let go, on a fix
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -20,13 +21,13 @@ def pinch_keyframes(plan, *, squeeze=0.006, travel=0.4, dwell=None, drop_at_plac
     """(t, centre, gap) keyframes: approach and close at the start, carry to each place and dwell,
     open after the last place. ``drop_at_place=k`` opens the hand at place k for ``open_s`` and
     closes it again; ``skip_place=k`` leaves place k after half the dwell."""
-    half = float(plan.spec.half_extents[0])
+    half = float(plan.object.half_extents[0])
     open_gap, closed = half + RADIUS + 0.02, half + RADIUS - squeeze
-    dwell = plan.hold_s + 0.3 if dwell is None else dwell
+    dwell = plan.rules.hold_s + 0.3 if dwell is None else dwell
     start = np.asarray(plan.start)
     keys = [(0.0, start, open_gap), (0.3, start, closed), (0.5, start, closed)]
     t, here = 0.5, start
-    for k, place in enumerate(plan.places):
+    for k, place in enumerate(plan.rules.places):
         place = np.asarray(place)
         t += travel
         keys.append((t, place, closed))
@@ -54,7 +55,7 @@ class ScriptedPinch:
         centre = np.array([np.interp(t, times, [k[1][i] for k in self.keys]) for i in range(3)])
         return centre, float(np.interp(t, times, [k[2] for k in self.keys]))
 
-    def next_frame(self, world=None):
+    def next_frame(self, observation=None):
         t = self.index / RATE
         if t > self.keys[-1][0]:
             return None
@@ -68,3 +69,37 @@ class ScriptedPinch:
 
     def close(self):
         pass
+
+
+class Gated(ScriptedPinch):
+    """A ScriptedPinch that waits on ``gate`` (a semaphore) before each ``every``-th frame: with
+    ``every`` the protocol's frame batch, a session run from it commits a batch, then waits for the
+    test to let it make the next one, so a reader can be checked batch by batch on any machine."""
+
+    def __init__(self, keyframes, gate, every: int):
+        super().__init__(keyframes)
+        self.gate, self.every = gate, every
+
+    def next_frame(self, observation=None):
+        if self.index and self.index % self.every == 0:
+            self.gate.acquire()
+        return super().next_frame(observation)
+
+
+def gated_session(folder, gate) -> threading.Thread:
+    """P01's session of the study in ``folder``, started now in another thread (it opens the study
+    itself), played by ``Gated`` pinches: each task commits a frame batch, then waits for ``gate``."""
+    from microg.study.inputs import ScriptedInputs
+    from microg.study.session import SimulationClock, run_session
+    from microg.study.store import open_study
+
+    def run() -> None:
+        with open_study(folder) as store:
+            every = store.protocol.frame_batch
+            inputs = ScriptedInputs(lambda plan, seed: Gated(pinch_keyframes(plan), gate, every))
+            session = store.create_session("P01", "scripted", simulated=True, clock="simulation")
+            run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread

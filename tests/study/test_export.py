@@ -61,7 +61,7 @@ def test_csv_and_parquet_exports_read_back_as_the_same_tables(study, tmp_path):
         pd.testing.assert_frame_equal(pd.read_csv(out / csv), table, check_dtype=False)
     pd.testing.assert_frame_equal(read_tables(out)[0], from_db[0])
     frames = pd.read_parquet(out / "frames.parquet")
-    assert len(frames) == store.db.execute("SELECT COUNT(*) FROM frames").fetchone()[0]
+    assert len(frames) == store.db.execute("SELECT SUM(count) FROM frames").fetchone()[0]
     assert {"right_index_tip_x", "rendered_right_thumb_proximal_z", "px", "qw", "touching"} <= set(frames.columns)
 
 
@@ -69,13 +69,32 @@ def test_an_export_never_overwrites_silently(study, tmp_path):
     store, _ = study
     out = tmp_path / "export"
     export_study(store.dir, out, bids=False, frames=False, progress=False)
-    with pytest.raises(FileExistsError, match="trials.csv exists"):
+    with pytest.raises(FileExistsError, match="export exists; export into another folder or pass --overwrite"):
         export_study(store.dir, out, bids=False, frames=False, progress=False)
     export_study(store.dir, out, bids=False, frames=False, overwrite=True, progress=False)
 
 
+def test_an_export_cut_off_midway_leaves_no_folder_that_reads_as_complete(study, tmp_path, monkeypatch):
+    store, _ = study
+    out = tmp_path / "export"
+    from microg.study import bids
+
+    def crash(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(bids, "write_motion_bids", crash)
+    with pytest.raises(KeyboardInterrupt):
+        export_study(store.dir, out, progress=False)
+    assert not out.exists() and (tmp_path / "export.partial" / "frames.parquet").exists()
+    monkeypatch.undo()
+    said = []
+    export_study(store.dir, out, progress=False, say=said.append)
+    assert "cut off before it finished" in said[0] and not (tmp_path / "export.partial").exists()
+    assert (out / "bids" / "dataset_description.json").exists() and (out / "export.json").exists()
+
+
 NAME = re.compile(r"sub-P01_task-(training|stage1|stage2)_tracksys-hand_acq-(cube|ball)_run-1_"
-                  r"(motion\.tsv|motion\.json|channels\.tsv|channels\.json|events\.tsv)")
+                  r"(motion\.tsv|motion\.json|channels\.tsv|channels\.json|events\.tsv|events\.json)")
 
 
 def test_motion_bids_files_are_named_and_shaped_as_the_specification_says(study, tmp_path):
@@ -88,7 +107,7 @@ def test_motion_bids_files_are_named_and_shaped_as_the_specification_says(study,
     assert "sub-P01" in (bids / "participants.tsv").read_text().splitlines()[1]
     files = sorted(p.name for p in (bids / "sub-P01" / "motion").iterdir())
     runs = run_list(store)
-    assert len(files) == 5 * len(runs) and all(NAME.fullmatch(f) for f in files)
+    assert len(files) == 6 * len(runs) and all(NAME.fullmatch(f) for f in files)
 
     for run in runs:
         stem = f"sub-P01_task-{run['phase']}_tracksys-hand_acq-{run['object']}_run-1"

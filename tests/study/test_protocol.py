@@ -84,6 +84,18 @@ BAD = [
     ("age_range = [18, 30]", "age_range = [30, 18]", ["participants.age_range", "[30, 18]"]),
     ('name = "paper"\n', "", ["missing key name"]),
     ("hold_s = 3.0", "hold_s = 3.0 3", ["not valid TOML"]),
+    ('system = "soft_hand"', 'system = "impulse_penetration"',
+     ["stages[1].system", "'impulse_penetration'", "stages[0] runs this system already"]),
+    ('label = "System 2"', 'label = "System 1"', ["stages", "'System 1'", "appears twice"]),
+    ('name = "stage1"', 'name = "stäge1"', ["stages[0].name", "'stäge1'", "ASCII letters and digits"]),
+    ('name = "efficiency"', 'name = "Naturalness"', ["questionnaire.items", "'naturalness'", "appears twice"]),
+    ('code = "B"', 'code = "v"', ["groups", "['V', 'v']", "appears twice"]),
+    ("table_height = 0.15", "table_height = 0.59",
+     ["scene.table_height = 0.59", "cube stands on the table", "outside the workspace"]),
+    ("table_height = 0.15", "table_height = 0.3",
+     ["task.places[0] = [-0.04, 0.26, 0.0]", "table_height = 0.3", "can never reach this place"]),
+    ("tracking_rate = 110.0", 'tracking_rate = "fast"', ["tracking_rate = 'fast'", "positive number"]),
+    ("grasp_settle_s = 0.1", "grasp_settle_s = -0.1", ["task.grasp_settle_s", "-0.1", "non-negative"]),
 ]
 
 
@@ -115,3 +127,85 @@ def test_an_extending_file_overrides_only_what_it_names(tmp_path):
     mine = load_protocol(tmp_path / "mine.toml")
     assert mine.name == "mine" and mine.task.hold_s == 2.0
     assert mine.task.places == load_protocol(PAPER).task.places
+
+
+def test_a_protocol_that_is_not_utf8_is_named_with_the_byte(tmp_path):
+    path = tmp_path / "latin1.toml"
+    path.write_bytes(PAPER.read_text().replace("Reliability", "Fiabilité").encode("latin-1"))
+    with pytest.raises(ProtocolError, match=re.escape(f"{path}: not UTF-8 text (byte 0xe9 at position")):
+        load_protocol(path)
+
+
+def protocol_with_objects(tmp_path: Path, objects: dict[str, str], names: list[str]) -> Path:
+    """A protocol extending the paper's whose ``objects.names`` are ``names``, with object files
+    ``objects`` (name -> text) next to it."""
+    (tmp_path / "objects").mkdir()
+    for name, text in objects.items():
+        (tmp_path / "objects" / f"{name}.toml").write_text(text)
+    path = tmp_path / "mine.toml"
+    path.write_text(f'extends = "{PAPER}"\nname = "mine"\n[objects]\nnames = {names}\n')
+    return path
+
+
+BOX = 'name = "{name}"\ncode = "{code}"\nshape = "box"\nsize = [0.05, 0.05, 0.05]\nmass = {mass}\n'
+
+
+@pytest.mark.parametrize("text, expected", [
+    (BOX.format(name="brick", code="K", mass='"heavy"'), ["mass = 'heavy'", "positive number"]),
+    (BOX.format(name="brick", code="K", mass="0.1") + "inertia = [1, 2]\n", ["inertia = [1, 2]"]),
+    (BOX.format(name="brick", code="K", mass="0.1").replace("size = [0.05,", "size = [[0.05],"), ["size.x = [0.05]"]),
+    (BOX.format(name="brick", code="", mass="0.1"), ["code = ''", "non-empty"]),
+    ("mass = 0.1 0.2", ["not valid TOML"]),
+])
+def test_errors_about_an_object_file_name_the_object_file(tmp_path, text, expected):
+    path = protocol_with_objects(tmp_path, {"brick": text}, ["cube", "brick"])
+    with pytest.raises(ProtocolError) as error:
+        load_protocol(path)
+    message = str(error.value)
+    assert message.startswith(str(tmp_path / "objects" / "brick.toml")), message
+    for part in expected:
+        assert part in message, (part, message)
+
+
+def test_an_object_file_that_is_not_utf8_is_named(tmp_path):
+    path = protocol_with_objects(tmp_path, {}, ["cube", "brick"])
+    (tmp_path / "objects" / "brick.toml").write_bytes(BOX.format(name="brïck", code="K", mass="0.1").encode("latin-1"))
+    with pytest.raises(ProtocolError, match=re.escape(f"{tmp_path / 'objects' / 'brick.toml'}: not UTF-8 text")):
+        load_protocol(path)
+
+
+@pytest.mark.parametrize("name, code, expected", [
+    ("cube2", "C", "objects 'cube' and 'cube2' have the same code 'C'"),
+    ("cube2", "c", "objects 'cube' and 'cube2' have the same code 'c'"),
+    ("ball", "C", "objects 'cube' and 'ball' have the same code 'C'"),  # also the training's object
+])
+def test_two_objects_of_a_study_never_share_a_code(tmp_path, name, code, expected):
+    path = protocol_with_objects(tmp_path, {name: BOX.format(name=name, code=code, mass="0.1")}, ["cube", name])
+    with pytest.raises(ProtocolError, match=re.escape(expected)):
+        load_protocol(path)
+
+
+def test_what_only_simulated_participants_need_is_reported_not_refused(tmp_path):
+    path = edited(tmp_path, 'name = "efficiency"', 'name = "comfort"')
+    path.write_text(path.read_text().replace('simulated_profile = "practice"', 'simulated_profile = "expert"', 1))
+    protocol = load_protocol(path)  # a study with live participants can use it
+    problems = protocol.simulation_problems()
+    assert problems == [
+        f"{path}: groups[0].simulated_profile = 'expert': simulated participants play one of the skill profiles "
+        "['beginner', 'veteran', 'practice'] (the default is the group's name)",
+        f"{path}: questionnaire.items[1].name = 'comfort': the rating model of simulated participants rates only "
+        "['efficiency', 'naturalness']"]
+    assert load_protocol(PAPER).simulation_problems() == []
+
+
+def test_each_section_has_its_reader_and_valid_protocols_read_as_before():
+    """Issue 12: one small reader per section; the shipped protocols give the same digest as the
+    single ``_build`` did (the digest is over their merged content, so it changes with any key)."""
+    from microg.study import protocol as module
+
+    readers = [name for name in dir(module) if name.startswith("_read_") and name not in ("_read_text", "_read_toml")]
+    assert {"_read_scene", "_read_participants", "_read_groups", "_read_objects", "_read_task", "_read_stages",
+            "_read_training", "_read_questionnaire", "_read_timeline", "_read_display", "_read_dataset"} <= set(readers)
+    import inspect
+    assert all(len(inspect.getsource(getattr(module, name)).splitlines()) <= 45 for name in readers)
+    assert len(inspect.getsource(module._build).splitlines()) <= 45

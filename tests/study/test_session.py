@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import sqlite3
 from dataclasses import replace
 
 import numpy as np
@@ -15,7 +14,7 @@ from microg.sim import step
 from microg.sim.rotation import quat_to_matrix
 from microg.study.export import hand_frames, run_frames, trials_table
 from microg.study.inputs import ScriptedInputs, participant_plan
-from microg.study.session import SimulationClock, guarded, resume_session, run_session, run_task, task_world
+from microg.study.session import Unattended, SimulationClock, guarded, resume_session, run_session, run_task, task_world
 from microg.study.store import StoreError, create_study, open_study
 
 from .conftest import answers, scripted_inputs
@@ -101,13 +100,18 @@ def test_a_source_that_ends_early_aborts_the_task(make_study):
     session = store.create_session("P01", "scripted", True, "simulation")
 
     class Short(ScriptedPinch):
-        def next_frame(self, world=None):
-            return None if self.index >= 50 else super().next_frame(world)
+        def next_frame(self, observation=None):
+            return None if self.index >= 50 else super().next_frame(observation)
 
     inputs = ScriptedInputs(lambda plan, seed: Short(pinch_keyframes(plan)))
-    run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+    status = run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
     trials = trials_table(store)
     assert (trials.status == "aborted").all() and not trials.completed.any() and trials.time_s.isna().all()
+    tasks = len(store.tasks(session.id))
+    assert status == "incomplete" and store.session(session.id).status == "incomplete"  # never "completed"
+    end = store.events(session.id)[-1]
+    assert end.kind == "session_end" and end.data == {"status": "incomplete", "tasks": {"aborted": tasks},
+                                                      "reason": f"no measure from {tasks} task(s) aborted"}
 
 
 def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study):
@@ -121,7 +125,7 @@ def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study
         world = step(world, smooth(frame))
         positions.append(world.data.position[0].copy())
     logged = run_frames(store, run_id)[["px", "py", "pz"]].to_numpy()
-    assert np.array_equal(np.array(positions), logged)
+    assert np.array_equal(np.array(positions, dtype=np.float32), logged)  # the log keeps float32 poses
 
 
 class Failing(ScriptedPinch):
@@ -131,10 +135,10 @@ class Failing(ScriptedPinch):
         super().__init__(keys)
         self.fail_after = fail_after
 
-    def next_frame(self, world=None):
+    def next_frame(self, observation=None):
         if self.index == self.fail_after:
             raise RuntimeError("tracker unplugged")
-        return super().next_frame(world)
+        return super().next_frame(observation)
 
 
 def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_again(make_study):
@@ -144,7 +148,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
     calls = []
 
     def breaking(plan, seed):
-        calls.append(plan.phase)
+        calls.append(plan.object.name)
         keys = pinch_keyframes(plan)
         return Failing(keys, 100) if len(calls) == last + 1 else ScriptedPinch(keys)
 
@@ -152,7 +156,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
         run_session(store, session.id, ScriptedInputs(breaking), clock=SimulationClock(), progress=False)
     runs = store.runs(session.id)
     assert [r.status for r in runs] == ["completed"] * last + ["interrupted"]
-    kept = store.db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (runs[-1].id,)).fetchone()[0]
+    kept = store.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames WHERE run_id = ?", (runs[-1].id,)).fetchone()[0]
     assert kept == 100
     assert "tracker unplugged" in store.db.execute("SELECT reason FROM task_runs WHERE id = ?",
                                                    (runs[-1].id,)).fetchone()[0]
@@ -163,7 +167,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
     runs = store.runs(session.id)
     assert [(r.task_index, r.run, r.status) for r in runs] == \
         [(i, 1, "completed") for i in range(last)] + [(last, 1, "interrupted"), (last, 2, "completed")]
-    assert store.db.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (runs[-2].id,)).fetchone()[0] == kept
+    assert store.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames WHERE run_id = ?", (runs[-2].id,)).fetchone()[0] == kept
     trials = trials_table(store)
     assert trials.completed.all() and trials.runs.tolist() == [1] * last + [2]
 
@@ -172,10 +176,7 @@ def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
     store, _ = make_study("tiny")
     session = store.create_session("P01", "scripted", True, "simulation")
 
-    class SkipFirst:
-        def show(self, phase):
-            pass
-
+    class SkipFirst(Unattended):
         def ready(self, task):
             return task.index != 0
 
@@ -191,12 +192,12 @@ def test_the_log_never_changes_what_it_holds(make_study):
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), progress=False)
     attempts = [
         "UPDATE events SET kind = 'x'", "DELETE FROM events", "DELETE FROM frames",
-        "UPDATE frames SET px = 0", "UPDATE task_runs SET time_s = 1.0", "UPDATE task_runs SET status = 'running'",
+        "UPDATE frames SET count = 1", "UPDATE task_runs SET time_s = 1.0", "UPDATE task_runs SET status = 'running'",
         "DELETE FROM task_runs", "UPDATE sessions SET status = 'running'", "UPDATE participants SET age = 30",
         "DELETE FROM participants", "UPDATE protocols SET resolved = '{}'", "UPDATE tasks SET object = 'ball'",
     ]
     for statement in attempts:
-        with pytest.raises(sqlite3.DatabaseError, match="never"):
+        with pytest.raises(StoreError, match="refused the change: .*never"):
             store.db.execute(statement)
     with pytest.raises(StoreError, match="never run twice"):
         store.create_session("P01", "scripted", True, "simulation")
@@ -218,10 +219,9 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     from microg.study.lsl import MarkerOutlet
 
     outlet = MarkerOutlet(name="microg-test", source_id="microg-test-markers")
-    streams = pylsl.resolve_byprop("source_id", "microg-test-markers", timeout=5.0)
-    assert streams, "the marker stream is not visible on this machine"
+    streams = pylsl.resolve_byprop("source_id", "microg-test-markers")  # waits until the stream is seen
     inlet = pylsl.StreamInlet(streams[0])
-    inlet.open_stream(timeout=5.0)
+    inlet.open_stream()
     store, _ = make_study("quick")
     session = store.create_session("P01", "scripted", True, "simulation")
     task = store.tasks(session.id)[0]
@@ -229,10 +229,11 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
     run_task(store, session.id, run_id, task_world(store.protocol, task), source, store.protocol.task,
              SimulationClock(), markers=outlet)
+    outlet("end_of_test", {})  # a last marker: everything before it has arrived once it has
     received = []
-    while (sample := inlet.pull_sample(timeout=1.0))[0] is not None:
-        received.append(sample[0][0])
-    kinds = [json.loads(m)["kind"] for m in received]
+    while not received or json.loads(received[-1])["kind"] != "end_of_test":
+        received.append(inlet.pull_sample()[0][0])  # waits for the next marker
+    kinds = [json.loads(m)["kind"] for m in received[:-1]]
     logged = [e.kind for e in store.events(session.id, run_id) if e.kind not in ("task_start", "tracking_guard")]
     assert kinds == logged
 

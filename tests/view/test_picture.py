@@ -65,7 +65,7 @@ def panel_count(path) -> int:
 def test_the_exported_strip_has_a_panel_per_key_moment_in_the_paper_colours(logged_study, tmp_path):
     run = CliRunner().invoke
     strip = tmp_path / "strip.png"
-    result = run(main, ["view", "export", "--study", str(logged_study), "--session", "P01", "--task", "1",
+    result = run(main, ["view", str(logged_study), "--session", "P01", "--task", "1",
                         "--out", str(strip)])
     assert result.exit_code == 0 and result.output.strip() == f"wrote {strip}", result.output
     assert panel_count(strip) == 6  # start, picked up, place 1-3, released
@@ -74,11 +74,11 @@ def test_the_exported_strip_has_a_panel_per_key_moment_in_the_paper_colours(logg
         assert colour_mask(picture, name).sum() > 100, name
 
     chosen = tmp_path / "two.pdf"
-    result = run(main, ["view", "export", "--study", str(logged_study), "--session", "1", "--task", "0",
+    result = run(main, ["view", str(logged_study), "--session", "1", "--task", "0",
                         "--at", "0.5", "--at", "2", "--out", str(chosen), "--no-title"])
     assert result.exit_code == 0 and chosen.read_bytes().startswith(b"%PDF")
     small = tmp_path / "two.png"
-    run(main, ["view", "export", "--study", str(logged_study), "--session", "P01", "--task", "0", "--at", "0.5",
+    run(main, ["view", str(logged_study), "--session", "P01", "--task", "0", "--at", "0.5",
                "--at", "2", "--out", str(small), "--size", "200x150"])
     assert panel_count(small) == 2
 
@@ -86,7 +86,7 @@ def test_the_exported_strip_has_a_panel_per_key_moment_in_the_paper_colours(logg
 def test_an_animation_has_a_frame_per_step_of_the_task(task, logged_study, tmp_path):
     track, _, _ = task
     out = tmp_path / "task.gif"
-    result = CliRunner().invoke(main, ["view", "export", "--study", str(logged_study), "--session", "P01", "--task",
+    result = CliRunner().invoke(main, ["view", str(logged_study), "--session", "P01", "--task",
                                        "0", "--out", str(out), "--fps", "5", "--speed", "2", "--size", "160x120",
                                        "--quiet"])
     assert result.exit_code == 0, result.output
@@ -106,7 +106,7 @@ def test_an_animation_has_a_frame_per_step_of_the_task(task, logged_study, tmp_p
     (["--session", "P01", "--task", "0", "--size", "big"], "'big': give WIDTHxHEIGHT"),
 ])
 def test_export_says_what_is_wrong(logged_study, tmp_path, arguments, message):
-    result = CliRunner().invoke(main, ["view", "export", "--study", str(logged_study), "--out",
+    result = CliRunner().invoke(main, ["view", str(logged_study), "--out",
                                        str(tmp_path / "out.png"), *(a.format(tmp=tmp_path) for a in arguments)])
     assert result.exit_code != 0 and message in result.output
     assert not list(tmp_path.iterdir())
@@ -114,14 +114,14 @@ def test_export_says_what_is_wrong(logged_study, tmp_path, arguments, message):
 
 def test_export_refuses_a_missing_study_another_format_and_overwriting(logged_study, tmp_path):
     run = CliRunner().invoke
-    result = run(main, ["view", "export", "--study", str(tmp_path / "none"), "--session", "P01", "--task", "0",
+    result = run(main, ["view", str(tmp_path / "none"), "--session", "P01", "--task", "0",
                         "--out", str(tmp_path / "a.png")])
     assert result.exit_code == 1 and f"no study in {tmp_path / 'none'}" in result.output
-    result = run(main, ["view", "export", "--study", str(logged_study), "--session", "P01", "--task", "0",
+    result = run(main, ["view", str(logged_study), "--session", "P01", "--task", "0",
                         "--out", str(tmp_path / "a.jpg")])
     assert result.exit_code == 1 and "--out" in result.output and ".png, .pdf, .svg" in result.output
     taken = tmp_path / "taken.png"
     taken.write_bytes(b"a figure")
-    result = run(main, ["view", "export", "--study", str(logged_study), "--session", "P01", "--task", "0",
+    result = run(main, ["view", str(logged_study), "--session", "P01", "--task", "0",
                         "--out", str(taken)])
     assert result.exit_code == 1 and "exists" in result.output and taken.read_bytes() == b"a figure"

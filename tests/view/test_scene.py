@@ -7,11 +7,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from microg.paths import protocol_file
-from microg.sim import Hand, HandFrame, slot
+from microg.sim import Hand, slot
 from microg.study.protocol import load_protocol
-from microg.study.session import _hand_blob
-from microg.view.scene import (FrameScene, both_sides, default_camera, hud_lines, place_states, rendered_bones,
-                                     split_hand, task_layout, touching_slots, tracked_bones, z_to_direction)
+from microg.study import framelog
+from microg.study.framelog import touching_slots
+from microg.view.scene import (FrameScene, both_sides, default_camera, hand_values, hud_lines, place_states,
+                               rendered_bones, task_layout, tracked_bones, z_to_direction)
 from microg.view.server import Playback
 
 from .conftest import project
@@ -24,31 +25,35 @@ def a_hand(rng, side="right") -> Hand:
     return Hand(side, joints, widths, rng.uniform(-0.1, 0.1, 3), np.array([0.5, 0.5, 0.5, 0.5]))
 
 
-def test_a_logged_hand_blob_comes_apart_as_the_session_wrote_it():
+def logged(hand: Hand | None, rendered: np.ndarray, side: int = 1) -> np.ndarray:
+    """A logged frame with ``hand`` on ``side`` (the other side untracked), through the frame log's codec."""
+    frame = np.zeros((), dtype=framelog.FRAME)
+    framelog.put_hand(frame, side, hand, rendered)
+    framelog.put_hand(frame, 1 - side, None, rendered)
+    return framelog.decode(framelog.encode(frame[None]), 1)[0]
+
+
+def test_a_logged_hand_comes_back_as_the_session_wrote_it():
     rng = np.random.default_rng(1)
     hand = a_hand(rng)
-    rendered = rng.uniform(-0.2, 0.2, (40, 3))
-    blob = _hand_blob(HandFrame(0.0, (hand,)), rendered, side=1)
-    values = split_hand(np.frombuffer(blob, dtype="<f8"))
+    rendered = rng.uniform(-0.2, 0.2, (20, 3))
+    values = hand_values(logged(hand, rendered), side=1)
     assert np.array_equal(values.joints, hand.joints) and np.array_equal(values.widths, hand.widths)
     assert np.array_equal(values.palm_position, hand.palm_position)
     assert np.array_equal(values.palm_orientation, hand.palm_orientation)
-    assert np.array_equal(values.rendered, rendered[20:])
-    with pytest.raises(ValueError, match="162 values"):
-        split_hand(np.zeros(160))
+    assert np.array_equal(values.rendered, rendered.astype(np.float32))  # the log keeps what was computed as float32
+    assert np.isnan(hand_values(logged(hand, rendered), side=0).joints).all()
 
 
 def test_the_rendered_hand_moves_each_phalanx_to_its_rendered_centre_and_keeps_its_shape():
     rng = np.random.default_rng(2)
     hand = a_hand(rng)
-    tracked = tracked_bones(split_hand(np.frombuffer(_hand_blob(HandFrame(0.0, (hand,)), np.zeros((40, 3)), 1),
-                                                     dtype="<f8")))
+    tracked = tracked_bones(hand_values(logged(hand, np.zeros((20, 3))), 1))
     rendered_centres = hand.bone_centres.reshape(20, 3).copy()
     pressed = [slot("right", 1, 3) - 20, slot("right", 0, 3) - 20]  # index and thumb tips, pushed out
     rendered_centres[pressed] += [[0.0, 0.01, 0.0], [-0.004, 0.0, 0.002]]
     rendered_centres[0] = np.nan  # the thumb's metacarpal is no phalanx: the physics has no centre for it
-    blob = _hand_blob(HandFrame(0.0, (hand,)), np.vstack([np.zeros((20, 3)), rendered_centres]), 1)
-    rendered = rendered_bones(split_hand(np.frombuffer(blob, dtype="<f8")))
+    rendered = rendered_bones(hand_values(logged(hand, rendered_centres), 1))
 
     # tracked bones run joint to joint with half the width as radius (the phalanx sphere's)
     assert np.allclose(tracked.start, hand.joints[:, :-1].reshape(20, 3))
@@ -56,17 +61,17 @@ def test_the_rendered_hand_moves_each_phalanx_to_its_rendered_centre_and_keeps_i
     assert np.allclose(tracked.radius, hand.widths.ravel() / 2)
     drawn = rendered.drawn
     assert not drawn[0] and drawn[1:].all() and tracked.drawn.all()
-    assert np.allclose(rendered.centre[1:], rendered_centres[1:])
+    assert np.allclose(rendered.centre[1:], rendered_centres[1:], atol=1e-7)
     assert np.allclose((rendered.end - rendered.start)[1:], (tracked.end - tracked.start)[1:])
     untouched = [k for k in range(1, 20) if k not in pressed]
     assert np.allclose(rendered.start[untouched], tracked.start[untouched])
 
 
 def test_an_untracked_hand_draws_nothing():
-    empty = split_hand(np.full(162, np.nan))
-    assert not tracked_bones(empty).drawn.any() and not rendered_bones(empty).drawn.any()
     rng = np.random.default_rng(3)
-    right = split_hand(np.frombuffer(_hand_blob(HandFrame(0.0, (a_hand(rng),)), np.zeros((40, 3)), 1), dtype="<f8"))
+    frame = logged(a_hand(rng), np.zeros((20, 3)))
+    empty, right = hand_values(frame, 0), hand_values(frame, 1)
+    assert not tracked_bones(empty).drawn.any() and not rendered_bones(empty).drawn.any()
     both = both_sides([tracked_bones(empty), tracked_bones(right)])
     assert both.drawn.tolist() == [False] * 20 + [True] * 20
 

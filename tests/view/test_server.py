@@ -24,36 +24,45 @@ from microg.view import (default_camera, find_run, find_session, key_moments, op
 from microg.view.server import BROWSER_ASPECT, View
 
 from .browser import MISSING, chromium, open_page, page_text, screenshot
-from .conftest import colour_mask, free_port, new_study, pixels_near, project, session_in_background
+from tests.study.scripted import gated_session
+
+from .conftest import colour_mask, free_port, new_study, pixels_near, project
 
 WINDOW = (1200, 800)
 
 
 def start_view(*arguments: str) -> tuple[subprocess.Popen, str]:
-    """``microg view ARGUMENTS`` in its own process, and what it announces (the address first)."""
+    """``microg view ARGUMENTS`` in its own process, and what it announces (the address first):
+    read line by line until the announcement, or until the process ends without one."""
     process = subprocess.Popen([sys.executable, "-c", "from microg.cli import main; main()", "view",
                                 *arguments], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    lines: queue.Queue[str] = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(line) for line in process.stdout], daemon=True).start()
+    lines: queue.Queue[str | None] = queue.Queue()
+
+    def read() -> None:
+        for line in process.stdout:
+            lines.put(line)
+        lines.put(None)  # the process closed its output: it has ended
+
+    process.reader = threading.Thread(target=read, daemon=True)
+    process.reader.start()
     announced = ""
-    try:
-        while "Ctrl-C to stop" not in announced:
-            announced += lines.get(timeout=60)
-    except queue.Empty:
-        process.kill()
-        raise AssertionError(f"microg view did not announce itself: {announced!r} {process.stderr.read()}") from None
+    while "Ctrl-C to stop" not in announced:
+        line = lines.get()
+        if line is None:
+            raise AssertionError(f"microg view ended without announcing itself: {announced!r} {process.stderr.read()}")
+        announced += line
     process.announced_lines = lines
     return process, announced
 
 
 def stop_view(process: subprocess.Popen) -> str:
-    """Ctrl-C for the view; what it printed after its announcement."""
+    """Ctrl-C for the view; what it printed after its announcement (all of it: read to the end)."""
     process.send_signal(signal.SIGINT)
-    process.wait(timeout=30)
-    time.sleep(0.1)
+    process.wait()
+    process.reader.join()
     printed = []
-    while not process.announced_lines.empty():
-        printed.append(process.announced_lines.get())
+    while (line := process.announced_lines.get()) is not None:
+        printed.append(line)
     return "".join(printed)
 
 
@@ -65,7 +74,7 @@ def test_the_view_in_a_browser_draws_the_hand_the_object_and_the_places(logged_s
         layout = task_layout(store.protocol, track.run.object)
     index = next(m.index for m in key_moments(track, 3) if m.label == "place 2")
     scene = track.scene(index, 3)
-    process, announced = start_view("--study", str(logged_study), "--session", "P01", "--task", "0", "--at",
+    process, announced = start_view(str(logged_study), "--session", "P01", "--task", "0", "--at",
                                     repr(scene.t), "--port", str(free_port()))
     try:
         url = announced.split("open ")[1].split()[0]
@@ -91,10 +100,14 @@ def test_the_view_in_a_browser_draws_the_hand_the_object_and_the_places(logged_s
 
 
 class Ticking:
-    """A view's loop in a thread, as ``serve`` runs it."""
+    """A view's loop in a thread, as ``serve`` runs it; it keeps what each tick did to the playback
+    (elapsed seconds, cursor before, cursor after, playing before) so a test can check the playback
+    against the ticks themselves, not against a clock of its own."""
 
     def __init__(self, view: View):
         self.view, self.running = view, True
+        self.ticks: list[tuple[float, float, float, bool]] = []
+        self.ticked = threading.Condition()
         self.thread = threading.Thread(target=self.loop, daemon=True)
         self.thread.start()
 
@@ -103,18 +116,29 @@ class Ticking:
         while self.running:
             time.sleep(1 / 30)
             now = time.monotonic()
+            before, playing = self.view.playback.seconds, self.view.playback.playing
             self.view.tick(now - last)
+            with self.ticked:
+                self.ticks.append((now - last, before, self.view.playback.seconds, playing))
+                self.ticked.notify_all()
             last = now
+
+    def wait_ticks(self, count: int) -> None:
+        """Until ``count`` more ticks have run."""
+        with self.ticked:
+            target = len(self.ticks) + count
+            self.ticked.wait_for(lambda: len(self.ticks) >= target or not self.thread.is_alive())
 
     def stop(self) -> None:
         self.running = False
-        self.thread.join(10)
+        self.thread.join()
 
 
-def wait_until(condition, timeout_s: float = 30.0) -> None:
-    deadline = time.monotonic() + timeout_s
+def wait_until(condition, going=lambda: True) -> None:
+    """Until ``condition()`` holds; fail as soon as ``going()`` says that what would make it hold has
+    stopped (a thread ended). No wall-clock limit: a test that hangs is ended by pytest-timeout."""
     while not condition():
-        assert time.monotonic() < deadline, "timed out"
+        assert going(), "what was waited for stopped before the condition held"
         time.sleep(0.05)
 
 
@@ -129,7 +153,8 @@ def test_replay_plays_pauses_seeks_and_changes_speed_and_hands_from_the_browser(
 
     def choose(driver, shown, option):
         click(driver, f"//input[@value='{shown}']")
-        wait_until(lambda: any(o.text == option for o in driver.find_elements(By.XPATH, "//*[@role='option']")))
+        wait_until(lambda: any(o.text == option for o in driver.find_elements(By.XPATH, "//*[@role='option']")),
+                   going)
         click(driver, f"//*[@role='option'][normalize-space()='{option}']")
 
     def displayed(driver):
@@ -139,33 +164,35 @@ def test_replay_plays_pauses_seeks_and_changes_speed_and_hands_from_the_browser(
         view = View(store, find_session(store, "P01"), "P01", free_port())
         view.start_at(0, 0.0)
         ticking = Ticking(view)
+        going = ticking.thread.is_alive
         try:
             with chromium() as driver:
                 open_page(driver, view.url, "attempts (drops)")
                 assert displayed(driver) == ("manipulation", "0.0") and not view.playback.playing
                 choose(driver, "1x", "0.5x")
-                wait_until(lambda: view.playback.speed == 0.5)
-                started = time.monotonic()
+                wait_until(lambda: view.playback.speed == 0.5, going)
                 click(driver, "//button[normalize-space()='Play']")
-                wait_until(lambda: view.playback.seconds > 0.3)
+                wait_until(lambda: view.playback.seconds > 0.3, going)
                 click(driver, "//button[normalize-space()='Pause']")
-                wait_until(lambda: not view.playback.playing)
-                paused_at, elapsed = view.playback.seconds, time.monotonic() - started
-                assert 0.3 < paused_at <= 0.5 * elapsed + 0.1  # half speed
-                time.sleep(0.5)
+                wait_until(lambda: not view.playback.playing, going)
+                paused_at = view.playback.seconds
+                played = [(elapsed, after - before) for elapsed, before, after, playing in ticking.ticks
+                          if playing and after > before]
+                assert played and all(moved == pytest.approx(0.5 * elapsed) for elapsed, moved in played)  # half speed
+                ticking.wait_ticks(15)
                 assert view.playback.seconds == paused_at
-                wait_until(lambda: float(displayed(driver)[1]) == round(paused_at, 1))
+                wait_until(lambda: float(displayed(driver)[1]) == round(paused_at, 1), going)
 
                 seek = next(box for box in driver.find_elements(By.CSS_SELECTOR, "input[type=text]")
                             if re.fullmatch(r"[\d.]+", box.get_attribute("value") or ""))
                 seek.send_keys(Keys.CONTROL, "a")
                 seek.send_keys("2.5", Keys.ENTER)
-                wait_until(lambda: view.playback.seconds == 2.5)
-                wait_until(lambda: displayed(driver) == ("maintenance", "2.5"))
+                wait_until(lambda: view.playback.seconds == 2.5, going)
+                wait_until(lambda: displayed(driver) == ("maintenance", "2.5"), going)
 
                 assert not view.drawer.tracked.visible
                 choose(driver, "rendered", "both")
-                wait_until(lambda: view.drawer.tracked.visible and view.drawer.rendered.visible)
+                wait_until(lambda: view.drawer.tracked.visible and view.drawer.rendered.visible, going)
         finally:
             ticking.stop()
             view.close()
@@ -176,7 +203,7 @@ def test_the_view_is_served_on_this_machine_only(logged_study):
         view = View(store, find_session(store, "P01"), "P01", free_port())
         try:
             assert view.server.get_host() == "127.0.0.1"
-            with urllib.request.urlopen(view.url, timeout=10) as page:
+            with urllib.request.urlopen(view.url) as page:
                 assert page.status == 200
             port = view.server.get_port()
             addresses = {info[4][0] for info in socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET)}
@@ -189,22 +216,28 @@ def test_the_view_is_served_on_this_machine_only(logged_study):
 
 def test_a_live_view_waits_for_the_session_follows_it_and_moves_on_to_its_next_task(tmp_path):
     folder = new_study(tmp_path / "study")
+    gate = threading.Semaphore(0)
     with open_readonly(folder) as store:
         view = View(store, None, None, free_port())
         try:
             view.tick(0.0)
             assert "waiting for a session to start" in view.hud.content
-            writer = session_in_background(folder, pace=0.002)
-            shown = []  # (task index, frames read, what the display says) at each tick
-            deadline = time.monotonic() + 60
-            while writer.is_alive() or (view.session is not None and view.session.status == "running"):
-                assert time.monotonic() < deadline
-                time.sleep(0.05)
-                view.tick(0.05)
-                if view.track is not None and view.track.rows:
-                    shown.append((view.track.run.task_index, len(view.track.rows), view.hud.content))
-            time.sleep(0.3)
-            view.tick(0.3)
+            writer = gated_session(folder, gate)
+
+            def seen():
+                view.poll()
+                view.tick(0.0)
+                return (view.track.run.id, len(view.track.frames)) if view.track is not None else None
+
+            shown = []  # (task index, frames read, what the display says) after each batch the session commits
+            while writer.is_alive():
+                before = seen()
+                gate.release()  # the session may commit its next batch
+                wait_until(lambda: seen() != before or not writer.is_alive())
+                if view.track is not None and len(view.track.frames):
+                    shown.append((view.track.run.task_index, len(view.track.frames), view.hud.content))
+            writer.join()
+            seen()
             runs = store.db.execute("SELECT task_index, frames FROM task_runs ORDER BY id").fetchall()
         finally:
             view.close()
@@ -212,23 +245,50 @@ def test_a_live_view_waits_for_the_session_follows_it_and_moves_on_to_its_next_t
     assert tasks == sorted(tasks) and set(tasks) == {0, 1}  # followed task 0, then moved on to task 1
     live = [text for _, _, text in shown if "*live*" in text]
     assert live and all("P01" in text and "attempts (drops): 0" in text for text in live)
+    batch = store.protocol.frame_batch
     first = [n for task, n, _ in shown if task == 0]
-    assert len(set(first)) >= 3  # frames arrived batch by batch while the task ran
-    assert view.track.run.task_index == 1 and len(view.track.rows) == runs[-1]["frames"]
+    assert first[:3] == [batch, 2 * batch, 3 * batch]  # frames arrived batch by batch while the task ran
+    assert view.track.run.task_index == 1 and len(view.track.frames) == runs[-1]["frames"]
     assert view.playback.follow and view.playback.seconds == view.track.duration  # on the newest frame
     assert "(completed)" in view.hud.content and "completed in" in view.hud.content
+
+
+def test_the_view_refuses_a_websocket_from_another_page_and_serves_its_own(logged_study):
+    import viser
+    import websockets
+    from websockets.sync.client import connect
+
+    with open_readonly(logged_study) as store:
+        view = View(store, find_session(store, "P01"), "P01", free_port())
+        try:
+            port = view.server.get_port()
+            protocol = [f"viser-v{viser.__version__}"]
+            for origin in ("http://evil.example", f"http://127.0.0.1:{port + 1}", None):
+                with connect(f"ws://127.0.0.1:{port}", origin=origin, subprotocols=protocol) as foreign:
+                    with pytest.raises(websockets.ConnectionClosed) as closed:
+                        foreign.recv()  # nothing arrives: the view closes the connection first
+                    assert closed.value.rcvd.code == 1008 and f"Origin {origin!r}" in closed.value.rcvd.reason
+            rebound = f"rebound.example:{port}"  # a name another site made point here (DNS rebinding)
+            with connect(f"ws://{rebound}", sock=socket.create_connection(("127.0.0.1", port)),
+                         origin=f"http://{rebound}", subprotocols=protocol) as page:
+                with pytest.raises(websockets.ConnectionClosed) as closed:
+                    page.recv()
+                assert closed.value.rcvd.reason == f"Host {rebound!r} is not this view's page"
+            for host in ("127.0.0.1", "localhost"):
+                with connect(f"ws://{host}:{port}", origin=f"http://{host}:{port}", subprotocols=protocol) as own:
+                    assert len(own.recv()) > 0  # the view's own page gets the scene
+        finally:
+            view.close()
 
 
 def test_the_view_command_says_what_is_missing_before_serving(logged_study, tmp_path):
     run = CliRunner().invoke
     assert "Usage: microg view" in run(main, ["view", "--help"], prog_name="microg").output
-    assert "Usage: microg view export" in run(main, ["view", "export", "--help"], prog_name="microg").output
     result = run(main, ["view"])
-    assert result.exit_code == 2 and "give --study DIR" in result.output
-    result = run(main, ["view", "--study", str(tmp_path / "nothing")])
+    assert result.exit_code == 2 and "Missing argument 'STUDY_DIR'" in result.output
+    result = run(main, ["view", str(tmp_path / "nothing")])
     assert result.exit_code == 1 and f"no study in {tmp_path / 'nothing'}" in result.output
-    result = run(main, ["view", "--study", str(logged_study), "--session", "P02"])
+    result = run(main, ["view", str(logged_study), "--session", "P02"])
     assert result.exit_code == 1 and "no participant or session 'P02'" in result.output
-    result = run(main, ["view", "--study", str(logged_study), "--session", "P01", "--task", "4", "--port",
-                        str(free_port())])
+    result = run(main, ["view", str(logged_study), "--session", "P01", "--task", "4", "--port", str(free_port())])
     assert result.exit_code == 1 and "has no logged task 4" in result.output

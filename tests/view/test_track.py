@@ -3,7 +3,7 @@ reader in another thread following a session while it is written."""
 
 from __future__ import annotations
 
-import sqlite3
+import threading
 import time
 
 import numpy as np
@@ -13,7 +13,9 @@ from scipy.spatial.transform import Rotation
 from microg.study.store import StoreError
 from microg.view.track import find_run, find_session, key_moments, open_readonly, read_track, session_runs
 
-from .conftest import new_study, session_in_background
+from tests.study.scripted import gated_session
+
+from .conftest import new_study
 
 CUBE_HALF = 0.03
 PHALANX_RADIUS = 0.008
@@ -36,7 +38,7 @@ def test_key_moments_are_the_pick_up_each_place_and_the_release(logged_study):
     moments = key_moments(track, 3)
     assert [m.label for m in moments] == ["start", "picked up", "place 1", "place 2", "place 3", "released"]
     assert [m.index for m in moments] == sorted(m.index for m in moments)
-    held = [i for i, row in enumerate(track.rows) if row[7]]
+    held = list(np.flatnonzero(track.frames["held"]))
     assert moments[1].index == held[0] > 0
     for k, moment in enumerate(moments[2:5]):
         scene = track.scene(moment.index, 3)
@@ -46,7 +48,7 @@ def test_key_moments_are_the_pick_up_each_place_and_the_release(logged_study):
         after = track.scene(moment.index + 1, 3)
         assert after.places[k] == "done"
     end = track.scene(moments[-1].index, 3)
-    assert moments[-1].index == len(track.rows) - 1 and end.stage == "completed" and end.places == ("done",) * 3
+    assert moments[-1].index == len(track.frames) - 1 and end.stage == "completed" and end.places == ("done",) * 3
     assert end.t == pytest.approx(track.run.time_s, abs=0.3)  # the task ends when the hold has gone
 
 
@@ -57,7 +59,7 @@ def test_the_rendered_hand_stays_on_the_surface_while_the_tracked_hand_sinks_in(
     with open_readonly(logged_study) as store:
         track = read_track(store, find_run(store, find_session(store, "P01"), 0))
     depths = []
-    for index in range(0, len(track.rows), 5):
+    for index in range(0, len(track.frames), 5):
         scene = track.scene(index, 3)
         if not (scene.held and scene.touching.any()):
             continue
@@ -73,30 +75,34 @@ def test_the_rendered_hand_stays_on_the_surface_while_the_tracked_hand_sinks_in(
 
 def test_a_reader_follows_a_session_while_another_thread_writes_it(tmp_path):
     folder = new_study(tmp_path / "study")
-    writer = session_in_background(folder, pace=0.002)
-    seen = []  # (frames read, run status) at each poll
+    gate = threading.Semaphore(0)
+    writer = gated_session(folder, gate)  # commits a frame batch, then waits for the gate
+    seen = []  # (frames read, run status) after each batch the session commits
     with open_readonly(folder) as store:
-        deadline = time.monotonic() + 60
+        batch = store.protocol.frame_batch
         while (session := find_session(store, "P01")) is None or not session_runs(store, session.id):
-            assert time.monotonic() < deadline and writer.is_alive()
-            time.sleep(0.05)
+            assert writer.is_alive(), "the session ended before its first task started"
+            time.sleep(0.01)
         track = read_track(store, session_runs(store, session.id)[0])
         while track.run.status == "running":
-            assert time.monotonic() < deadline
-            track.refresh(store)
-            seen.append((len(track.rows), track.run.status))
-            time.sleep(0.1)
-        writer.join(60)
+            before = len(track.frames)
+            gate.release()  # the session may commit its next batch (or end the task)
+            while track.refresh(store) == 0 and track.run.status == "running":
+                assert writer.is_alive()
+                time.sleep(0.01)
+            seen.append((before, len(track.frames), track.run.status))
+        gate.release(1_000_000)  # let the session run on to its end
+        writer.join()
         logged = store.db.execute("SELECT frames FROM task_runs WHERE id = ?", (track.run.id,)).fetchone()[0]
-    growing = [n for n, status in seen if status == "running"]
-    assert len(set(growing)) >= 3 and growing == sorted(growing) and 0 < growing[-1] < logged
-    assert len(track.rows) == logged and [r[0] for r in track.rows] == list(range(logged))
-    assert track.run.status == "completed"
+    growing = [(before, after) for before, after, status in seen if status == "running"]
+    assert len(growing) >= 3 and all(after == before + batch for before, after in growing)  # batch by batch
+    assert 0 < growing[-1][1] < logged and len(track.frames) == logged
+    assert (np.diff(track.frames["t"]) > 0).all() and track.run.status == "completed"
 
 
 def test_the_view_opens_a_study_read_only_and_names_what_is_missing(logged_study, tmp_path):
     with open_readonly(logged_study) as store:
-        with pytest.raises(sqlite3.OperationalError, match="readonly"):
+        with pytest.raises(StoreError, match="the study database cannot be written .*readonly"):
             store.db.execute("INSERT INTO events (session_id, t, wall, kind, data) VALUES (1, 0, '', 'x', '{}')")
         assert find_session(store, None).participant_id == "P01"
         assert find_session(store, "1").participant_id == "P01"

@@ -1,0 +1,150 @@
+"""The design a power analysis plans for, read from the protocol: groups between participants and
+one factor within them (the objects, or the systems of the stages), and the tests the report
+runs on it: three ANOVA terms and three families of Bonferroni-corrected pairwise contrasts."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:  # a Dask worker unpickling a Design needs no protocol machinery
+    from microg.study.protocol import Protocol
+
+WITHIN_FACTORS = ("object", "system")
+"""What the within factor can be: the protocol's objects, or the systems its stages compare."""
+
+
+class PowerInputError(ValueError):
+    """Input a power analysis cannot use; the message names the file (or option), key and value."""
+
+
+@dataclass(frozen=True)
+class Contrast:
+    """One pairwise comparison of the report's post hoc tests.
+
+    ``pair`` (A, B) is compared by ``factor`` at ``at`` (a level, a group, or None: averaged over
+    groups), as a row of ``microg.analysis.posthoc``; ``family`` is its Bonferroni family.
+    ``levels`` weights the within levels of each participant (a difference of two levels, or one
+    level), ``groups`` weights the group means of that value.
+    """
+
+    name: str
+    family: str
+    factor: str
+    at: str | None
+    pair: tuple[str, str]
+    levels: tuple[float, ...]
+    groups: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Design:
+    """Groups (between) x levels of one within factor, with the names the protocol gives them.
+
+    ``group_codes`` and ``level_codes`` map the codes in exported tables (V, C, ...) to names;
+    ``systems`` are the systems the protocol's stages run, the system under test first.
+    """
+
+    protocol: str
+    between: str
+    groups: tuple[str, ...]
+    within: str
+    levels: tuple[str, ...]
+    group_codes: dict
+    level_codes: dict
+    systems: tuple[str, ...]
+
+    @property
+    def terms(self) -> tuple[str, ...]:
+        """The ANOVA terms, named as in the ANOVA table."""
+        return (self.between, self.within, f"{self.between}:{self.within}")
+
+    @property
+    def contrasts(self) -> tuple[Contrast, ...]:
+        """The report's post hoc comparisons, each named by its levels.
+
+        ``a - b`` compares two within levels averaged over groups (one family); ``g1 - g2 | level``
+        compares groups at one level (one family); ``a - b | group`` compares levels inside one group
+        (one family), as ``microg.analysis.posthoc(..., within_by_group=True)``.
+        """
+        k, g = len(self.levels), len(self.groups)
+        unit_level, unit_group = np.eye(k), np.eye(g)
+        level_pairs = list(combinations(range(k), 2))
+        lv, gr = self.levels, self.groups
+        found = [
+            Contrast(f"{lv[a]} - {lv[b]}", self.within, self.within, None, (lv[a], lv[b]),
+                     tuple(unit_level[a] - unit_level[b]), (1 / g,) * g)
+            for a, b in level_pairs
+        ]
+        found += [
+            Contrast(f"{gr[a]} - {gr[b]} | {level}", f"{self.between} | {self.within}", self.between, level,
+                     (gr[a], gr[b]), tuple(unit_level[j]), tuple(unit_group[a] - unit_group[b]))
+            for j, level in enumerate(lv)
+            for a, b in combinations(range(g), 2)
+        ]
+        found += [
+            Contrast(f"{lv[a]} - {lv[b]} | {group}", f"{self.within} | {self.between}", self.within, group,
+                     (lv[a], lv[b]), tuple(unit_level[a] - unit_level[b]), tuple(unit_group[i]))
+            for i, group in enumerate(gr)
+            for a, b in level_pairs
+        ]
+        return tuple(found)
+
+    @property
+    def tests(self) -> tuple[str, ...]:
+        """Every test a power table reports: the ANOVA terms, then the contrasts."""
+        return self.terms + tuple(c.name for c in self.contrasts)
+
+    def report_p(self, corrections, post):
+        """The p the report reads for each of ``tests``, from its ``sphericity_correction`` table (one
+        row per term, in order) and its ``posthoc(..., within_by_group=True)`` table; pandas Series."""
+        import pandas as pd
+
+        found = {(r.factor, None if pd.isna(r.at) else r.at, frozenset((r.A, r.B))): r.p_bonf
+                 for r in post.itertuples(index=False)}
+        p = dict(zip(self.terms, corrections["p"]))
+        p.update({c.name: found[(c.factor, c.at, frozenset(c.pair))] for c in self.contrasts})
+        return pd.Series(p)[list(self.tests)]
+
+    def check_sample(self, n_per_group: int, key: str = "--n") -> None:
+        """Refuse a group size the report could not analyse (fewer than 2, or fewer error degrees of
+        freedom than the within levels need)."""
+        g, k = len(self.groups), len(self.levels)
+        if not isinstance(n_per_group, int) or n_per_group < 2:
+            raise PowerInputError(f"{key} = {n_per_group!r}: each group needs at least 2 participants")
+        if g * (n_per_group - 1) < k - 1:
+            raise PowerInputError(f"{key} = {n_per_group}: {g} groups of {n_per_group} leave {g * (n_per_group - 1)} "
+                                  f"error degrees of freedom; {k} levels of {self.within} need at least {k - 1}")
+
+    def as_dict(self) -> dict:
+        return {"protocol": self.protocol, "between": self.between, "groups": list(self.groups),
+                "within": self.within, "levels": list(self.levels)}
+
+
+def design_from_protocol(protocol: Protocol, within: str = "object") -> Design:
+    """The protocol's groups x its objects (``within="object"``) or x the systems its stages run
+    (``within="system"``, each participant's value being the mean over the objects).
+
+    Examples
+    --------
+    >>> from microg.paths import protocol_file
+    >>> from microg.study.protocol import load_protocol
+    >>> design = design_from_protocol(load_protocol(protocol_file("paper")))
+    >>> design.groups, design.levels, design.terms
+    (('veteran', 'beginner'), ('cube', 'flat_cuboid', 'long_cuboid'), ('group', 'object', 'group:object'))
+    """
+    if within not in WITHIN_FACTORS:
+        raise PowerInputError(f"--within = {within!r}: must be one of {list(WITHIN_FACTORS)}")
+    groups = {g.code: g.name for g in protocol.groups}
+    if within == "object":
+        levels = {o.code: o.name for o in protocol.objects}
+    else:
+        levels = {system: system for system in protocol.systems}
+    if len(groups) < 2 or len(levels) < 2:
+        raise PowerInputError(f"{protocol.where}: {len(groups)} group(s) and {len(levels)} {within} level(s): "
+                              "a mixed design needs at least two of each")
+    return Design(protocol.name, "group", tuple(groups.values()), within, tuple(levels.values()), groups, levels,
+                  protocol.systems)

@@ -1,0 +1,148 @@
+"""The physics step, compiled for a scene's effects: one compiled call per frame for a whole batch.
+
+``specialise(effects)`` returns the compiled ``advance``: for each world of a batch it takes the
+hand frame (``hand_path.take_hands``), then runs as many physics steps of ``dt`` as fit up to the
+frame's timestamp. A step moves the hand, then runs for each object, with its rotation computed
+once, the paper's sequence: contacts (Eqs. 2-8), impulses at the onsets (Eqs. 9-15), the friction
+cone (Eqs. 19-20), the penetration springs (Eqs. 16-18), the compliant contacts, gravity, the
+velocity update and the pose update. Objects never touch each other, so one object's step needs
+nothing of another's.
+
+The effects are compile-time constants of ``advance`` (its closure): numba prunes the branches of
+the effects a scene does not name before it types the function, so their kernels are not in the
+machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
+Each set of effects compiles once and is cached on disk (``microg.sim.cache``).
+
+A step in which an object would turn more than ``MAX_TURN`` is cut into as many parts as that
+takes (a hard impact can spin a light bar to hundreds of rad/s, which a contact linearised over a
+whole step would no longer follow); almost always it is one.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from .contact import detect, sweep
+from .hand_path import move_hand, take_hands
+from .impulse import apply_impulses, spring_onsets
+from .integrate import add_gravity, rotate_constant, rotate_free, update_position, update_velocity
+from .penetration import friction_cone, penetration_forces
+from .soft_hand import soft_hand_forces
+from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, unpack,
+                    unpack_params)
+from .table import table_contacts
+from .vec import entry, kernel, rotation
+
+CONTACT_EFFECTS = frozenset({"impulse", "penetration", "soft_hand"})
+MAX_TURN = 0.1
+"""rad: the most an object may turn in one physics step; faster spins cut the step into parts."""
+MAX_PARTS = 64
+
+
+@kernel
+def start_frame(s, t):
+    """Note the frame's time; returns the interval since the frame before (0 for the first)."""
+    if s.counter[COUNT_FRAMES] == 0:
+        s.clock[CLOCK_START] = s.clock[CLOCK_TIME] = s.clock[CLOCK_PREVIOUS_FRAME] = t
+    else:
+        s.clock[CLOCK_PREVIOUS_FRAME] = s.clock[CLOCK_FRAME]
+    s.clock[CLOCK_FRAME] = t
+    s.counter[COUNT_FRAMES] += 1
+    return s.clock[CLOCK_FRAME] - s.clock[CLOCK_PREVIOUS_FRAME]
+
+
+@kernel
+def steps_due(s, h):
+    """How many physics steps of h fit between the first frame and this one."""
+    return math.floor((s.clock[CLOCK_FRAME] - s.clock[CLOCK_START]) / h + 1e-9)
+
+
+@kernel
+def parts_of_step(s, h):
+    """Into how many parts this step is cut so that no object turns more than ``MAX_TURN`` in one."""
+    fastest = 0.0
+    for o in range(s.angular_velocity.shape[0]):
+        w = s.angular_velocity[o]
+        fastest = max(fastest, w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    return min(MAX_PARTS, max(1, math.ceil(math.sqrt(fastest) * h / MAX_TURN)))
+
+
+@kernel
+def end_part(s, h):
+    for k in range(s.fresh.shape[0]):
+        s.fresh[k] = False
+    s.clock[CLOCK_TIME] += h
+
+
+@kernel
+def end_step(s, h):
+    s.counter[COUNT_STEPS] += 1
+    s.clock[CLOCK_TIME] = s.clock[CLOCK_START] + s.counter[COUNT_STEPS] * h
+
+
+@lru_cache(maxsize=None)
+def specialise(effects: frozenset[str]):
+    """The compiled ``advance(params, ints, reals, flags, counts, times, present, track, points, widths)``
+    for exactly these effects (module docstring); state buffers have a leading world axis."""
+    contacts = bool(effects & CONTACT_EFFECTS)
+    swept = "continuous_collision" in effects
+    anchored = "soft_hand" not in effects
+    impulse = "impulse" in effects
+    friction = "friction" in effects
+    cone = friction and "penetration" in effects
+    penetration = "penetration" in effects
+    soft_hand = "soft_hand" in effects
+    gravity = "gravity" in effects
+    table = "table" in effects
+    gyroscopic = "gyroscopic" in effects
+
+    @entry
+    def advance(params, ints, reals, flags, counts, times, present, track, points, widths):
+        n = ints.shape[0] - 1
+        p = unpack_params(params, ints, n)
+        wrench, stiffness, damping = np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6))
+        for world in range(reals.shape[0]):
+            s = unpack(reals[world], flags[world], counts[world], n)
+            interval = start_frame(s, times[world])
+            take_hands(p, s, present[world], track[world], points[world], widths[world], interval)
+            due = steps_due(s, p.dt)
+            while s.counter[COUNT_STEPS] < due:
+                parts = parts_of_step(s, p.dt)
+                h = p.dt / parts
+                for _ in range(parts):
+                    move_hand(s, s.clock[CLOCK_PREVIOUS_FRAME], s.clock[CLOCK_FRAME], s.clock[CLOCK_TIME], h)
+                    for o in range(n):
+                        rot = rotation(s.orientation[o])
+                        if contacts:
+                            if swept:
+                                sweep(p, s, o, rot)
+                            detect(p, s, o, rot, anchored)
+                        if impulse:
+                            if apply_impulses(p, s, o, rot, penetration, h):
+                                rot = rotation(s.orientation[o])
+                        elif penetration:
+                            if spring_onsets(p, s, o, rot, h):
+                                rot = rotation(s.orientation[o])
+                        if cone:
+                            friction_cone(p, s, o, rot)
+                        if penetration:
+                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h)
+                        if soft_hand:
+                            soft_hand_forces(p, s, o, rot, friction, wrench, stiffness, damping, h)
+                        if gravity:
+                            add_gravity(p, o, wrench)
+                        if table:
+                            table_contacts(p, s, o, rot, wrench, stiffness, damping, h)
+                        update_velocity(p, s, o, rot, wrench, stiffness, damping, h)
+                        update_position(s, o, h)
+                        if gyroscopic:
+                            rotate_free(p, s, o, h)
+                        else:
+                            rotate_constant(s, o, h)
+                    end_part(s, h)
+                end_step(s, p.dt)
+
+    return advance

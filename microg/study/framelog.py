@@ -1,0 +1,177 @@
+"""The frame log: what every frame of a task run leaves in the study's store, written and read here only.
+
+A logged frame holds the task's state (stage, current place, its light and timer, grasped,
+held), the phalanx slots touching the object (bit k = slot k, ``microg.sim.slot_name(k)``), the
+object's pose and velocities, and for each hand side whether it was tracked, its track id, its
+joints, bone widths and palm pose exactly as the physics received them, and its rendered
+(god-object) phalanx centres. That is enough to draw a session again (``microg.view``), to
+measure it (the rating model, exports) and to simulate it again (``hand_frames``).
+
+Storage: the store commits frames a batch at a time (the protocol's ``logging.frame_batch``), so
+a batch is one row: the batch's columns side by side, compressed with zstd. The hands are kept
+exactly as the physics received them (float64, so a run simulates again bit for bit; a bone's
+width, constant over a track, costs next to nothing compressed); what the physics computed (the
+object's state, the rendered phalanges, timers) is kept as float32, 0.1 micrometre at arm's length.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame, World, rendered_phalanges
+from microg.sim.hand import N_BONES, N_DIGITS
+from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Observation, TaskState
+
+STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL
+"""A frame's ``stage`` is stored as its index here."""
+JOINTS = N_DIGITS * (N_BONES + 1)
+FRAME = np.dtype([
+    ("t", "<f8"), ("stage", "u1"), ("place", "u1"), ("place_lit", "?"), ("place_timer", "<f4"),
+    ("grasped", "?"), ("held", "?"), ("touching", "<u8"),
+    ("position", "<f4", 3), ("orientation", "<f4", 4), ("velocity", "<f4", 3), ("angular_velocity", "<f4", 3),
+    ("tracked", "?", 2), ("track_id", "<u4", 2), ("joints", "<f8", (2, N_DIGITS, N_BONES + 1, 3)),
+    ("widths", "<f8", (2, N_DIGITS, N_BONES)), ("palm_position", "<f8", (2, 3)),
+    ("palm_orientation", "<f8", (2, 4)), ("rendered", "<f4", (2, N_DIGITS * N_BONES, 3)),
+])
+"""One logged frame; per-side fields are indexed left (0), right (1). Untracked: NaN, ``tracked`` False."""
+CODEC = "zstd"
+
+
+def encode(frames: np.ndarray) -> bytes:
+    """A batch of ``FRAME`` records as one compressed blob (each field's column in turn)."""
+    columns = b"".join(np.ascontiguousarray(frames[name]).tobytes() for name in FRAME.names)
+    return pa.compress(columns, codec=CODEC, asbytes=True)
+
+
+def decode(blob: bytes, count: int) -> np.ndarray:
+    """The ``count`` ``FRAME`` records of a blob written by ``encode``."""
+    raw = pa.decompress(blob, decompressed_size=count * FRAME.itemsize, codec=CODEC, asbytes=True)
+    frames = np.empty(count, dtype=FRAME)
+    offset = 0
+    for name in FRAME.names:
+        field = FRAME.fields[name][0]
+        size = count * field.itemsize
+        frames[name] = np.frombuffer(raw, dtype=field.base, count=size // field.base.itemsize,
+                                     offset=offset).reshape((count,) + field.shape)
+        offset += size
+    return frames
+
+
+def record(frame: HandFrame, world: World, state: TaskState, observation: Observation) -> np.ndarray:
+    """One ``FRAME`` record: ``frame`` as the physics received it, ``world`` after it, the task
+    in ``state``, and ``observation`` (what the task judged: object 0, its contacts, the grasp)."""
+    out = np.zeros((), dtype=FRAME)
+    t = frame.timestamp
+    data = world.data
+    out["t"], out["stage"], out["place"] = t, STAGES.index(state.stage), state.place
+    out["place_lit"], out["place_timer"] = state.lit_since is not None, state.place_timer(t)
+    out["grasped"], out["held"] = observation.grasped, state.held
+    out["touching"] = sum(1 << int(k) for k in np.flatnonzero(observation.touching))
+    out["position"], out["orientation"] = data.position[0], data.orientation[0]
+    out["velocity"], out["angular_velocity"] = data.velocity[0], data.angular_velocity[0]
+    rendered = rendered_phalanges(world).reshape(2, -1, 3)
+    for side, name in enumerate(SIDES):
+        put_hand(out, side, frame.hand(name), rendered[side])
+    return out
+
+
+def put_hand(frame: np.ndarray, side: int, hand: Hand | None, rendered: np.ndarray) -> None:
+    """Fill one side's fields of a ``FRAME`` record: ``hand`` and its (20, 3) rendered phalanx
+    centres; NaN and not ``tracked`` when the hand is None."""
+    if hand is None:
+        frame["tracked"][side] = False
+        for field in ("joints", "widths", "palm_position", "palm_orientation", "rendered"):
+            frame[field][side] = np.nan
+        return
+    frame["tracked"][side], frame["track_id"][side] = True, hand.track_id
+    frame["joints"][side], frame["widths"][side] = hand.joints, hand.widths
+    frame["palm_position"][side], frame["palm_orientation"][side] = hand.palm_position, hand.palm_orientation
+    frame["rendered"][side] = rendered
+
+
+# ---------------------------------------------------------------- the store's side
+
+TABLE = "frames"
+"""``frames(run_id, first, count, t_first, t_last, data)``: one row per committed batch."""
+
+
+def insert(db: sqlite3.Connection, run_id: int, first: int, frames: list[np.ndarray]) -> None:
+    """Add a batch of records (frames ``first`` .. ``first + len(frames) - 1`` of the run)."""
+    if frames:
+        batch = np.stack(frames)
+        db.execute(f"INSERT INTO {TABLE} (run_id, first, count, t_first, t_last, data) VALUES (?, ?, ?, ?, ?, ?)",
+                   (run_id, first, len(batch), float(batch["t"][0]), float(batch["t"][-1]), encode(batch)))
+
+
+def count(db: sqlite3.Connection, run_id: int) -> int:
+    """Frames logged for the run."""
+    return db.execute(f"SELECT COALESCE(SUM(count), 0) FROM {TABLE} WHERE run_id = ?", (run_id,)).fetchone()[0]
+
+
+def read(db: sqlite3.Connection, run_id: int, start: int = 0) -> np.ndarray:
+    """The run's logged frames from frame ``start`` on (``FRAME`` records, in order)."""
+    rows = db.execute(f"SELECT first, count, data FROM {TABLE} WHERE run_id = ? AND first + count > ? ORDER BY first",
+                      (run_id, start)).fetchall()
+    if not rows:
+        return np.empty(0, dtype=FRAME)
+    frames = np.concatenate([decode(data, n) for _, n, data in rows])
+    return frames[start - rows[0][0]:]
+
+
+def hand_frames(frames: np.ndarray) -> list[HandFrame]:
+    """The hand frames exactly as the physics received them: feed them through the window filter
+    (``microg.hands.filter.HandFilter``) into ``microg.sim.step`` on the task's world to simulate
+    the run again."""
+    out = []
+    for f in frames:
+        hands = tuple(Hand(name, f["joints"][s].astype(np.float64), f["widths"][s].astype(np.float64),
+                           f["palm_position"][s].astype(np.float64), f["palm_orientation"][s].astype(np.float64),
+                           int(f["track_id"][s]))
+                      for s, name in enumerate(SIDES) if f["tracked"][s])
+        out.append(HandFrame(float(f["t"]), hands))
+    return out
+
+
+JOINT_NAMES = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
+"""Joint j of a digit is where bone j begins (j < 4) or the digit's tip."""
+STATE_COLUMNS = ("frame", "t", "stage", "place", "place_lit", "place_timer", "grasped", "held", "touching",
+                 "px", "py", "pz", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def hand_columns(side: str) -> list[str]:
+    """The flat table's columns for one side's hand: joints, widths, palm pose, rendered phalanges."""
+    names = [f"{side}_{d}_{j}_{axis}" for d in DIGITS for j in JOINT_NAMES for axis in "xyz"]
+    names += [f"{side}_{d}_{b}_width" for d in DIGITS for b in BONES]
+    names += [f"{side}_palm_{axis}" for axis in "xyz"] + [f"{side}_palm_q{c}" for c in "wxyz"]
+    names += [f"rendered_{side}_{d}_{b}_{axis}" for d in DIGITS for b in BONES for axis in "xyz"]
+    return names
+
+
+def frame_table(frames: np.ndarray) -> pd.DataFrame:
+    """The logged frames as one flat, tidy table (``STATE_COLUMNS``, then ``hand_columns`` of each
+    side): what exports write. NaN where a hand was not tracked."""
+    n = len(frames)
+    columns: dict[str, np.ndarray] = {
+        "frame": np.arange(n), "t": frames["t"], "stage": np.array(STAGES, dtype=object)[frames["stage"]],
+        "place": frames["place"].astype(np.int64), "place_lit": frames["place_lit"],
+        "place_timer": frames["place_timer"].astype(np.float64), "grasped": frames["grasped"],
+        "held": frames["held"], "touching": frames["touching"].astype(np.int64)}
+    for prefix, field in (("p", "position"), ("q", "orientation"), ("v", "velocity"), ("w", "angular_velocity")):
+        axes = "wxyz" if prefix == "q" else "xyz"
+        for i, axis in enumerate(axes):
+            columns[f"{prefix}{axis}"] = frames[field][:, i].astype(np.float64)
+    for s, side in enumerate(SIDES):
+        values = np.hstack([frames[field][:, s].reshape(n, -1) for field in
+                            ("joints", "widths", "palm_position", "palm_orientation", "rendered")]).astype(np.float64)
+        columns.update(zip(hand_columns(side), values.T))
+    return pd.DataFrame(columns)
+
+
+def touching_slots(mask) -> np.ndarray:
+    """(..., 40) the phalanx slots set in ``touching`` masks (one frame's, or a column of them)."""
+    bits = np.arange(2 * N_DIGITS * N_BONES, dtype=np.uint64)
+    return ((np.asarray(mask, dtype=np.uint64)[..., None] >> bits) & np.uint64(1)).astype(bool)

@@ -1,0 +1,42 @@
+"""What one frame of the world shows the task, and the simulated participant who plays it.
+
+The task's rules and a simulated participant look at the same thing: the object's pose, which
+phalanges touch it, whether it is grasped (``microg.sim.grasped``'s rule) and, for the
+participant, what the task displays. Nobody downstream of the physics reads ``world.data``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from microg.sim import World, grasped, touching
+
+if TYPE_CHECKING:
+    from .stages import TaskDisplay
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """The task's object at one moment (positions in metres, tracker frame)."""
+
+    t: float
+    grasped: bool
+    position: tuple[float, float, float] | np.ndarray
+    """The object's centre."""
+    orientation: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    """(w, x, y, z)."""
+    touching: np.ndarray | None = None
+    """(40,) True for each phalanx slot in contact with the object (``microg.sim.slot``)."""
+    display: TaskDisplay | None = None
+    """What the task shows (set by whoever runs the task, for a participant to follow)."""
+
+
+def observe(world: World, index: int = 0, display: TaskDisplay | None = None) -> Observation:
+    """What ``world`` shows of object ``index`` now."""
+    data = world.data
+    return Observation(world.time if not data.frames else data.frame_time, bool(grasped(world)[index]),
+                       data.position[index].copy(), data.orientation[index].copy(), touching(world)[:, index],
+                       display)

@@ -1,0 +1,442 @@
+"""The participant's view: a page the session serves itself, fed every frame as the physics computes it.
+
+    with ParticipantDisplay(protocol) as display:          # serves http://127.0.0.1:PORT/
+        run_session(..., on_moment=display.show, operator=DisplayOperator(display, operator),
+                    rater=DisplayRater(display, on_rejected))
+
+The session thread hands each frame's outcome to ``show`` (never through the database); the
+server thread keeps only the newest frame and sends it to each page as soon as the page can take
+it, so a slow browser skips frames and never falls behind. Everything else the participant sees
+(the instructions, a "get ready" before each task, the completion cue, the questionnaire) goes
+out in order and is repeated to a page that connects late. The page draws the newest frame at the
+display's refresh rate (``page/participant.js``), and answers the questionnaire, syncs its clock,
+reports when it drew each frame (``latency``) and, in a headset (``page/xr.js``), anchors the
+workspace where the participant puts it (``placement``) and streams the hand joints it tracks
+(``hands``: ``microg.hands.webxr``).
+
+What the page measures and decides (the clock offset, the placement) goes to ``on_event(kind,
+data)`` as ``display_clock`` and ``display_placement``; it arrives on the server's thread and is
+handed on from the thread that drives the display (the session's, whose store connection it may
+use) at its next call.
+
+Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
+one-time token (printed with the address). The WebSocket refuses any Origin but the page's own and
+any Host but the served one, so a web page open elsewhere in the browser cannot read the session.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import mimetypes
+import queue
+import secrets
+import threading
+import time
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+import numpy as np
+
+from microg.sim import rendered_phalanges
+from microg.study.protocol import Item, Phase, Protocol, Questionnaire, Stage, Viewpoint
+from microg.study.questionnaire import RatingError, parse_rating
+from microg.study.store import PlannedTask
+from microg.task import Moment
+
+from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
+
+PAGE = Path(__file__).with_name("page")
+"""The page's files: index.html, participant.js, style.css, and vendor/ (three.js, installed by setup)."""
+LOCALHOST = "127.0.0.1"
+ANSWER_POLL_S = 0.25
+"""While waiting for an answer, the display hands on the page's events this often (s)."""
+
+
+def now_ms() -> float:
+    """The session's clock for the page: wall time in milliseconds (the page syncs to it)."""
+    return time.time() * 1e3
+
+
+class ParticipantDisplay:
+    """The page's server (see the module docstring). ``url`` is what the participant opens."""
+
+    def __init__(self, protocol: Protocol, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
+                 hands=None, on_event=None):
+        self.protocol, self.host, self.hands, self.on_event = protocol, host, hands, on_event
+        self.viewpoint = protocol.viewpoint if viewpoint is None else viewpoint
+        self.token = None if host == LOCALHOST else secrets.token_urlsafe(12)
+        self._port = port
+        self._frame: str | None = None
+        self._frame_version = 0
+        self._context: dict[str, str] = {"workspace": self._workspace()}
+        """The latest message of each kind a late page needs: workspace, scene, timeline, question."""
+        self._events: queue.SimpleQueue[tuple[str, dict]] = queue.SimpleQueue()
+        self._answers: queue.Queue[str] = queue.Queue()
+        self.drawn: list[dict] = []
+        """What pages reported drawing: frame index, when its physics was ready, when it was drawn (ms)."""
+        self.clock: dict | None = None
+        """The page's clock offset from the session's and its spread (ms), once synced."""
+        self.placement: list[float] | None = None
+        """The headset's anchor: the 4 x 4 matrix (row-major) from the workspace to its XR space."""
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._changed: asyncio.Condition | None = None
+        self._started = threading.Event()
+        self._stop: asyncio.Event | None = None
+        self._thread: threading.Thread | None = None
+        self._clients = 0
+        self._outboxes: list[asyncio.Queue] = []
+        self._fresh: list[asyncio.Event] = []
+
+    # ------------------------------------------------------------ life
+
+    def __enter__(self) -> ParticipantDisplay:
+        self.start()
+        return self
+
+    def __exit__(self, *_) -> None:
+        self.close()
+
+    def start(self) -> None:
+        if not (PAGE / "vendor" / "three.module.js").exists():
+            raise FileNotFoundError(f"the participant page's three.js is missing from {PAGE / 'vendor'}: "
+                                    "install the front-end packages with `make setup` (npm ci)")
+        self._thread = threading.Thread(target=self._serve, name="participant-display", daemon=True)
+        self._thread.start()
+        self._started.wait()
+
+    def close(self) -> None:
+        if self._loop is not None and self._stop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+
+    @property
+    def port(self) -> int:
+        return self._port
+
+    @property
+    def url(self) -> str:
+        return f"http://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
+
+    @property
+    def connected(self) -> int:
+        """Pages connected now."""
+        return self._clients
+
+    # ------------------------------------------------------------ what the session shows
+
+    def deliver_events(self) -> None:
+        """Hand what the page measured or decided since the last call to ``on_event`` (see the
+        module docstring); the display calls it itself whenever the session shows something."""
+        while self.on_event is not None and not self._events.empty():
+            self.on_event(*self._events.get())
+
+    def phase(self, phase: Phase) -> None:
+        """An orientation or instructions phase: its text, until the next thing is shown."""
+        self.deliver_events()
+        self._publish("timeline", {"kind": "phase", "phase": phase.name, "text": phase.text.strip()})
+
+    def get_ready(self, task: PlannedTask) -> None:
+        """Before a task: the scene of the task, and "get ready"."""
+        self.deliver_events()
+        layout = task_layout(self.protocol, task.object)
+        camera = default_camera(layout, fov_deg=self.viewpoint.fov_deg)
+        eye = camera.eye if self.viewpoint.eye is None else np.asarray(self.viewpoint.eye)
+        target = camera.target if self.viewpoint.look_at is None else np.asarray(self.viewpoint.look_at)
+        self._publish("scene", {
+            "task": task.index, "phase": task.phase, "object": task.object, "shape": layout.shape,
+            "size": layout.size.tolist(), "start": layout.start.tolist(), "places": layout.places.tolist(),
+            "place_radius": layout.place_radius, "hold_s": layout.hold_s,
+            "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),
+                                                              "size": layout.table_size.tolist()},
+            "camera": {"eye": list(map(float, eye)), "target": list(map(float, target)),
+                       "fov_deg": self.viewpoint.fov_deg},
+            "palette": PALETTE})
+        self._frame = None
+        self._publish("timeline", {"kind": "ready", "task": task.index, "object": task.object,
+                                   "label": self._label(task)})
+
+    def task_started(self, task: PlannedTask) -> None:
+        self.deliver_events()
+        self._publish("timeline", {"kind": "task", "task": task.index, "label": self._label(task)})
+
+    def task_finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        """The completion cue."""
+        self.deliver_events()
+        self._publish("timeline", {"kind": "done", "task": task.index, "status": status, "time_s": time_s})
+
+    def show(self, moment: Moment) -> None:
+        """One frame's outcome: the rendered hand with its highlight, the object, the places, the
+        timers; kept as the newest frame and sent to each page as soon as it can take it."""
+        self.deliver_events()
+        world, state, display = moment.world, moment.state, moment.observation.display
+        rendered = rendered_phalanges(world)
+        hands = []
+        for side in range(2):
+            hand = moment.frame.hand(("left", "right")[side])
+            if hand is None:
+                continue
+            values = HandValues(hand.joints, hand.widths, hand.palm_position, hand.palm_orientation,
+                                rendered[side * 20:(side + 1) * 20])
+            bones = rendered_bones(values)
+            drawn = bones.drawn
+            hands.append({"side": side, "start": np.round(bones.start[drawn], 5).tolist(),
+                          "end": np.round(bones.end[drawn], 5).tolist(),
+                          "radius": np.round(bones.radius[drawn], 5).tolist(),
+                          "touching": moment.observation.touching[side * 20:(side + 1) * 20][drawn].tolist()})
+        t = moment.frame.timestamp
+        message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": now_ms(),
+                   "object": np.round(np.concatenate([world.data.position[0], world.data.orientation[0]]), 6).tolist(),
+                   "hands": hands, "stage": display.stage, "place": display.place, "lit": display.lit,
+                   "place_timer": round(display.timer_s, 3),
+                   "task_timer": round(t - state.started, 3) if state.started is not None else 0.0,
+                   "attempts": state.drops, "held": state.held}
+        self._frame = json.dumps(message)
+        self._frame_version += 1
+        self._notify()
+
+    def ask(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> None:
+        """Show one questionnaire item (its answers come from ``next_answer``)."""
+        self.deliver_events()
+        self._publish("question", {"kind": "question", "item": item.name, "label": stage.label,
+                                   "question": item.question, "low": item.low, "high": item.high,
+                                   "min": questionnaire.scale_min, "max": questionnaire.scale_max})
+
+    def next_answer(self) -> str:
+        """Wait for the page's next answer to the question shown (its text, not yet checked),
+        handing on what the page measures meanwhile."""
+        while True:
+            self.deliver_events()
+            try:
+                return self._answers.get(timeout=ANSWER_POLL_S)
+            except queue.Empty:
+                continue
+
+    def answer_rejected(self, message: str) -> None:
+        self._send_event({"type": "rejected", "message": message})
+
+    def answer_accepted(self) -> None:
+        self._context.pop("question", None)
+        self._send_event({"type": "accepted"})
+
+    # ------------------------------------------------------------ plumbing
+
+    def _workspace(self) -> str:
+        """What a headset needs to place the workspace before any task: the point the participant's
+        palm marks (the table top's centre, or without a table the desk under the workspace, at
+        the tracker's height), the table's footprint and the height of the highest place's top
+        (for the text above them), in the tracker frame; and whether the session reads its hands
+        from the page."""
+        layout = task_layout(self.protocol, self.protocol.objects[0].name)
+        height = 0.0 if layout.table_height is None else layout.table_height
+        mark = [float(layout.table_centre[0]), float(height), float(layout.table_centre[2])]
+        top = max(float(layout.places[:, 1].max()) + layout.place_radius, float(layout.start[1]))
+        return json.dumps({"type": "workspace", "mark": mark, "top": top,
+                           "footprint": [float(layout.table_size[0]), float(layout.table_size[2])],
+                           "stream_hands": self.hands is not None})
+
+    def _label(self, task: PlannedTask) -> str:
+        label = next((s.label for s in self.protocol.stages if s.name == task.phase), task.phase)
+        return f"{label}: {task.object.replace('_', ' ')} ({task.order_position} of " \
+               f"{sum(1 for o in (self.protocol.objects if task.phase != 'training' else self.protocol.training.objects))})"
+
+    def _publish(self, kind: str, body: dict) -> None:
+        message = json.dumps({"type": kind, **body})
+        self._context[kind] = message
+        self._send_event(json.loads(message))
+
+    def _send_event(self, body: dict) -> None:
+        text = json.dumps(body)
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._queue_event, text)
+
+    def _queue_event(self, text: str) -> None:
+        for outbox in self._outboxes:
+            outbox.put_nowait(text)
+
+    def _notify(self) -> None:
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._wake)
+
+    def _wake(self) -> None:
+        for flag in self._fresh:
+            flag.set()
+
+    def _serve(self) -> None:
+        asyncio.run(self._main())
+
+    async def _main(self) -> None:
+        from websockets.asyncio.server import serve
+
+        self._stop = asyncio.Event()
+        self._loop = asyncio.get_running_loop()
+        async with serve(self._connection, self.host, self._port, process_request=self._http,
+                         origins=None, compression=None, max_size=2 ** 20) as server:
+            self._port = server.sockets[0].getsockname()[1]
+            self._started.set()
+            await self._stop.wait()
+
+    def _allowed_origins(self) -> set[str]:
+        hosts = {self.host, "localhost"} if self.host == LOCALHOST else {self.host}
+        return {f"http://{h}:{self._port}" for h in hosts} | {f"https://{h}:{self._port}" for h in hosts}
+
+    def _refusal(self, request) -> str | None:
+        """Why a request must be refused (a foreign Host or Origin, a missing token), or None."""
+        host = request.headers.get("Host", "")
+        if host not in {o.split("://", 1)[1] for o in self._allowed_origins()}:
+            return f"Host {host!r} is not this server"
+        origin = request.headers.get("Origin")
+        if request.path.startswith("/ws") and origin not in self._allowed_origins():
+            return f"Origin {origin!r} is not this page's"
+        if self.token is not None and request.path.startswith("/ws"):
+            token = parse_qs(urlsplit(request.path).query).get("token", [None])[0]
+            if not (token and secrets.compare_digest(token, self.token)):
+                return "the page did not present this session's token"
+        return None
+
+    def _http(self, connection, request):
+        from websockets.datastructures import Headers
+        from websockets.http11 import Response
+
+        refusal = self._refusal(request)
+        if refusal is not None:
+            return connection.respond(403, f"refused: {refusal}\n")
+        path = urlsplit(request.path).path
+        if path == "/ws":
+            return None
+        name = "index.html" if path == "/" else path.lstrip("/")
+        file = (PAGE / name).resolve()
+        if PAGE.resolve() not in file.parents or not file.is_file():
+            return connection.respond(404, "not found\n")
+        body = file.read_bytes()
+        kind = mimetypes.guess_type(file.name)[0] or "application/octet-stream"
+        if file.suffix == ".js":
+            kind = "text/javascript"
+        return Response(200, "OK", Headers([("Content-Type", kind), ("Content-Length", str(len(body))),
+                                             ("Cache-Control", "no-store")]), body)
+
+    async def _connection(self, websocket) -> None:
+        outbox: asyncio.Queue = asyncio.Queue()
+        fresh = asyncio.Event()
+        self._outboxes.append(outbox)
+        self._fresh.append(fresh)
+        self._clients += 1
+        for kind in ("workspace", "scene", "timeline", "question"):
+            if kind in self._context:
+                outbox.put_nowait(self._context[kind])
+        if self._frame is not None:
+            fresh.set()
+        sender = asyncio.create_task(self._send(websocket, outbox, fresh))
+        try:
+            async for message in websocket:
+                self._receive(websocket, message)
+        except Exception:  # a page that goes away mid-message is simply gone
+            pass
+        finally:
+            sender.cancel()
+            self._outboxes.remove(outbox)
+            self._fresh.remove(fresh)
+            self._clients -= 1
+
+    async def _send(self, websocket, outbox: asyncio.Queue, fresh: asyncio.Event) -> None:
+        """Events in order; then the newest frame (never a backlog of frames)."""
+        while True:
+            while not outbox.empty():
+                await websocket.send(outbox.get_nowait())
+            waiting_event = asyncio.ensure_future(outbox.get())
+            waiting_frame = asyncio.ensure_future(fresh.wait())
+            done, pending = await asyncio.wait({waiting_event, waiting_frame}, return_when=asyncio.FIRST_COMPLETED)
+            for future in pending:
+                future.cancel()
+            if waiting_event in done:
+                await websocket.send(waiting_event.result())
+            if fresh.is_set():
+                fresh.clear()
+                if self._frame is not None:
+                    await websocket.send(self._frame)
+
+    def _receive(self, websocket, text: str) -> None:
+        try:
+            message = json.loads(text)
+            kind = message["type"]
+        except (ValueError, KeyError, TypeError):
+            return
+        if kind == "ping":
+            asyncio.ensure_future(websocket.send(json.dumps({"type": "pong", "t0": message.get("t0"),
+                                                             "ts": now_ms()})))
+        elif kind == "clock":
+            clock = {name: _number(message.get(key)) for name, key in
+                     (("offset_ms", "offset"), ("rtt_ms", "rtt"), ("spread_ms", "spread"))}
+            if clock["offset_ms"] is not None:
+                self.clock = clock
+                self._events.put(("display_clock", clock))
+        elif kind == "drawn":
+            self.drawn.append({"frame": message.get("i"), "t": message.get("t"), "ready_ms": message.get("ready"),
+                               "drawn_ms": message.get("drawn")})
+        elif kind == "answer" and "question" in self._context:
+            self._answers.put(str(message.get("value", "")))
+        elif kind == "hands" and self.hands is not None:
+            self.hands.receive(message, self.clock)
+        elif kind == "placement":
+            anchor = message.get("anchor")
+            values = [_number(v) for v in anchor] if isinstance(anchor, list) and len(anchor) == 16 else [None]
+            if None not in values:
+                self.placement = values
+                self._events.put(("display_placement", {
+                    "anchor": values, "mode": str(message.get("mode", "")),
+                    "reference_space": str(message.get("space", "")), "hand": str(message.get("hand", ""))}))
+
+
+def _number(value) -> float | None:
+    """A finite number from the page, or None."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        return None
+    return float(value)
+
+
+class DisplayOperator:
+    """The researcher keeps the terminal (``operator``: start, skip, abort); the participant's page
+    shows each phase's text, a "get ready" before each task and a cue when it is done."""
+
+    def __init__(self, display: ParticipantDisplay, operator):
+        self.display, self.operator = display, operator
+
+    def show(self, phase: Phase) -> None:
+        self.display.phase(phase)
+        self.operator.show(phase)
+
+    def ready(self, task: PlannedTask) -> bool:
+        self.display.get_ready(task)
+        go = self.operator.ready(task)
+        if go:
+            self.display.task_started(task)
+        return go
+
+    def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        self.display.task_finished(task, status, time_s)
+        self.operator.finished(task, status, time_s)
+
+
+class DisplayRater:
+    """The participant answers the questionnaire on the page; answers are checked and stored like
+    terminal answers, and a rejected answer is logged (``on_rejected``) and asked again."""
+
+    source = "participant"
+
+    def __init__(self, display: ParticipantDisplay, on_rejected=None):
+        self.display, self.on_rejected = display, on_rejected
+
+    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
+        self.display.ask(item, stage, questionnaire)
+        while True:
+            text = self.display.next_answer()
+            try:
+                rating = parse_rating(text, questionnaire.scale_min, questionnaire.scale_max)
+            except RatingError as error:
+                self.display.answer_rejected(str(error))
+                if self.on_rejected:
+                    self.on_rejected(item, stage, text, str(error))
+                continue
+            self.display.answer_accepted()
+            return rating

@@ -1,0 +1,290 @@
+// The participant's page: what the session sends, drawn at the display's refresh rate.
+//
+// Frames arrive over the WebSocket as fast as the physics computes them; the page keeps only the
+// newest and draws it on the next animation frame, so it never falls behind. Timeline messages
+// (instructions, "get ready", the completion cue, the questionnaire) change the text over the
+// scene. The page syncs its clock to the session's and, with ?latency=1 in its address, reports
+// when it drew each frame. window.microg exposes what was drawn, for tests and for the headset
+// module (xr.js), which adds the "Enter mixed reality" button where the browser offers WebXR.
+import * as THREE from "three";
+import { Workspace } from "./workspace.js";
+import { setupHeadset } from "./xr.js";
+
+const params = new URLSearchParams(location.search);
+const STAGES = {
+  manipulation: "Pick up the object",
+  maintenance: "Carry it to the lit place and hold it there",
+  release: "Let go of the object",
+  completed: "Done",
+  timeout: "Time is up",
+};
+
+const canvas = document.getElementById("scene");
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+renderer.setPixelRatio(window.devicePixelRatio);
+const scene = new THREE.Scene();
+scene.background = new THREE.Color(0x1b1e24);
+const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 10);
+camera.position.set(0, 0.45, 0.55);
+camera.lookAt(0, 0.2, 0);
+const workspace = new Workspace();
+scene.add(workspace.root);
+
+const microg = {
+  /** The newest frame message received, and the last one drawn. */
+  latest: null,
+  drawn: null,
+  /** Something besides a frame changed the picture (a new scene, a resize). */
+  dirty: true,
+  /** While true, new frames are received but not drawn (a test holds the picture still). */
+  hold: false,
+  scene: null,
+  /** Answers the session accepted so far. */
+  answered: 0,
+  camera,
+  renderer,
+  three: scene,
+  workspace,
+  /** The session's workspace message: the point a headset's placement marks, the table's footprint. */
+  layout: null,
+  socket: null,
+  clockOffset: 0,
+  /** Screen pixel (x, y from the top left) of a point in the tracker's frame. */
+  project(x, y, z) {
+    const p = new THREE.Vector3(x, y, z).project(camera);
+    const rect = canvas.getBoundingClientRect();
+    return [rect.left + (p.x + 1) / 2 * rect.width, rect.top + (1 - p.y) / 2 * rect.height];
+  },
+  /** The session's clock now (ms). */
+  now() {
+    return performance.timeOrigin + performance.now() + microg.clockOffset;
+  },
+  send(message) {
+    if (microg.socket && microg.socket.readyState === WebSocket.OPEN) microg.socket.send(JSON.stringify(message));
+  },
+  /** Draw hooks another module (the headset's) adds: called with (frame) after each new frame. */
+  onFrame: [],
+  onScene: [],
+  /** Called with (time, xrFrame) at the start of every animation frame, before anything is drawn. */
+  beforeDraw: [],
+  /** With ?latency=1: what the page reported drawing, until someone takes them (a benchmark). */
+  reports: [],
+};
+window.microg = microg;
+
+// ---------------------------------------------------------------- text over the scene
+
+const message = document.getElementById("message");
+const hud = document.getElementById("hud");
+const question = document.getElementById("question");
+
+function say(title, text) {
+  document.getElementById("message-title").textContent = title;
+  document.getElementById("message-text").textContent = text || "";
+  message.hidden = false;
+  question.hidden = true;
+}
+
+function capital(word) {
+  return word.charAt(0).toUpperCase() + word.slice(1);
+}
+
+function timeline(m) {
+  if (m.kind === "phase") {
+    hud.hidden = true;
+    say(capital(m.phase), m.text);
+  } else if (m.kind === "ready") {
+    hud.hidden = true;
+    say("Get ready", `${m.label}\nThe task starts when the researcher starts it.`);
+  } else if (m.kind === "task") {
+    message.hidden = true;
+    hud.hidden = false;
+    document.getElementById("hud-task").textContent = m.label;
+  } else if (m.kind === "done") {
+    hud.hidden = true;
+    const result = m.status === "completed" ? `Completed in ${m.time_s.toFixed(1)} s` :
+                   m.status === "timeout" ? "Time is up for this task" : "This task has ended";
+    say(m.status === "completed" ? "Well done" : "Task over", result);
+  }
+}
+
+function showHud(frame) {
+  const places = workspace.layout ? workspace.layout.places.length : 0;
+  document.getElementById("hud-stage").textContent = `${STAGES[frame.stage] || frame.stage} · ${frame.task_timer.toFixed(1)} s`;
+  document.getElementById("hud-place").textContent = frame.lit
+    ? `Place ${frame.place + 1} lit: ${frame.place_timer.toFixed(1)} / ${workspace.layout.hold_s} s`
+    : frame.place < places ? `Place ${frame.place + 1} of ${places}` : `All ${places} places done`;
+  document.getElementById("hud-attempts").textContent = `Attempts: ${frame.attempts}`;
+}
+
+// ---------------------------------------------------------------- the questionnaire
+
+let typed = "";
+
+function ask(m) {
+  message.hidden = true;
+  hud.hidden = true;
+  question.hidden = false;
+  typed = "";
+  document.getElementById("question-label").textContent = m.label;
+  document.getElementById("question-text").textContent = m.question;
+  document.getElementById("question-low").textContent = `${m.min}: ${m.low}`;
+  document.getElementById("question-high").textContent = `${m.max}: ${m.high}`;
+  const note = document.getElementById("question-note");
+  note.textContent = "Click a number, or type it and press Enter.";
+  note.classList.remove("rejected");
+  const scale = document.getElementById("scale");
+  scale.replaceChildren();
+  for (let value = m.min; value <= m.max; value++) {
+    const button = document.createElement("button");
+    button.type = "button";
+    button.textContent = String(value);
+    button.dataset.value = String(value);
+    button.setAttribute("role", "radio");
+    button.addEventListener("click", () => answer(String(value)));
+    scale.append(button);
+  }
+  microg.question = m;
+}
+
+function answer(value) {
+  microg.send({ type: "answer", value });
+}
+microg.answer = answer;
+
+document.addEventListener("keydown", (event) => {
+  if (question.hidden) return;
+  if (/^[0-9]$/.test(event.key)) {
+    typed = (typed + event.key).slice(-2);
+  } else if (event.key === "Backspace") {
+    typed = typed.slice(0, -1);
+  } else if (event.key === "Enter" && typed) {
+    answer(typed);
+    typed = "";
+  } else {
+    return;
+  }
+  event.preventDefault();
+  for (const button of document.querySelectorAll("#scale button")) {
+    button.classList.toggle("chosen", button.dataset.value === typed);
+  }
+});
+question.addEventListener("submit", (event) => event.preventDefault());
+
+// ---------------------------------------------------------------- the connection
+
+const pings = [];
+
+function ping() {
+  microg.send({ type: "ping", t0: performance.timeOrigin + performance.now() });
+}
+
+function pong(m) {
+  const t1 = performance.timeOrigin + performance.now();
+  pings.push({ rtt: t1 - m.t0, offset: m.ts - (m.t0 + t1) / 2 });
+  if (pings.length < 12) {
+    setTimeout(ping, 20);
+    return;
+  }
+  // The offset of the quickest round trips: the least queueing, the best estimate.
+  const best = pings.sort((a, b) => a.rtt - b.rtt).slice(0, 4);
+  const offsets = best.map((p) => p.offset);
+  microg.clockOffset = offsets.reduce((a, b) => a + b, 0) / offsets.length;
+  microg.send({ type: "clock", offset: microg.clockOffset, rtt: best[0].rtt,
+                spread: Math.max(...offsets) - Math.min(...offsets) });
+  pings.length = 0;
+  setTimeout(ping, 10000);
+}
+
+function connect() {
+  const token = params.get("token");
+  const socket = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws` +
+                               (token ? `?token=${encodeURIComponent(token)}` : ""));
+  microg.socket = socket;
+  socket.addEventListener("open", () => {
+    say("Connected", "Waiting for the session to begin.");
+    ping();
+  });
+  socket.addEventListener("message", (event) => {
+    const m = JSON.parse(event.data);
+    if (m.type === "frame") {
+      m.received = microg.now();
+      microg.latest = m;
+    } else if (m.type === "workspace") {
+      microg.layout = m;
+    } else if (m.type === "scene") {
+      microg.scene = m;
+      workspace.setScene(m);
+      const { eye, target, fov_deg } = m.camera;
+      camera.fov = fov_deg;
+      camera.position.set(...eye);
+      camera.lookAt(...target);
+      camera.updateProjectionMatrix();
+      microg.latest = null;
+      microg.dirty = true;
+      for (const hook of microg.onScene) hook(m);
+    } else if (m.type === "timeline") {
+      timeline(m);
+    } else if (m.type === "question") {
+      ask(m);
+    } else if (m.type === "rejected") {
+      const note = document.getElementById("question-note");
+      note.textContent = m.message;
+      note.classList.add("rejected");
+    } else if (m.type === "accepted") {
+      microg.answered += 1;
+      say("Thank you", "Your answer is saved.");
+    } else if (m.type === "pong") {
+      pong(m);
+    }
+  });
+  socket.addEventListener("close", () => {
+    say("Disconnected", "The session's page server has stopped.");
+  });
+}
+
+// ---------------------------------------------------------------- drawing
+
+function resize() {
+  const width = window.innerWidth, height = window.innerHeight;
+  renderer.setSize(width, height, false);
+  camera.aspect = width / height;
+  camera.updateProjectionMatrix();
+  microg.dirty = true;
+}
+window.addEventListener("resize", resize);
+resize();
+
+const measure = params.get("latency") === "1";
+const KEPT_REPORTS = 100000;
+
+function draw(time, xrFrame) {
+  for (const hook of microg.beforeDraw) hook(time, xrFrame);
+  const frame = microg.hold ? microg.drawn : microg.latest;
+  const fresh = frame && frame !== microg.drawn;
+  if (fresh) {
+    workspace.setFrame(frame);
+    showHud(frame);
+    for (const hook of microg.onFrame) hook(frame);
+  }
+  const start = microg.now();
+  if (fresh || microg.dirty || renderer.xr.isPresenting) {
+    renderer.render(scene, camera);
+    microg.dirty = false;
+  }
+  if (fresh) {
+    microg.drawn = frame;
+    if (measure) {
+      const drawn = microg.now();
+      const report = { type: "drawn", i: frame.i, t: frame.t, ready: frame.ready, received: frame.received,
+                       render: drawn - start, drawn };
+      microg.send(report);
+      microg.reports.push(report);
+      if (microg.reports.length > KEPT_REPORTS) microg.reports.splice(0, microg.reports.length - KEPT_REPORTS);
+    }
+  }
+}
+renderer.setAnimationLoop(draw);
+microg.draw = draw;
+connect();
+setupHeadset(microg);

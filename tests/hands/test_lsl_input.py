@@ -1,0 +1,69 @@
+"""Hands from another tracker over LSL drive a real session: the same guard, filter and physics."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from microg.participant.scripted import probe_hand
+from microg.sim import HandFrame
+from microg.hands.lsl import CHANNELS, STREAM_TYPE, describe_channels, frame_of, sample_of
+from microg.study.export import run_frames, trials_table
+from microg.study.inputs import open_inputs, participant_plan
+from microg.study.session import SimulationClock, run_session
+
+from tests.study.conftest import make_study  # noqa: F401  (the fixture)
+from tests.study.scripted import RATE, ScriptedPinch, pinch_keyframes
+
+pylsl = pytest.importorskip("pylsl")
+
+
+def test_a_frame_goes_through_the_channel_layout_and_back_unchanged():
+    frame = HandFrame(1.5, (probe_hand({"thumb.distal": (0.0, 0.2, 0.0), "index.distal": (0.05, 0.2, 0.0)}),))
+    again = frame_of(sample_of(frame), frame.timestamp)
+    assert len(sample_of(frame)) == len(CHANNELS) == 206
+    assert [h.side for h in again.hands] == ["right"]
+    np.testing.assert_array_equal(again.hands[0].joints, frame.hands[0].joints)
+    np.testing.assert_array_equal(again.hands[0].widths, frame.hands[0].widths)
+
+
+def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F811
+    store, record = make_study("tiny")
+    name = "microg-test-hands"
+    info = pylsl.StreamInfo(name, STREAM_TYPE, len(CHANNELS), RATE, "double64", "microg-test-hands-source")
+    describe_channels(info)
+    outlet = pylsl.StreamOutlet(info)
+    tasks = store.tasks(store.create_session("P01", "lsl", False, "simulation").id)
+    published = []
+
+    def publish():
+        """The scripted pinch of each task, back to back, stamped at the tracking rate."""
+        while not outlet.have_consumers():
+            outlet.wait_for_consumers(1.0)
+        t0 = pylsl.local_clock()
+        offset = 0.0
+        for task in tasks:
+            source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task)))
+            while (frame := source.next_frame()) is not None:
+                outlet.push_sample(sample_of(frame), t0 + offset + frame.timestamp)
+                published.append(frame)
+            offset += source.keys[-1][0] + 1.0
+
+    inputs = open_inputs(f"lsl:{name}")
+    thread = threading.Thread(target=publish, daemon=True)
+    thread.start()
+    try:
+        status = run_session(store, store.session_of("P01").id, inputs, clock=SimulationClock(), progress=False)
+    finally:
+        inputs.close()
+    assert status == "completed"
+    trials = trials_table(store)
+    assert trials.completed.all() and (trials.attempts == 0).all()
+    runs = store.runs(store.session_of("P01").id)
+    assert all(r.status == "completed" for r in runs)
+    logged = run_frames(store, runs[0].id)
+    first = published[0].hands[0]
+    columns = [f"right_index_proximal_base_{a}" for a in "xyz"]
+    assert np.array_equal(logged[columns].iloc[0].to_numpy(dtype=float), first.joints[1, 1])

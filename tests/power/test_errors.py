@@ -1,0 +1,75 @@
+"""Bad input ends with one clear line naming the file (or option), the key and the value; no traceback."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from microg.cli import main
+
+from .conftest import ISSUE_EFFECTS, effects_text
+
+GOOD = {"veteran": {"cube": 45.0, "flat_cuboid": 55.0, "long_cuboid": 55.0},
+        "beginner": {"cube": 55.0, "flat_cuboid": 70.0, "long_cuboid": 70.0}}  # fmt: skip
+
+CASES = {
+    "unknown group": (effects_text({**GOOD, "expert": {"cube": 1.0}}, 20.0, 0.5), ["means.expert", "expert"]),
+    "unknown object": (effects_text({**GOOD, "veteran": {**GOOD["veteran"], "ball": 50.0}}, 20.0, 0.5),
+                       ["means.veteran.ball", "50.0", "'ball'"]),
+    "missing object": (effects_text({**GOOD, "beginner": {"cube": 1.0, "flat_cuboid": 2.0}}, 20.0, 0.5),
+                       ["means.beginner.long_cuboid"]),
+    "correlation 1": (effects_text(GOOD, 20.0, 1.0), ["correlation = 1.0", "(-0.5, 1)"]),
+    "correlation at -1/(k-1)": (effects_text(GOOD, 20.0, -0.5), ["correlation = -0.5", "(-0.5, 1)"]),
+    "correlation above 1": (effects_text(GOOD, 20.0, 1.7), ["correlation = 1.7"]),
+    "SD 0": (effects_text(GOOD, 0.0, 0.5), ["sd = 0.0", "positive"]),
+    "SD negative": (effects_text(GOOD, -3.0, 0.5), ["sd = -3.0", "positive"]),
+    "a mean that is text": (ISSUE_EFFECTS.replace("cube = 45.0", 'cube = "fast"'), ["means.veteran.cube", "'fast'"]),
+    "unknown key": ("sigma = 3\n" + ISSUE_EFFECTS, ["sigma = 3", "unknown key"]),
+    "both forms": (ISSUE_EFFECTS + "[covariance.veteran]\ncube = { cube = 1.0 }\n", ["sd = 20.0", "not both"]),
+    "asymmetric covariance": (
+        effects_text(GOOD, extra="".join(
+            f"[covariance.{g}]\ncube = {{ cube = 4.0, flat_cuboid = 1.0, long_cuboid = 0.0 }}\n"
+            f"flat_cuboid = {{ cube = {2.0 if g == 'beginner' else 1.0}, flat_cuboid = 4.0, long_cuboid = 0.0 }}\n"
+            "long_cuboid = { cube = 0.0, flat_cuboid = 0.0, long_cuboid = 4.0 }\n" for g in GOOD)),
+        ["covariance.beginner.cube.flat_cuboid = 1.0", "covariance.beginner.flat_cuboid.cube = 2.0", "symmetric"]),
+    "not TOML": ("sd = = 3\n", ["not valid TOML"]),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_bad_effects_file_names_file_key_and_value(tmp_path, case):
+    text, expected = CASES[case]
+    path = tmp_path / "effects.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(main, ["power", "--effects", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1, result.output
+    assert result.output.startswith("Error: ") and "Traceback" not in result.output
+    assert str(path) in result.output
+    for part in expected:
+        assert part in result.output, (part, result.output)
+    assert not (tmp_path / "out" / "power.csv").exists()
+
+
+@pytest.mark.parametrize("sizes, shown", [("8,1", "--n = 1"), ("0", "--n = 0"), ("-4,10", "--n = -4")])
+def test_fewer_than_two_per_group_is_refused(effects_file, tmp_path, sizes, shown):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--n", sizes, "--out", str(tmp_path)])
+    assert result.exit_code == 1 and result.output.startswith("Error: ")
+    assert shown in result.output and "at least 2" in result.output
+
+
+@pytest.mark.parametrize("option, value", [("--alpha", "1.5"), ("--alpha", "0"), ("--target", "0")])
+def test_levels_outside_their_range_are_refused(effects_file, tmp_path, option, value):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), option, value, "--out", str(tmp_path)])
+    assert result.exit_code == 1 and f"{option} = {float(value)!r}" in result.output
+
+
+def test_one_source_of_effects_exactly(effects_file, tmp_path):
+    both = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--simulated", "--out", str(tmp_path)])
+    none = CliRunner().invoke(main, ["power", "--out", str(tmp_path)])
+    assert both.exit_code == 2 and "--effects and --simulated" in both.output
+    assert none.exit_code == 2 and "exactly one of" in none.output
+
+
+def test_exact_power_of_in_silico_studies_is_refused(tmp_path):
+    result = CliRunner().invoke(main, ["power", "--simulated", "--method", "exact", "--out", str(tmp_path)])
+    assert result.exit_code == 1 and "--method exact" in result.output

@@ -1,0 +1,53 @@
+"""In-silico power: whole simulated studies through the real sessions and physics, one Dask task each
+(a cut-down protocol, 2 participants per group, 2 studies), and the first study rerun here from its
+seed and analysed with the report's own functions gives the same p values."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from microg.analysis import mixed_anova, posthoc, sphericity_correction
+from microg.cli import main
+from microg.power import design_from_protocol
+from microg.power.simulated import simulated_trials
+from microg.study.protocol import load_protocol
+
+QUICK = Path(__file__).parent / "quick.toml"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(3600)  # two whole studies on a shared 2-core machine; the test waits on the run, not a clock
+def test_simulated_studies_on_a_local_cluster(tmp_path):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["power", "--simulated", "--protocol", str(QUICK), "--n", "2", "--sims", "2",
+                                       "--seed", "5", "--workers", "2", "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    protocol = load_protocol(QUICK)
+    design = design_from_protocol(protocol)
+    rows = pd.read_csv(out / "simulations.csv")
+    assert sorted(rows["sim"].unique()) == [0, 1] and len(rows) == 2 * len(design.tests)
+    power = pd.read_csv(out / "power.csv")
+    assert list(power["term"]) == list(design.tests) and set(power["power"]) <= {0.0, 0.5, 1.0}
+    assert (power["method"] == "montecarlo").all()
+
+    seed = int(np.random.SeedSequence(5, spawn_key=(2, 0)).generate_state(1)[0])
+    trials = simulated_trials(protocol, 2, seed)
+    assert trials["simulated"].all() and trials["participant"].nunique() == 4
+    names = {o.code: o.name for o in protocol.objects}
+    groups = {g.code: g.name for g in protocol.groups}
+    stage1 = trials[(trials["stage"] == "stage1") & trials["completed"]]
+    cells = pd.DataFrame({"participant": stage1["participant"], "group": stage1["group"].map(groups),
+                          "object": stage1["object"].map(names), "value": stage1["time_s"].astype(float)})  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        anova = sphericity_correction(mixed_anova(cells, "value", "object", "group", "participant"))
+        post = posthoc(cells, "value", "object", "group", "participant", within_by_group=True)
+    first = rows[rows["sim"] == 0].set_index("term")["p"]
+    assert np.allclose(first[list(design.terms)], anova["p"], atol=1e-9)
+    assert np.isclose(first["cube - flat_cuboid"], post.loc[post["at"].isna(), "p_bonf"].iloc[0], atol=1e-9)

@@ -1,0 +1,147 @@
+"""The participant's view in a real browser: served by the session, drawn where the physics puts
+things, lighting the places, and answering the questionnaire on the page."""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import threading
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from microg.study import framelog
+from microg.study.inputs import PacedInputs
+from microg.study.protocol import load_protocol
+from microg.study.session import SimulationClock, Unattended, run_session
+from microg.study.store import Event, open_study
+from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
+
+from tests.study.conftest import PROTOCOLS, scripted_inputs
+
+from .browser import MISSING, chromium, page_text
+from .conftest import colour_mask, new_study, pixels_near
+
+needs_browser = pytest.mark.skipif(bool(MISSING), reason=f"needs {MISSING} (apt-get install chromium "
+                                                         "chromium-driver; pip install selenium)")
+WINDOW = (1000, 700)
+WORK_S = 300.0
+"""A generous bound for a tiny session on a loaded machine: the waits below end on events, this
+only keeps a broken run from hanging."""
+
+
+def session_with_display(folder, display: ParticipantDisplay) -> threading.Thread:
+    """P01's session, paced at real time, shown on ``display``, answered on its page."""
+    def run():
+        with open_study(folder) as store:
+            session = store.create_session("P01", "scripted", True, "simulation")
+
+            def rejected(item, stage, text, message):
+                store.log(session.id, [Event(0.0, "answer_rejected", {"item": item.name, "answer": text})])
+
+            run_session(store, session.id, PacedInputs(scripted_inputs(), speed=1.0), clock=SimulationClock(),
+                        operator=DisplayOperator(display, Unattended()), rater=DisplayRater(display, rejected),
+                        on_moment=display.show, progress=False)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    return thread
+
+
+def wait(driver, script: str):
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    return WebDriverWait(driver, WORK_S, poll_frequency=0.05).until(lambda d: d.execute_script(script))
+
+
+@needs_browser
+def test_the_participant_sees_the_task_where_the_physics_puts_it_and_answers_on_the_page(tmp_path):
+    from selenium.webdriver.common.by import By
+
+    folder = new_study(tmp_path / "study")
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        assert display.url.startswith("http://127.0.0.1:")
+        driver.get(display.url)
+        wait(driver, "return document.body.innerText.includes('Waiting for the session')")
+        session = session_with_display(folder, display)
+
+        # A place lights up when the object arrives there, held: hold the picture still then.
+        drawn = wait(driver, "const d = window.microg.drawn; if (d && d.lit && d.hands.length) "
+                             "{ window.microg.hold = true; return d; } return null;")
+        picture = np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+        project = lambda point: driver.execute_script("return window.microg.project(...arguments)", *point)
+        obj = project(drawn["object"][:3])
+        place = np.asarray(wait(driver, "return window.microg.scene")["places"][drawn["place"]])
+        ring = np.hypot(*np.subtract(project(place + [0.04, 0, 0]), project(place)))
+        assert pixels_near(colour_mask(picture, "object"), obj, 25) > 400
+        assert pixels_near(colour_mask(picture, "lit"), project(place), ring * 1.3) > 150
+        hand = drawn["hands"][0]
+        touching = [np.add(s, e) / 2 for s, e, t in zip(hand["start"], hand["end"], hand["touching"]) if t]
+        assert touching, "the drawn hand holds the object: some phalanx touches it"
+        for centre in touching:
+            assert pixels_near(colour_mask(picture, "highlight"), project(centre), 20) > 40
+        assert "Place" in page_text(driver) and "lit" in page_text(driver)
+        driver.execute_script("window.microg.hold = false")
+
+        # The questionnaire on the page: an answer off the scale is refused and logged, then one counts.
+        wait(driver, "return window.microg.question && !document.getElementById('question').hidden")
+        body = driver.find_element(By.TAG_NAME, "body")
+        body.send_keys("99\n")
+        wait(driver, "return document.getElementById('question-note').classList.contains('rejected')")
+        assert "off the scale" in page_text(driver)
+        for answered, rating in enumerate(("7", "6", "3", "4"), start=1):
+            wait(driver, f"return window.microg.answered === {answered - 1} "
+                         "&& !document.getElementById('question').hidden")
+            driver.find_element(By.CSS_SELECTOR, f"#scale button[data-value='{rating}']").click()
+            wait(driver, f"return window.microg.answered === {answered}")
+        session.join(WORK_S)
+        assert not session.is_alive()
+
+    with open_study(folder) as store:
+        session_id = store.session_of("P01").id
+        assert store.session(session_id).status == "completed"
+        assert sorted(store.answers(session_id).values()) == [3, 4, 6, 7]
+        assert [e.data["answer"] for e in store.events(session_id) if e.kind == "answer_rejected"] == ["99"]
+        # what the page drew is the physics' outcome for that frame, as the log keeps it
+        run = next(r for r in store.runs(session_id) if r.task_index == next(
+            t.index for t in store.tasks(session_id) if t.object == "cube"))
+        frames = framelog.read(store.db, run.id)
+        row = frames[np.flatnonzero(frames["t"] == drawn["t"])]
+        assert len(row) == 1
+        assert np.allclose(row["position"][0], drawn["object"][:3], atol=2e-6)
+
+
+def refused(url: str, origin: str) -> bool:
+    """True when the server refuses a WebSocket from a page of ``origin``."""
+    from websockets.asyncio.client import connect
+    from websockets.exceptions import InvalidStatus
+
+    async def attempt():
+        try:
+            async with connect(url, origin=origin, open_timeout=WORK_S):
+                return False
+        except InvalidStatus as error:
+            return error.response.status_code == 403
+
+    return asyncio.run(attempt())
+
+
+def test_the_participant_page_refuses_a_foreign_origin(tmp_path):
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with ParticipantDisplay(protocol) as display:
+        ws = f"ws://127.0.0.1:{display.port}/ws"
+        assert refused(ws, "http://evil.example")
+        assert refused(ws, f"http://127.0.0.1:{display.port + 1}")
+        assert not refused(ws, f"http://127.0.0.1:{display.port}")
+
+
+def test_away_from_localhost_the_page_must_present_the_one_time_token(tmp_path):
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with ParticipantDisplay(protocol, host="127.0.0.2") as display:
+        assert display.token and f"?token={display.token}" in display.url
+        origin = f"http://127.0.0.2:{display.port}"
+        assert refused(f"ws://127.0.0.2:{display.port}/ws", origin)
+        assert refused(f"ws://127.0.0.2:{display.port}/ws?token=guess", origin)
+        assert not refused(f"ws://127.0.0.2:{display.port}/ws?token={display.token}", origin)
