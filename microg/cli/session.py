@@ -163,7 +163,8 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
 
 def _outcome(store: Store, participant_id: str, status: str) -> str:
     """How a session ended, with how its tasks stand: ``session of P01: incomplete, 6 tasks: 6 aborted``."""
-    return f"session of {participant_id}: {status}, {describe_counts(store.task_counts(store.session_of(participant_id).id))}"
+    counts = store.task_counts(store.session_of(participant_id).id)
+    return f"session of {participant_id}: {status}, {describe_counts(counts)}"
 
 
 @contextlib.contextmanager

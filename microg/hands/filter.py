@@ -27,16 +27,18 @@ import numpy as np
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, HandFrame
 
 
-def window_weights(times: np.ndarray, period: float) -> np.ndarray:
+def window_weights(times: list[float], period: float) -> list[float]:
     """Eq. 1 as weights on the samples that arrived at ``times`` (newest first): the least-squares
     line through them, read (len - 1) / 2 periods before the newest. They sum to 1; for evenly
-    spaced times at the nominal period each is 1 / len (the plain average)."""
+    spaced times at the nominal period each is 1 / len (the plain average). A handful of floats:
+    plain Python, where numpy's call overhead would dominate."""
     count = len(times)
     if count == 1:
-        return np.ones(1)
-    spread = times - times.mean()
-    target = times[0] - 0.5 * (count - 1) * period
-    return 1.0 / count + (target - times.mean()) * spread / (spread @ spread)
+        return [1.0]
+    mean = sum(times) / count
+    spread = [t - mean for t in times]
+    lever = (times[0] - 0.5 * (count - 1) * period - mean) / sum(d * d for d in spread)
+    return [1.0 / count + lever * d for d in spread]
 
 
 class WindowFilter:
@@ -62,7 +64,11 @@ class WindowFilter:
     def value(self) -> np.ndarray:
         """Eq. 1 on the samples in the window."""
         index = [(self.newest - k) % self.window for k in range(self.count)]
-        return np.tensordot(window_weights(self.times[index], self.period), self.samples[index], axes=1)
+        weights = window_weights([float(self.times[i]) for i in index], self.period)
+        value = weights[0] * self.samples[index[0]]
+        for weight, i in zip(weights[1:], index[1:]):
+            value += weight * self.samples[i]
+        return value
 
 
 def filter_series(values: np.ndarray, times: np.ndarray, window: int, period: float,

@@ -269,6 +269,45 @@ def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
 
 def admit(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
     """The guard's step: the next state, and the frames now ready for the world, oldest first."""
+    return steady(config, state, frame) or decided(config, state, frame)
+
+
+def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
+    """``decided``'s outcome for the usual frame, computed directly: nothing waiting, the clock
+    moving on by less than ``max_gap``, each side absent as before or the same complete track
+    moving less than a jump. None for any other frame (``decided`` handles it)."""
+    if state.slots or state.last_time is None:
+        return None
+    t = frame.timestamp + state.offset
+    interval = t - state.last_time
+    if not 0 < interval <= config.max_gap:
+        return None
+    sides, hands = [], []
+    for side, name in enumerate(SIDES):
+        hand, memory = frame.hand(name), state.sides[side]
+        if hand is None:
+            if memory.last is not None:
+                return None
+            sides.append(memory)
+            continue
+        if memory.last is None or memory.holding or hand.track_id != memory.source_id:
+            return None
+        known = known_joints(hand)
+        if not is_complete(hand, known, memory.delivered) or is_jump(hand.points, memory.last.points,
+                                                                     config.jump_distance):
+            return None
+        out = hand.renumbered(memory.last.track_id)
+        sides.append(SideState(out, t, hand.track_id, False, memory.delivered | known))
+        hands.append(out)
+    state = replace(state, last_time=t, stale_run=0, intervals=(state.intervals + (interval,))[-RECENT_INTERVALS:],
+                    sides=tuple(sides))
+    gap = int(interval > config.gap_factor * state.period(config))
+    state = replace(state, counts=state.counts.add(frames_in=1, frames_out=1, gaps=gap))
+    return state, (HandFrame(t, tuple(hands)),)
+
+
+def decided(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
+    """The guard's step for any frame, through the slots that wait for each side's decision."""
     state = replace(state, counts=state.counts.add(frames_in=1))
     state, t, restart = _time(config, state, frame.timestamp)
     if t is None:

@@ -28,7 +28,9 @@ import math
 
 from .bodies import BOX
 from .hand import SLOTS
-from .vec import add, cell, cross, dot, kernel, mat_t_vec, mat_vec, norm, row, scale, set_cell, sub
+from .state import CLOCK_DRIFT
+from .vec import (add, cell, cross, dot, kernel, mat_t_vec, mat_vec, norm, quat_mul, quat_turn, quat_unit, rotation,
+                  row, scale, set_cell, sub)
 
 SEPARATING, RESTING, COLLIDING = 1, 0, -1
 
@@ -205,15 +207,26 @@ def sweep(p, s, o, rot):
     """Continuous collision: a phalanx whose path this step entered object o from outside gets its
     contact where the path entered, on the face it crossed, whether the step ended inside the
     object or beyond it. Runs before ``detect``: for a thin plate hit fast, the closest face to the
-    step's end point is the far face, which would let the finger through."""
+    step's end point is the far face, which would let the finger through.
+
+    The path is the phalanx's relative to the object, in the object's body frame: from where it
+    was a step ago, against the object where its velocities brought it from (moved back by h v and
+    turned back by h omega, h the step, or part of one, it last drifted over), to where it is now. A still fingertip that a fast plate runs into is
+    crossed by the plate's motion, not its own: swept in the object's present pose only, it would
+    be found past the plate's middle and get its contact on the far face, which pushes the plate
+    on instead of stopping it."""
     shape, half_size = p.shape[o], row(p.half_size, o)
     position = row(s.position, o)
+    velocity, angular_velocity, h = row(s.velocity, o), row(s.angular_velocity, o), s.clock[CLOCK_DRIFT]
+    before = sub(position, scale(h, velocity))
+    q = s.orientation[o]
+    rot_before = rotation(quat_unit(quat_mul(quat_turn(scale(-h, angular_velocity)), (q[0], q[1], q[2], q[3]))))
     valid, fresh, active, ghost = s.valid, s.fresh, s.active, s.ghost
     for k in range(SLOTS):
         if not valid[k] or fresh[k] or active[k, o] or ghost[k, o]:
             continue
         rho = s.radius[k]
-        start = mat_t_vec(rot, sub(row(s.hand_previous, k), position))
+        start = mat_t_vec(rot_before, sub(row(s.hand_previous, k), before))
         end = mat_t_vec(rot, sub(row(s.hand_position, k), position))
         if start == end:
             continue

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .hand import BONES_PER_HAND, N_BONES, SIDES
+from .hand import BONES_PER_HAND, N_BONES
 from .rotation import quat_to_matrix
+from .vec import add, cell, dot, entry, mat_vec, rotation, row, scale, set_row
 from .world import World
 
 OPPOSITION = -0.5
@@ -30,38 +31,50 @@ def highlighted(world: World) -> np.ndarray:
 def grasped(world: World) -> np.ndarray:
     """(N,) True for each object held between a thumb and an opposing digit (module rule)."""
     data = world.data
-    active, normal = data.active, data.normal
-    result = np.zeros(world.model.n_objects, dtype=bool)
-    for side in range(len(SIDES)):
-        thumb = slice(side * BONES_PER_HAND, side * BONES_PER_HAND + N_BONES)
-        other = slice(side * BONES_PER_HAND + N_BONES, (side + 1) * BONES_PER_HAND)
-        if not (active[thumb].any() and active[other].any()):
-            continue
-        cosines = np.einsum("kni,lni->kln", normal[thumb], normal[other])  # (thumb, other, object)
-        result |= (active[thumb][:, None] & active[other][None] & (cosines < OPPOSITION)).any(axis=(0, 1))
+    return _grasped(data.active, data.normal)
+
+
+@entry
+def _grasped(active, normal):
+    slots, n = active.shape
+    result = np.zeros(n, dtype=np.bool_)
+    for o in range(n):
+        for side in range(slots // BONES_PER_HAND):
+            first = side * BONES_PER_HAND
+            for thumb in range(first, first + N_BONES):
+                if not active[thumb, o]:
+                    continue
+                for other in range(first + N_BONES, first + BONES_PER_HAND):
+                    if active[other, o] and dot(cell(normal, thumb, o), cell(normal, other, o)) < OPPOSITION:
+                        result[o] = True
     return result
-
-
-def rotations(orientation: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) rotation matrices of (N, 4) unit quaternions (w, x, y, z)."""
-    w, x, y, z = orientation.T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-                     np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-                     np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)],
-                    axis=1)
 
 
 def rendered_phalanges(world: World) -> np.ndarray:
     """(40, 3) centres of the rendered (god-object) phalanges: on the surface where a phalanx is
     in contact (its deepest contact), at the tracked position elsewhere; NaN where untracked."""
     data = world.data
-    rendered = np.where(data.valid[:, None], data.hand_position, np.nan)
-    touching = np.flatnonzero(data.active.any(axis=1))
-    if touching.size:
-        deepest = np.argmax(np.where(data.active[touching], data.depth[touching], -np.inf), axis=1)
-        centre = data.anchor[touching, deepest] + data.radius[touching, None] * data.normal[touching, deepest]
-        turned = np.einsum("kij,kj->ki", rotations(data.orientation)[deepest], centre)
-        rendered[touching] = data.position[deepest] + turned
+    return _rendered(data.valid, data.hand_position, data.active, data.depth, data.anchor, data.radius,
+                     data.normal, data.position, data.orientation)
+
+
+@entry
+def _rendered(valid, hand_position, active, depth, anchor, radius, normal, position, orientation):
+    slots, n = active.shape
+    rendered = np.full((slots, 3), np.nan)
+    for k in range(slots):
+        if not valid[k]:
+            continue
+        deepest = -1
+        for o in range(n):
+            if active[k, o] and (deepest < 0 or depth[k, o] > depth[k, deepest]):
+                deepest = o
+        if deepest < 0:
+            set_row(rendered, k, row(hand_position, k))
+            continue
+        centre = add(cell(anchor, k, deepest), scale(radius[k], cell(normal, k, deepest)))
+        turned = mat_vec(rotation(orientation[deepest]), centre)
+        set_row(rendered, k, add(row(position, deepest), turned))
     return rendered
 
 

@@ -31,8 +31,8 @@ from .impulse import apply_impulses, spring_onsets
 from .integrate import add_gravity, rotate_constant, rotate_free, update_position, update_velocity
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
-from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, unpack,
-                    unpack_params)
+from .state import (CLOCK_DRIFT, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS,
+                    unpack, unpack_params)
 from .table import table_contacts
 from .vec import entry, kernel, rotation
 
@@ -75,6 +75,7 @@ def end_part(s, h):
     for k in range(s.fresh.shape[0]):
         s.fresh[k] = False
     s.clock[CLOCK_TIME] += h
+    s.clock[CLOCK_DRIFT] = h
 
 
 @kernel

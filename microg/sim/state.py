@@ -22,9 +22,11 @@ from numba.experimental import structref
 from .hand import SLOTS
 from .vec import kernel
 
-CLOCK_TIME, CLOCK_START, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME = 0, 1, 2, 3
-"""Indices into ``clock``: simulated time, time of the first frame, of this frame, of the frame before
-(s). ``clock`` opens ``reals``, so these index the buffer too."""
+CLOCK_TIME, CLOCK_START, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_DRIFT = 0, 1, 2, 3, 4
+"""Indices into ``clock``: simulated time, time of the first frame, of this frame, of the frame before,
+and the length of the last physics step (or part of one) the objects drifted over (0 before the
+first): the sweep takes the objects back by it (s). ``clock`` opens ``reals``, so these index the
+buffer too."""
 COUNT_STEPS, COUNT_FRAMES = 0, 1
 """Indices into ``counter``: physics steps taken, hand frames taken; ``counter`` opens ``counts``."""
 POINTS = 26
@@ -32,7 +34,7 @@ POINTS = 26
 
 REALS, FLAGS, COUNTS = 0, 1, 2
 FIELDS: tuple[tuple[str, int, tuple], ...] = (
-    ("clock", REALS, (4,)),
+    ("clock", REALS, (5,)),
     ("position", REALS, ("N", 3)),
     ("orientation", REALS, ("N", 4)),
     ("velocity", REALS, ("N", 3)),
@@ -114,8 +116,8 @@ def unpack(reals, flags, counts, n):
     k = SLOTS
     s = structref.new(STATE)
     r = 0
-    s.clock = reals[r:r + 4]
-    r += 4
+    s.clock = reals[r:r + 5]
+    r += 5
     s.position = reals[r:r + 3 * n].reshape((n, 3))
     r += 3 * n
     s.orientation = reals[r:r + 4 * n].reshape((n, 4))

@@ -679,8 +679,8 @@ def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
                        (SELECT COUNT(*) FROM events e WHERE e.run_id = r.id AND e.kind = 'task_start') AS starts,
                        (SELECT COUNT(*) FROM events e WHERE e.run_id = r.id AND e.kind = 'task_end') AS ends
                 FROM task_runs r WHERE r.status != 'running' ORDER BY r.id"""):
-            run = f"task_runs row {row['id']} (session {row['session_id']}, task {row['task_index']}, run {row['run']}, " \
-                  f"{row['status']})"
+            run = (f"task_runs row {row['id']} (session {row['session_id']}, task {row['task_index']}, "
+                   f"run {row['run']}, {row['status']})")
             if row["starts"] != 1 or row["ends"] != 1:
                 problems.append(f"{run}: has {row['starts']} task_start and {row['ends']} task_end events, not one of "
                                 "each: it was not written by a session")

@@ -140,7 +140,8 @@ def test_lsl_says_it_opens_ports_and_a_session_of_aborted_tasks_says_so(tmp_path
     CliRunner().invoke(main, ["study", "init", study, "--protocol", str(PROTOCOLS / "tiny.toml")])
     CliRunner().invoke(main, ["participant", "add", study, "--id", "P01", "--gender", "female", "--age", "24",
                               "--handedness", "right", "--mr-experience", "yes"])
-    short = recording_with(tmp_path / "short.arrows", load_recording(cube_recording(tmp_path / "cube.arrows")).frames[:20])
+    frames = load_recording(cube_recording(tmp_path / "cube.arrows")).frames
+    short = recording_with(tmp_path / "short.arrows", frames[:20])
     result = CliRunner().invoke(main, ["session", "run", study, "--participant", "P01", "--input", f"replay:{short}",
                                        "--lsl", "--quiet"])
     assert result.exit_code == 0, result.output
