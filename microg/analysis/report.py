@@ -248,24 +248,24 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
         "",
         *[f"- {line}" for line in sections["systems"]],
         "",
-        _markdown(sections["sample"]),
+        markdown_table(sections["sample"]),
         "",
     ]
     if sections["dropped"] is not None:
-        lines += ["Excluded participants:", "", _markdown(sections["dropped"]), ""]
+        lines += ["Excluded participants:", "", markdown_table(sections["dropped"]), ""]
     lines += ["## Results", ""]
     for block in sections["blocks"]:
         lines += [f"### {block['title']}", "", block["results"], "", block["assumptions"], ""]
         for caption, table in block["tables"]:
-            lines += [f"**{caption}**", "", _markdown(table), ""]
+            lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["comparison"]:
         lines += ["### System vs baseline (Table 1)", "", *[p + "\n" for p in sections["comparison"]]]
         for caption in ("table1", "ttests", "wilcoxon"):
-            lines += [_markdown(sections[caption]), ""]
+            lines += [markdown_table(sections[caption]), ""]
     if sections["likert"]:
-        lines += ["### Questionnaire", "", sections["likert"], "", _markdown(sections["likert_tests"]), ""]
+        lines += ["### Questionnaire", "", sections["likert"], "", markdown_table(sections["likert_tests"]), ""]
     if sections["likert_distribution"] is not None:
-        lines += [_markdown(sections["likert_distribution"]), ""]
+        lines += [markdown_table(sections["likert_distribution"]), ""]
     lines += ["## Methods", "", *[f"- {line}" for line in sections["methods"]], ""]
     return "\n".join(lines)
 
@@ -363,7 +363,7 @@ def _html(table: pd.DataFrame) -> Markup:
     return Markup(table.to_html(index=False, na_rep="", border=0))
 
 
-def _markdown(table: pd.DataFrame) -> str:
+def markdown_table(table: pd.DataFrame) -> str:
     """A pipe table; cells padded so that the raw text reads as a table too."""
     cells = [list(map(str, table.columns))] + [["" if pd.isna(v) else str(v) for v in row] for row in table.to_numpy()]
     widths = [max(len(row[i]) for row in cells) for i in range(len(table.columns))]

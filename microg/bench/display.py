@@ -222,7 +222,10 @@ class _Session:
 
 
 def _collect(driver, session: _Session, seconds: float, rows: list[dict]) -> None:
-    """Take the page's drawn-frame reports every second for ``seconds`` or until the session ends."""
+    """Take the page's drawn-frame reports every second for ``seconds`` or until the session ends,
+    from the first frame the page receives on (before it, the physics may be compiling its scene)."""
+    wait_for(driver, "return window.microg.latest")
+    driver.execute_script("window.microg.reports.splice(0)")
     end = time.monotonic() + seconds
     while time.monotonic() < end and session.running:
         time.sleep(1.0)
@@ -250,12 +253,12 @@ def percentiles(values) -> dict[str, float]:
     return {f"p{q}": float(np.percentile(values, q)) if len(values) else math.nan for q in (50, 95, 99)}
 
 
-def screen_latency(folder: Path, seconds: float) -> pd.DataFrame:
+def screen_latency(folder: Path, seconds: float, size: tuple[int, int]) -> pd.DataFrame:
     """Drawn frames of a simulated session of the paper's protocol (see the module docstring)."""
     session = _Session(folder, "paper", "--input", "simulated", "--display", "--questionnaire", "model")
     rows: list[dict] = []
     try:
-        with chromium() as driver:
+        with chromium(size) as driver:
             driver.get(f"{session.url}?latency=1")
             _collect(driver, session, seconds, rows)
     finally:
@@ -275,29 +278,35 @@ def _circling(anchor: list[float], centre=(0.0, 0.25, 0.05), radius: float = 0.0
     return keys
 
 
-def webxr_latency(folder: Path, seconds: float) -> pd.DataFrame:
+def webxr_latency(folder: Path, seconds: float, size: tuple[int, int]) -> pd.DataFrame:
     """Drawn frames of a ``--input webxr`` session while the emulated hand circles (module docstring)."""
     session = _Session(folder, "paper", "--input", "webxr", "--questionnaire", "skip", stdin="\n" * 64)
     rows: list[dict] = []
     try:
-        with chromium() as driver:
+        with chromium(size) as driver:
             emulate_headset(driver)
             driver.get(f"{session.url}?latency=1")
             anchor = enter_and_place(driver)
             driver.execute_script("window.handPlayer.play('right', arguments[0]);"
                                   "window.handPlayer.paths.right.loop = true", _circling(anchor))
-            driver.execute_script("window.microg.reports.splice(0)")
             _collect(driver, session, seconds, rows)
     finally:
         session.stop()
     table = _table(rows, "pose_t_s")
+    table.insert(len(table.columns) - 2, "to_physics_ms", table["ready_ms"] - 1e3 * table["pose_t_s"])
     table.insert(len(table.columns) - 1, "round_trip_ms", table["drawn_ms"] - 1e3 * table["pose_t_s"])
     return table
 
 
-def run(out: Path, quick: bool = False, say=print) -> dict[str, pd.DataFrame]:
-    """Measure both (see the module docstring); write ``display_latency.csv`` and, where iwer is
-    installed, ``webxr_latency.csv`` into ``out``; print the percentiles."""
+def _rate(table: pd.DataFrame) -> float:
+    """Frames the page drew per second."""
+    span = (table["drawn_ms"].max() - table["drawn_ms"].min()) / 1e3
+    return (len(table) - 1) / span if span > 0 else math.nan
+
+
+def run(out: Path, quick: bool = False, size: tuple[int, int] = (640, 400), say=print) -> dict[str, pd.DataFrame]:
+    """Measure both in a ``size`` viewport (see the module docstring); write ``display_latency.csv``
+    and, where iwer is installed, ``webxr_latency.csv`` into ``out``; print the percentiles."""
     lacking = missing()
     if lacking:
         raise RuntimeError(f"`microg bench display` needs {lacking} (apt-get install chromium chromium-driver; "
@@ -305,21 +314,28 @@ def run(out: Path, quick: bool = False, say=print) -> dict[str, pd.DataFrame]:
     out.mkdir(parents=True, exist_ok=True)
     tables = {}
     with tempfile.TemporaryDirectory(prefix="microg-bench-display-") as scratch:
-        screen = screen_latency(Path(scratch) / "screen", 30.0 if quick else math.inf)
+        screen = screen_latency(Path(scratch) / "screen", 30.0 if quick else math.inf, size)
         screen.to_csv(out / "display_latency.csv", index=False)
         tables["screen"] = screen
         stats = percentiles(screen["latency_ms"])
-        say(f"screen, 110 Hz simulated participant: {len(screen)} drawn frames, latency p50 {stats['p50']:.1f} ms, "
-            f"p95 {stats['p95']:.1f} ms, p99 {stats['p99']:.1f} ms (target p95 <= {TARGET_P95_MS:g} ms) "
-            f"-> {out / 'display_latency.csv'}")
+        parts = {name: percentiles(screen[f"{name}_ms"])["p50"] for name in ("transport", "wait", "draw")}
+        say(f"screen, 110 Hz simulated participant, {size[0]}x{size[1]}: {len(screen)} frames drawn "
+            f"({_rate(screen):.0f} per s), latency p50 {stats['p50']:.1f} ms, p95 {stats['p95']:.1f} ms, "
+            f"p99 {stats['p99']:.1f} ms (target p95 <= {TARGET_P95_MS:g} ms); p50 of its parts: transport "
+            f"{parts['transport']:.1f}, waiting for a refresh {parts['wait']:.1f}, drawing {parts['draw']:.1f} ms; "
+            f"load average {os.getloadavg()[0]:.1f} -> {out / 'display_latency.csv'}")
         if not IWER.exists():
             say(f"webxr round trip: skipped, iwer is not installed ({IWER}); run `npm ci` in the source folder")
             return tables
-        webxr = webxr_latency(Path(scratch) / "webxr", 15.0 if quick else 60.0)
+        webxr = webxr_latency(Path(scratch) / "webxr", 15.0 if quick else 60.0, size)
         webxr.to_csv(out / "webxr_latency.csv", index=False)
         tables["webxr"] = webxr
         trip = percentiles(webxr["round_trip_ms"])
-        say(f"webxr (iwer emulation): {len(webxr)} drawn frames, pose read to drawn p50 {trip['p50']:.1f} ms, "
-            f"p95 {trip['p95']:.1f} ms, p99 {trip['p99']:.1f} ms -> {out / 'webxr_latency.csv'}")
+        parts = {name: percentiles(webxr[f"{name}_ms"])["p50"] for name in ("to_physics", "transport", "wait", "draw")}
+        say(f"webxr (iwer emulation), {size[0]}x{size[1]}: {len(webxr)} frames drawn ({_rate(webxr):.0f} per s), "
+            f"pose read to drawn p50 {trip['p50']:.1f} ms, p95 {trip['p95']:.1f} ms, p99 {trip['p99']:.1f} ms; "
+            f"p50 of its parts: page to physics result {parts['to_physics']:.1f}, back to the page "
+            f"{parts['transport']:.1f}, waiting for a frame {parts['wait']:.1f}, drawing {parts['draw']:.1f} ms "
+            f"-> {out / 'webxr_latency.csv'}")
     return tables
 

@@ -92,14 +92,20 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
               show_default=True, help="Directory for display_latency.csv and webxr_latency.csv.")
 @click.option("--quick", is_flag=True, help="30 s of the screen session and 15 s of the headset's, instead of "
                                             "the whole simulated session and 60 s.")
-def display_bench(out: Path, quick: bool) -> None:
+@click.option("--size", default="640x400", show_default=True,
+              help="The browser's viewport, WIDTHxHEIGHT: without a GPU (SwiftShader) drawing time grows with it.")
+def display_bench(out: Path, quick: bool, size: str) -> None:
     """The participant view's latency in headless Chromium: a 110 Hz simulated session's physics result
     to the drawn frame (display_latency.csv), and under WebXR emulation a hand pose read in the page to
     that pose drawn with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
     from microg.bench.display import run
 
     try:
-        run(out, quick, say=click.echo)
+        width, height = (int(v) for v in size.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"{size!r}: give WIDTHxHEIGHT in pixels, e.g. 1280x800", param_hint="--size") from None
+    try:
+        run(out, quick, (width, height), say=click.echo)
     except (RuntimeError, FileNotFoundError) as error:
         raise click.ClickException(str(error)) from None
 

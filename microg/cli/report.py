@@ -10,13 +10,12 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
 @click.command("report")
-@click.option("--trials", type=FILE, help="Exported trials table (CSV or Parquet).")
-@click.option("--likert", type=FILE, help="Exported questionnaire table (CSV or Parquet).")
-@click.option(
-    "--study",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    help="A study directory; its tables are read with microg.study.export.read_tables.",
-)
+@click.argument("study", required=False, type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--trials", type=FILE, help="Exported trials table (CSV or Parquet), instead of a STUDY folder.")
+@click.option("--likert", type=FILE, help="Exported questionnaire table (CSV or Parquet), with --trials.")
+@click.option("--compare", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+              help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
+                   "also writes OUT/comparison.md and its CSVs, the two side by side.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output directory.")
 @click.option("--system", default=None, help="System under test (default: impulse_penetration, else the first listed).")
 @click.option("--baseline", default=None, help="Baseline system (default: soft_hand, else the next listed).")
@@ -40,9 +39,10 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
               help="TOML file of column names (subject, group, within, system_column, dv, counts, completed, stage, "
                    "label, item, rating); the options above win.")  # fmt: skip
 def report(
+    study: Path | None,
     trials: Path | None,
     likert: Path | None,
-    study: Path | None,
+    compare: Path | None,
     out: Path,
     system: str | None,
     baseline: str | None,
@@ -58,7 +58,8 @@ def report(
 ) -> None:
     """Mixed ANOVA, post hoc tests, system vs baseline, Likert analysis and figures of a study.
 
-    Give either --trials (and optionally --likert) or --study. Writes OUT/report.html (self-contained),
+    Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert). Writes
+    OUT/report.html (self-contained),
     OUT/report.md (Results and tables as Markdown) and the tables as CSV next to them. Any tidy table
     works: name its columns with --subject, --group, --within, --system-column, --dv and --count, or
     in a --columns file.
@@ -77,12 +78,13 @@ def report(
         columns.setdefault("counts", [])
 
     if study is not None and (trials is not None or likert is not None):
-        raise click.UsageError("give either --study or --trials/--likert, not both")
+        raise click.UsageError("give either STUDY or --trials/--likert, not both")
     if study is None and trials is None:
-        raise click.UsageError("give --trials FILE (and optionally --likert FILE) or --study DIR")
+        raise click.UsageError("give a STUDY folder, or --trials FILE (and optionally --likert FILE)")
+    from microg.study.store import StoreError
+
     if study is not None:
         from microg.study.export import read_tables
-        from microg.study.store import StoreError
 
         try:
             trials_table, questionnaire = read_tables(study)
@@ -100,6 +102,15 @@ def report(
         raise click.ClickException(f"{where}{error}") from error
     click.echo(f"report: {path}")
     click.echo(f"tables: {', '.join(sorted(p.name for p in out.glob('*.csv')))}")
+    if compare is not None:
+        from microg.analysis.compare import write_comparison
+        from microg.study.export import read_tables
+
+        try:
+            other = read_tables(compare)[0]
+        except (FileNotFoundError, StoreError) as error:
+            raise click.ClickException(str(error)) from error
+        click.echo(f"comparison: {write_comparison(trials_table, other, out, ('original', compare.name))}")
 
 
 COMMANDS = [report]

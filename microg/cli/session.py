@@ -8,6 +8,7 @@ import contextlib
 import click
 from tqdm import tqdm
 
+from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
 from microg.study.protocol import Phase
 from microg.study.model_rater import ModelRater
@@ -278,6 +279,50 @@ def resume(study_dir: str, participant_id: str, input_spec: str | None, question
         status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, True,
                           _view(display, host, port, eye, look_at, fov, pace, align))
         click.echo(_outcome(store, participant_id, status))
+
+
+def _setting(text: str) -> tuple[str, object]:
+    name, _, value = text.partition("=")
+    if not name or not value:
+        raise click.BadParameter(f"{text!r}: give NAME=VALUE, e.g. substeps=8", param_hint="--set")
+    try:
+        return name, int(value)
+    except ValueError:
+        try:
+            return name, float(value)
+        except ValueError:
+            return name, value
+
+
+@session.command("resimulate")
+@study_dir_argument
+@click.option("--participant", "participants", multiple=True, help="Whose session to re-simulate (repeat).")
+@click.option("--all", "every", is_flag=True, help="Every participant with a session.")
+@click.option("--interaction", type=click.Choice(sorted(INTERACTION_MODELS)), default=None,
+              help="Run every task under this interaction model instead of the protocol's.")
+@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE",
+              help="A scene setting to change (repeat): tracking_rate, substeps, penetration_stiffness, ...")
+@click.option("--label", default=None, help="Name of the re-simulation (its folder); default from the changes.")
+@click.option("--quiet", is_flag=True, help="No progress bars.")
+@clear_errors
+def resimulate_command(study_dir: str, participants: tuple[str, ...], every: bool, interaction: str | None,
+                       settings: tuple[str, ...], label: str | None, quiet: bool) -> None:
+    """Replay the hand motion a session logged through the physics again, under another interaction
+    model or scene settings, into STUDY_DIR/resimulated/LABEL (a study of its own, never mixed with
+    the original); compare with: microg report STUDY_DIR --compare STUDY_DIR/resimulated/LABEL.
+
+    It shows what the model alone changes for the same motion; it cannot show what the person would
+    have done with the other model (people adapt to what they feel)."""
+    from microg.study.resimulate import resimulate
+
+    if bool(participants) == every:
+        raise click.UsageError("give --participant ID (repeatable) or --all")
+    if every:
+        with open_study(study_dir, readonly=True) as store:
+            participants = tuple(p.id for p in store.participants() if store.session_of(p.id) is not None)
+    target = resimulate(study_dir, list(participants), interaction, dict(_setting(s) for s in settings), label,
+                        progress=not quiet)
+    click.echo(f"re-simulated {len(participants)} session(s) into {target}")
 
 
 COMMANDS = [session]

@@ -34,9 +34,10 @@ read time plus the latest measured offset, so frames are on the session's clock 
 offset's spread. Frames before the first sync, malformed hands and hands no real hand could be
 (``recording.implausible``) are refused and counted.
 
-A live source serves the newest frames: when the session falls more than ``backlog_s`` behind
-(between tasks, while the researcher starts the next one), the oldest frames are dropped and
-counted in ``frames_dropped`` (the guard treats them as missing frames).
+A live source serves the newest frames: frames more than ``backlog_s`` older than the newest one
+waiting (the session fell behind: between tasks, while the researcher starts the next one, or
+while the physics compiles for a new scene) are dropped and counted in ``frames_dropped`` (the
+guard treats them as missing frames).
 """
 
 from __future__ import annotations
@@ -107,7 +108,7 @@ class WebXRSource:
         self.clock: dict | None = None
         """The clock offset and spread the latest frame was stamped with."""
         self._frames: deque[HandFrame] = deque()
-        self._backlog = max(1, round(backlog_s * rate))
+        self._backlog_s = backlog_s
         self._times: deque[float] = deque(maxlen=64)
         self._arrived = threading.Condition()
         self._closed = False
@@ -152,10 +153,10 @@ class WebXRSource:
         with self._arrived:
             self.clock = clock
             self._times.append(t)
-            if len(self._frames) >= self._backlog:
+            self._frames.append(frame)
+            while frame.timestamp - self._frames[0].timestamp > self._backlog_s:
                 self._frames.popleft()
                 self.frames_dropped += 1
-            self._frames.append(frame)
             self._arrived.notify_all()
 
     def next_frame(self, observation=None) -> HandFrame | None:

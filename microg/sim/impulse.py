@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from .contact import COLLIDING, classify, point_velocity
+from .contact import COLLIDING, SEPARATING, classify, point_velocity
 from .hand import SLOTS
 from .vec import (add, cell, conjugated, cross, dot, kernel, mat_t_vec, mat_vec, quat_mul, quat_turn,
                   quat_unit, rotation, row, scale, set_row, sub)
@@ -165,11 +165,16 @@ def move_out(p, s, o, rot, r, n, distance, compliance):
 
 @kernel
 def displace(s, o, shift, turn):
-    """Move object o by ``shift`` and turn it by the rotation vector ``turn``."""
+    """Move object o by ``shift`` and turn it by the rotation vector ``turn``, its spin turned with
+    it: its angular velocity in its own frame, and so its kinetic energy, stay as they were (kept
+    fixed in the world instead, the spin of a long bar about its axis would, once the bar is turned,
+    load its large moments of inertia and gain energy from a mere change of pose)."""
     set_row(s.position, o, add(row(s.position, o), shift))
     q = s.orientation[o]
-    turned = quat_unit(quat_mul(quat_turn(turn), (q[0], q[1], q[2], q[3])))
+    by = quat_turn(turn)
+    turned = quat_unit(quat_mul(by, (q[0], q[1], q[2], q[3])))
     q[0], q[1], q[2], q[3] = turned
+    set_row(s.angular_velocity, o, mat_vec(rotation(by), row(s.angular_velocity, o)))
 
 
 @kernel
@@ -190,6 +195,7 @@ def apply_impulses(p, s, o, rot, springs, h):
     arms, normals = np.empty((count, 3)), np.empty((count, 3))
     u_init, restitution, too_deep, compliance = np.empty(count), np.empty(count), np.zeros(count), np.empty(count)
     bounced = np.zeros(count, dtype=np.bool_)
+    leaving, n_leaving, pressed = np.empty(count, dtype=np.int64), 0, held
     since, pull = 0.0, math.sqrt(p.gravity[0] ** 2 + p.gravity[1] ** 2 + p.gravity[2] ** 2) * h
     count = 0
     for k in range(SLOTS):
@@ -198,7 +204,11 @@ def apply_impulses(p, s, o, rot, springs, h):
         r = mat_vec(rot, cell(s.anchor, k, o))
         n = mat_vec(rot, cell(s.normal, k, o))
         u = dot(n, sub(row(s.hand_velocity, k), point_velocity(velocity, angular_velocity, r)))
-        if classify(u, p.resting_tolerance) != COLLIDING:
+        kind = classify(u, p.resting_tolerance)
+        if kind == SEPARATING:
+            leaving[n_leaving] = k
+            n_leaving += 1
+        if kind != COLLIDING:
             continue
         e, depth = p.restitution[o], s.depth[k, o]
         slots[count], u_init[count], restitution[count] = k, u, e
@@ -208,6 +218,7 @@ def apply_impulses(p, s, o, rot, springs, h):
                 since = max(since, min(h, depth / -u))
                 bounced[count] = True
             else:  # pressed on by gravity: the spring stays, and what it will give back comes off the bounce
+                pressed = True
                 bounce, stored = e * e * u * u, p.penetration_stiffness * depth * depth * compliance[count]
                 restitution[count] = math.sqrt(max(0.0, bounce - stored)) / -u
                 if stored > bounce:
@@ -215,26 +226,30 @@ def apply_impulses(p, s, o, rot, springs, h):
         set_row(arms, count, r)
         set_row(normals, count, n)
         count += 1
-    if count == 0:
-        return False
-    j = simultaneous_impulses(p.mass[o], inverse_inertia, arms[:count], normals[:count], u_init[:count],
-                              restitution[:count])
-    for i in range(count):
-        on_object = scale(-j[i], row(normals, i))
-        dv = (on_object[0] / p.mass[o], on_object[1] / p.mass[o], on_object[2] / p.mass[o])
-        dw = mat_vec(inverse_inertia, cross(row(arms, i), on_object))
-        set_row(s.velocity, o, add(row(s.velocity, o), dv))
-        set_row(s.angular_velocity, o, add(row(s.angular_velocity, o), dw))
-        s.impulse[slots[i], o] = j[i]
-    moved = since > 0.0
-    if moved:
-        at_time_of_impact(s, o, velocity, angular_velocity, since)
-        for i in range(count):  # a bounce is over: its phalanx is clear
-            if bounced[i]:
-                clear(p, s, o, slots[i])
-    for i in range(count):
-        if too_deep[i] > 0.0:
-            move_out(p, s, o, rot, row(arms, i), row(normals, i), too_deep[i], compliance[i])
+    moved = False
+    if count > 0:
+        j = simultaneous_impulses(p.mass[o], inverse_inertia, arms[:count], normals[:count], u_init[:count],
+                                  restitution[:count])
+        for i in range(count):
+            on_object = scale(-j[i], row(normals, i))
+            dv = (on_object[0] / p.mass[o], on_object[1] / p.mass[o], on_object[2] / p.mass[o])
+            dw = mat_vec(inverse_inertia, cross(row(arms, i), on_object))
+            set_row(s.velocity, o, add(row(s.velocity, o), dv))
+            set_row(s.angular_velocity, o, add(row(s.angular_velocity, o), dw))
+            s.impulse[slots[i], o] = j[i]
+        if since > 0.0:
+            moved = True
+            at_time_of_impact(s, o, velocity, angular_velocity, since)
+            for i in range(count):  # a bounce is over: its phalanx is clear
+                if bounced[i]:
+                    clear(p, s, o, slots[i])
+        for i in range(count):
+            if too_deep[i] > 0.0:
+                move_out(p, s, o, rot, row(arms, i), row(normals, i), too_deep[i], compliance[i])
+                moved = True
+    if springs and not pressed:  # found inside while leaving: nothing to bounce, and nothing to store
+        for i in range(n_leaving):
+            clear(p, s, o, leaving[i])
             moved = True
     return moved
 
@@ -245,9 +260,12 @@ CLEARING_TRIES = 4
 
 @kernel
 def engaged(s, o, rot, k):
-    """How deep phalanx k is below the tangent plane at its anchor on object o (<= 0: clear)."""
+    """How deep phalanx k is below the tangent plane at its anchor on object o (<= 0: clear), and
+    the point of that plane under it (body frame)."""
     local = mat_t_vec(rot, sub(row(s.hand_position, k), row(s.position, o)))
-    return dot(sub(cell(s.anchor, k, o), local), cell(s.normal, k, o)) + s.radius[k]
+    normal = cell(s.normal, k, o)
+    below = dot(sub(cell(s.anchor, k, o), local), normal)
+    return below + s.radius[k], add(local, scale(below, normal))
 
 
 @kernel
@@ -256,14 +274,14 @@ def clear(p, s, o, k):
     impact, an object that only translates leaves it e depth clear; one that the impulse set
     turning fast (a light box hit near an edge, turning a good part of a radian in a coarse step)
     follows its arc only to first order and may leave it still inside, where a spring would hold
-    energy that no motion paid for. Such a remainder is taken out the way the impulse moves the
-    object (``move_out``), without changing its velocities."""
+    energy that no motion paid for. Such a remainder is taken out the way an impulse under the
+    phalanx would move the object (``move_out``), without changing its velocities."""
     for _ in range(CLEARING_TRIES):
         rot = rotation(s.orientation[o])
-        left = engaged(s, o, rot, k)
+        left, under = engaged(s, o, rot, k)
         if left <= 0.0:
             break
-        r, n = mat_vec(rot, cell(s.anchor, k, o)), mat_vec(rot, cell(s.normal, k, o))
+        r, n = mat_vec(rot, under), mat_vec(rot, cell(s.normal, k, o))
         inverse_inertia = conjugated(rot, (1.0 / p.inertia[o, 0], 1.0 / p.inertia[o, 1], 1.0 / p.inertia[o, 2]))
         move_out(p, s, o, rot, r, n, left, dot(n, collision_response(p.mass[o], inverse_inertia, r, r, n)))
     s.active[k, o] = False

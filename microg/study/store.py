@@ -300,8 +300,9 @@ class Store:
         rows = self.db.execute("SELECT group_code, gender, order_row FROM participants WHERE status = 'active'")
         return [Enrolled(r["group_code"], r["gender"], r["order_row"]) for r in rows]
 
-    def add_participant(self, participant: Participant) -> ParticipantRecord:
-        """Enrol a participant: validate, assign a group and an object order, commit."""
+    def add_participant(self, participant: Participant, like: ParticipantRecord | None = None) -> ParticipantRecord:
+        """Enrol a participant: validate, assign a group and an object order (``like``'s, for a
+        re-simulated study that must keep the original's), commit."""
         check_participant(participant, self.protocol)
         with self.transaction() as db:
             if db.execute("SELECT 1 FROM participants WHERE id = ?", (participant.id,)).fetchone():
@@ -314,9 +315,12 @@ class Store:
                                        "on many disks and in the Motion-BIDS export: choose another id")
             number = db.execute("SELECT COALESCE(MAX(number), 0) + 1 FROM participants").fetchone()[0]
             enrolled = self._enrolled()
-            group = assign_group(self.protocol, enrolled, participant.gender,
-                                 np.random.default_rng([self.seed, number]))
-            row, order = assign_order(self.protocol, group, enrolled, participant.id, self.seed)
+            if like is not None:
+                group, row, order = like.group, like.order_row, list(like.object_order)
+            else:
+                group = assign_group(self.protocol, enrolled, participant.gender,
+                                     np.random.default_rng([self.seed, number]))
+                row, order = assign_order(self.protocol, group, enrolled, participant.id, self.seed)
             p = participant
             db.execute("INSERT INTO participants (id, number, group_code, gender, age, handedness, mr_experience, "
                        "order_row, object_order, added_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
@@ -374,8 +378,10 @@ class Store:
 
     # ------------------------------------------------------------ sessions
 
-    def create_session(self, participant_id: str, input_spec: str, simulated: bool, clock: str) -> SessionRecord:
-        """A new session for an active participant who has none, with its task plan."""
+    def create_session(self, participant_id: str, input_spec: str, simulated: bool, clock: str,
+                       system: str | None = None) -> SessionRecord:
+        """A new session for an active participant who has none, with its task plan; ``system``: every
+        task runs this interaction model instead of its block's (a re-simulation)."""
         record = self.participant(participant_id)
         if record.status != "active":
             raise StoreError(f"participant {participant_id} is withdrawn; a withdrawn participant runs no session")
@@ -395,8 +401,8 @@ class Store:
                  __version__, sys.version.split()[0], platform.platform(), utc_now()))
             session_id = cursor.lastrowid
             db.executemany("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)",
-                           [(session_id, t.index, t.phase, t.system, t.object, t.object_code, t.order_position)
-                            for t in plan_tasks(self.protocol, record.group, record.object_order)])
+                           [(session_id, t.index, t.phase, system or t.system, t.object, t.object_code,
+                             t.order_position) for t in plan_tasks(self.protocol, record.group, record.object_order)])
         return self.session(session_id)
 
     @staticmethod

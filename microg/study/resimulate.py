@@ -1,0 +1,113 @@
+"""Counterfactual replay: a logged session's real hand motion through the physics again, under another
+interaction model or other scene parameters.
+
+    microg session resimulate STUDY --participant P03 --interaction soft_hand [--set substeps=8]
+
+Each task of the session replays the hand frames its last run logged (exactly as the physics
+received them, ``framelog.hand_frames``) through the same tracking guard, window filter and task
+rules, in a world where every task runs ``interaction`` (and whose scene takes the given settings).
+The runs go into a study of their own, ``STUDY/resimulated/<label>/``: the original protocol with
+the change (its name and title say so, and its stored SHA-256 differs), the same participants with
+the same group and object order, sessions whose input is ``resimulated:<original session>``. The
+original study is only read, so the two can never mix; ``microg report STUDY --compare
+STUDY/resimulated/<label>`` puts them side by side.
+
+What this answers: for a real person's motion, how much the interaction model alone changes the
+outcome. What it cannot answer: a person adapts to the model they feel (they squeeze harder when an
+object slips, slow down when it bounces); a replay keeps the motion made for the original model,
+so it shows the model's effect on that motion, not what the person would have done with it. With
+the same model and settings the replay reproduces the original runs exactly (the physics is
+deterministic).
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+from microg import __version__
+from microg.hands import ReplaySource
+from microg.sim import INTERACTION_MODELS
+
+from . import framelog
+from .assignment import Participant
+from .protocol import SCENE_OPTIONS, ProtocolError, protocol_from_resolved
+from .session import SimulationClock, TaskResult, guarded, run_task, task_world
+from .store import Event, Store, StoreError, create_study, derived_seed, open_study
+
+FOLDER = "resimulated"
+INPUT = "resimulated"
+
+
+def resimulated_protocol(original: dict, settings: dict, label: str) -> dict:
+    """The original protocol (``Protocol.resolved``) with the scene taking ``settings``, named for
+    the re-simulation (its sessions' tasks take the interaction model: ``Store.create_session``)."""
+    unknown = sorted(set(settings) - set(SCENE_OPTIONS))
+    if unknown:
+        raise ProtocolError(f"--set {unknown[0]}: not a scene setting (known: {', '.join(SCENE_OPTIONS)})")
+    resolved = copy.deepcopy(original)
+    resolved.setdefault("scene", {}).update(settings)
+    resolved["name"] = f"{resolved['name']}-{label}"
+    resolved["title"] = f"{resolved.get('title') or original['name']} (re-simulated: {label})"
+    return resolved
+
+
+def resimulate(study_dir: str | Path, participants: list[str], interaction: str | None = None,
+               settings: dict | None = None, label: str | None = None, progress: bool = True) -> Path:
+    """Re-simulate the sessions of ``participants`` (module docstring); returns the new study's folder."""
+    from tqdm import tqdm
+
+    if interaction is not None and interaction not in INTERACTION_MODELS:
+        raise ProtocolError(f"--interaction {interaction!r}: must be one of {sorted(INTERACTION_MODELS)}")
+    settings = dict(settings or {})
+    label = label or "-".join([interaction or "same"] + [f"{k}{v}" for k, v in sorted(settings.items())])
+    if not label.replace("-", "").replace("_", "").replace(".", "").isalnum():
+        raise StoreError(f"--label {label!r}: letters, digits, '-', '_' and '.' only (it names a folder)")
+    study_dir = Path(study_dir)
+    target = study_dir / FOLDER / label
+    with open_study(study_dir, readonly=True) as original:
+        protocol = protocol_from_resolved(
+            resimulated_protocol(original.protocol.resolved, settings, label), f"{target}")
+        store = open_study(target) if (target / "study.db").exists() else create_study(target, protocol, original.seed)
+        with store:
+            if store.protocol.sha256 != protocol.sha256:
+                raise StoreError(f"{target} holds a re-simulation with other settings; give another --label")
+            for participant_id in participants:
+                _resimulate_session(original, store, participant_id, interaction, progress, tqdm)
+    return target
+
+
+def _resimulate_session(original: Store, store: Store, participant_id: str, interaction: str | None,
+                        progress: bool, tqdm) -> None:
+    record = original.participant(participant_id)
+    session = original.session_of(participant_id)
+    if session is None:
+        raise StoreError(f"participant {participant_id} has no session in {original.dir} to re-simulate")
+    if store.session_of(participant_id) is not None:
+        raise StoreError(f"{store.dir} already holds {participant_id}'s re-simulated session; a session is "
+                         "never run twice (give another --label)")
+    person = record.participant
+    store.add_participant(Participant(person.id, person.gender, person.age, person.handedness,
+                                      person.mr_experience), like=record)
+    spec = f"{INPUT}:{original.dir.resolve()}#session={session.id}"
+    new = store.create_session(participant_id, spec, session.simulated, "simulation", system=interaction)
+    store.lock_session(new.id)
+    clock = SimulationClock()
+    store.log(new.id, [Event(0.0, "session_start", {"input": spec, "microg_version": __version__,
+                                                   "resimulated_from": session.id})])
+    runs = {r.task_index: r for r in original.runs(session.id) if framelog.count(original.db, r.id)}
+    tasks = store.tasks(new.id)
+    for task in tqdm(tasks, unit="task", desc=f"{participant_id} re-simulated", disable=not progress):
+        if task.index not in runs:
+            run_id = store.begin_run(new.id, task, "nothing logged to replay", derived_seed(new.seed, task.index),
+                                     clock.now())
+            store.end_run(run_id, "skipped", clock.now(), reason="the original run logged no frames")
+            continue
+        frames = framelog.hand_frames(framelog.read(original.db, runs[task.index].id))
+        world = task_world(store.protocol, task)
+        source = guarded(ReplaySource(frames, f"{INPUT}:run {runs[task.index].id}"), world.model.scene)
+        run_id = store.begin_run(new.id, task, source.description, derived_seed(new.seed, task.index), clock.now())
+        result: TaskResult = run_task(store, new.id, run_id, world, source, store.protocol.task, clock,
+                                      batch=store.protocol.frame_batch, filter_window=store.protocol.filter_window)
+        del result
+    store.finish_session(new.id, clock.now())
