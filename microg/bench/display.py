@@ -10,10 +10,11 @@ ends are on one clock: ``latency_ms = drawn - ready`` (``display_latency.csv``).
 
 WebXR: ``microg session run --input webxr`` with the page in Chromium under Meta's WebXR emulation
 runtime (iwer, a development dependency in ``node_modules/iwer``, injected here, never part of the
-page). The emulated headset's hand is placed, then moves; every drawn frame carries the timestamp
-of the hand pose it was computed from (the page's read time on the session's clock), so
-``round_trip_ms = drawn - t``: the page reads the joints, sends them, the session stamps, guards,
-filters and simulates them, sends the frame back, the page draws it (``webxr_latency.csv``).
+page). The emulated headset's hand is placed, then moves; every frame comes back with the time the
+page read the hand pose it was computed from, so the page measures ``round_trip_ms`` on its own
+clock: the page reads the joints, sends them, the session stamps, guards, filters and simulates
+them, sends the frame back, the page draws it; ``to_physics_ms`` is its part before the session
+had the physics result (``webxr_latency.csv``).
 
 Both run the real command in a subprocess (the benchmark imports nothing of the study or the view)
 and print p50, p95 and p99. "Drawn" is when the page has issued the frame's draw calls: the
@@ -221,9 +222,10 @@ class _Session:
                 self.process.wait()
 
 
-def _collect(driver, session: _Session, seconds: float, rows: list[dict]) -> None:
+def _collect(driver, session: _Session, seconds: float, rows: list[dict]) -> dict:
     """Take the page's drawn-frame reports every second for ``seconds`` or until the session ends,
-    from the first frame the page receives on (before it, the physics may be compiling its scene)."""
+    from the first frame the page receives on (before it, the physics may be compiling its scene);
+    returns the page's last clock sync."""
     wait_for(driver, "return window.microg.latest")
     driver.execute_script("window.microg.reports.splice(0)")
     end = time.monotonic() + seconds
@@ -231,18 +233,21 @@ def _collect(driver, session: _Session, seconds: float, rows: list[dict]) -> Non
         time.sleep(1.0)
         rows += driver.execute_script("return window.microg.reports.splice(0)")
     rows += driver.execute_script("return window.microg.reports.splice(0)")
+    return driver.execute_script("return window.microg.clock")
 
 
-def _table(rows: list[dict], t_name: str) -> pd.DataFrame:
+def _table(rows: list[dict], t_name: str, clock: dict) -> pd.DataFrame:
     """The page's reports as a table (ms on the session's clock): the frame, its timestamp, when the
     session had its physics result, when the page received it, how long drawing took, when it was
-    drawn; and the parts of the latency: transport (to the page), waiting for the display's next
-    refresh, drawing."""
+    drawn; the parts of the latency: transport (to the page), waiting for the display's next
+    refresh, drawing; and how well the page's clock was synced (the spread of its offset, the
+    quickest ping round trip), which bounds the error of anything measured across the two clocks."""
     table = pd.DataFrame(rows, columns=["i", "t", "ready", "received", "render", "drawn"]).rename(columns={
         "i": "frame", "t": t_name, "ready": "ready_ms", "received": "received_ms", "render": "draw_ms",
         "drawn": "drawn_ms"})
     table["transport_ms"] = table["received_ms"] - table["ready_ms"]
     table["wait_ms"] = table["drawn_ms"] - table["draw_ms"] - table["received_ms"]
+    table["clock_spread_ms"], table["clock_rtt_ms"] = clock["spread"], clock["rtt"]
     table["load_average"] = os.getloadavg()[0]
     table["latency_ms"] = table["drawn_ms"] - table["ready_ms"]
     return table
@@ -260,10 +265,10 @@ def screen_latency(folder: Path, seconds: float, size: tuple[int, int]) -> pd.Da
     try:
         with chromium(size) as driver:
             driver.get(f"{session.url}?latency=1")
-            _collect(driver, session, seconds, rows)
+            clock = _collect(driver, session, seconds, rows)
     finally:
         session.stop()
-    return _table(rows, "frame_t_s")
+    return _table(rows, "frame_t_s", clock)
 
 
 def _circling(anchor: list[float], centre=(0.0, 0.25, 0.05), radius: float = 0.06, steps: int = 24) -> list[dict]:
@@ -289,13 +294,14 @@ def webxr_latency(folder: Path, seconds: float, size: tuple[int, int]) -> pd.Dat
             anchor = enter_and_place(driver)
             driver.execute_script("window.handPlayer.play('right', arguments[0]);"
                                   "window.handPlayer.paths.right.loop = true", _circling(anchor))
-            _collect(driver, session, seconds, rows)
+            clock = _collect(driver, session, seconds, rows)
     finally:
         session.stop()
-    table = _table(rows, "pose_t_s")
-    table.insert(len(table.columns) - 2, "to_physics_ms", table["ready_ms"] - 1e3 * table["pose_t_s"])
-    table.insert(len(table.columns) - 1, "round_trip_ms", table["drawn_ms"] - 1e3 * table["pose_t_s"])
-    return table
+    table = _table(rows, "frame_t_s", clock)
+    trip = pd.Series([row.get("trip") for row in rows], dtype=float)
+    table.insert(len(table.columns) - 2, "to_physics_ms", trip - table["latency_ms"])
+    table.insert(len(table.columns) - 1, "round_trip_ms", trip)
+    return table.dropna(subset=["round_trip_ms"])
 
 
 def _rate(table: pd.DataFrame) -> float:
@@ -323,7 +329,8 @@ def run(out: Path, quick: bool = False, size: tuple[int, int] = (640, 400), say=
             f"({_rate(screen):.0f} per s), latency p50 {stats['p50']:.1f} ms, p95 {stats['p95']:.1f} ms, "
             f"p99 {stats['p99']:.1f} ms (target p95 <= {TARGET_P95_MS:g} ms); p50 of its parts: transport "
             f"{parts['transport']:.1f}, waiting for a refresh {parts['wait']:.1f}, drawing {parts['draw']:.1f} ms; "
-            f"load average {os.getloadavg()[0]:.1f} -> {out / 'display_latency.csv'}")
+            f"clock sync spread {screen['clock_spread_ms'].iloc[0]:.1f} ms; load average "
+            f"{screen['load_average'].iloc[0]:.1f} -> {out / 'display_latency.csv'}")
         if not IWER.exists():
             say(f"webxr round trip: skipped, iwer is not installed ({IWER}); run `npm ci` in the source folder")
             return tables

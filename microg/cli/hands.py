@@ -168,7 +168,7 @@ def record_command(output: Path, input_kind: str, duration: float | None, max_fr
     device), or a headset's hand tracking through the participant's page (--input webxr)."""
     if output.exists() and not overwrite:
         raise click.ClickException(f"{output}: already exists (use --overwrite to replace it)")
-    limits = dict(duration=duration, max_frames=max_frames, overwrite=overwrite)
+    limits = {"duration": duration, "max_frames": max_frames, "overwrite": overwrite}
     if input_kind == "webxr":
         _record_webxr(output, protocol_name, host, port, limits)
         return

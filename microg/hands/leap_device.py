@@ -75,7 +75,8 @@ def hand_from_leap(hand) -> Hand:
         widths[~(widths > 0)] = np.nan
     q = hand.palm.orientation
     orientation = np.array([q.w, q.x, q.y, q.z], dtype=np.float64)
-    orientation[~np.isfinite(orientation)] = np.nan
+    if not np.isfinite(orientation).all():  # a rotation is known whole or not at all
+        orientation[:] = np.nan
     return Hand(hand.type.name.lower(), joints, widths, _point(hand.palm.position), orientation, int(hand.id))
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from microg.sim.hand import N_BONES, N_DIGITS, Hand, HandFrame
-from .recording import UNKNOWN, Recording, RecordingError, RecordingInfo, implausible
+from .recording import UNKNOWN, Recording, RecordingError, RecordingInfo
 from .units import metres, palm_quaternion, seconds
 
 FINGER_JOINTS = ("mcpPosition", "pipPosition", "dipPosition", "tipPosition")
@@ -100,8 +100,6 @@ def _frame(where: str, frame: dict) -> HandFrame:
                        if isinstance(pointable, dict) and pointable.get("handId") == hand.get("id")
                        and not pointable.get("tool", False)]
             hands.append(_hand(hand_where, hand, fingers))
-            if (problem := implausible(hands[-1])) is not None:
-                raise RecordingError(f"{hand_where}: {problem}")
         return HandFrame(seconds(timestamp), tuple(hands))
     except (ValueError, FloatingPointError) as error:
         if isinstance(error, RecordingError):

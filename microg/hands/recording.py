@@ -56,41 +56,8 @@ _HAND_TYPE = pa.struct([
 SCHEMA = pa.schema([("timestamp", pa.float64())] + [(side, _HAND_TYPE) for side in SIDES])
 
 
-MAX_BONE_WIDTH = 0.05
-"""m: the widest bone a recording may give (a finger 5 cm thick; the Leap reports 8 to 22 mm)."""
-MAX_REACH = 10.0
-"""m: the farthest from the tracker a joint or palm may be (no tracker sees a hand farther away)."""
-
-
 class RecordingError(ValueError):
     """A file that is not a readable hand recording; the message names the file and what is wrong."""
-
-
-def implausible(hand: Hand) -> str | None:
-    """What makes ``hand`` impossible for a real hand (``field[index] = value: why``), or None.
-    Recordings are checked frame by frame on reading, so a bad file is refused before any session
-    replays it (the physics would otherwise fling objects, or fail, on a 1 m wide finger)."""
-    with np.errstate(invalid="ignore"):
-        wide = np.argwhere(hand.widths > MAX_BONE_WIDTH)
-        if len(wide):
-            d, b = (int(i) for i in wide[0])
-            return (f"{hand.side} widths[{d}, {b}] = {hand.widths[d, b]:g} m: wider than any finger "
-                    f"(at most {MAX_BONE_WIDTH:g} m)")
-        for name in ("joints", "palm_position"):
-            values = getattr(hand, name)
-            far = np.argwhere(np.abs(values) > MAX_REACH)
-            if len(far):
-                index = tuple(int(i) for i in far[0])
-                return (f"{hand.side} {name}{list(index)} = {values[index]:g} m: farther from the tracker than "
-                        f"{MAX_REACH:g} m")
-    q = hand.palm_orientation
-    with np.errstate(over="ignore"):
-        norm = float(np.linalg.norm(q))
-    if np.isfinite(q).all() and abs(norm - 1.0) > 1e-3:
-        return f"{hand.side} palm_orientation = {q.tolist()}: not a unit quaternion"
-    if np.isnan(q).any() and not np.isnan(q).all():
-        return f"{hand.side} palm_orientation = {q.tolist()}: partly unknown"
-    return None
 
 
 @dataclass(frozen=True)
@@ -178,7 +145,7 @@ def _frames_to_batch(frames: list[HandFrame]) -> pa.RecordBatch:
 
 def _batch_to_frames(batch: pa.RecordBatch, first: int) -> list[HandFrame]:
     """The frames of one batch, the recording's frames ``first`` on; ValueError names the first
-    frame that no hand can make (``implausible``, or what ``Hand`` refuses)."""
+    frame that no hand can make (what ``Hand`` refuses: a 1 m wide finger would fling objects)."""
     n = batch.num_rows
     timestamps = batch.column("timestamp").to_numpy()
     sides = {}
@@ -194,9 +161,6 @@ def _batch_to_frames(batch: pa.RecordBatch, first: int) -> list[HandFrame]:
                 hands = tuple(Hand(side, joints[i], widths[i], palm[i], orientation[i], int(ids[i]))
                               for side, (present, ids, palm, orientation, joints, widths) in sides.items()
                               if present[i])
-            problem = next((p for p in map(implausible, hands) if p is not None), None)
-            if problem is not None:
-                raise ValueError(problem)
             frames.append(HandFrame(float(timestamps[i]), hands))
         except ValueError as error:
             raise ValueError(f"frame {first + i} (timestamp = {timestamps[i]:g} s): {error}") from None

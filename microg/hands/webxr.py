@@ -28,11 +28,12 @@ where bone j begins, joint 4 the tip):
   (index to pinky) and the direction, out of the palm.
 
 Timestamps: the page syncs its clock to the session's (``microg.view.display.now_ms``, wall time)
-by ping/pong: the offset of the quickest round trips, with their spread; it resyncs every 10 s
-and the display logs each measurement (``display_clock``). A frame's timestamp (s) is the page's
+by ping/pong, a burst of 12 every 10 s: the mean offset of the 4 quickest of the last 48 round
+trips (each is off by at most half its round trip), with their spread; the display logs each
+measurement (``display_clock``). A frame's timestamp (s) is the page's
 read time plus the latest measured offset, so frames are on the session's clock within the
 offset's spread. Frames before the first sync, malformed hands and hands no real hand could be
-(``recording.implausible``) are refused and counted.
+(``Hand`` refuses them) are refused and counted.
 
 A live source serves the newest frames: frames more than ``backlog_s`` older than the newest one
 waiting (the session fell behind: between tasks, while the researcher starts the next one, or
@@ -50,8 +51,8 @@ from collections import deque
 
 import numpy as np
 
-from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame
-from .recording import implausible
+from microg.sim.hand import N_BONES, SIDES, Hand, HandFrame
+
 from .units import palm_quaternion
 
 XR_JOINTS = (
@@ -107,7 +108,11 @@ class WebXRSource:
         """Messages or hands refused: before the clock was synced, malformed, or implausible."""
         self.clock: dict | None = None
         """The clock offset and spread the latest frame was stamped with."""
-        self._frames: deque[HandFrame] = deque()
+        self.last_read: float | None = None
+        """The page's read time (ms, page clock) of the frame ``next_frame`` handed out last: the
+        participant display sends it back with the frame computed from it, so the page measures
+        the round trip on its own clock."""
+        self._frames: deque[tuple[HandFrame, float]] = deque()
         self._backlog_s = backlog_s
         self._times: deque[float] = deque(maxlen=64)
         self._arrived = threading.Condition()
@@ -145,16 +150,13 @@ class WebXRSource:
             except (KeyError, TypeError, ValueError):
                 self.refused += 1
                 continue
-            if implausible(hand) is not None:
-                self.refused += 1
-                continue
             hands.setdefault(side, hand)
         frame = HandFrame((t + offset) / 1e3, tuple(hands.values()))
         with self._arrived:
             self.clock = clock
             self._times.append(t)
-            self._frames.append(frame)
-            while frame.timestamp - self._frames[0].timestamp > self._backlog_s:
+            self._frames.append((frame, t))
+            while frame.timestamp - self._frames[0][0].timestamp > self._backlog_s:
                 self._frames.popleft()
                 self.frames_dropped += 1
             self._arrived.notify_all()
@@ -164,7 +166,10 @@ class WebXRSource:
         with self._arrived:
             while not self._frames and not self._closed:
                 self._arrived.wait(WAIT_SLICE_S)
-            return self._frames.popleft() if self._frames else None
+            if not self._frames:
+                return None
+            frame, self.last_read = self._frames.popleft()
+            return frame
 
     def close(self) -> None:
         with self._arrived:

@@ -28,6 +28,10 @@ BONES_PER_HAND = N_DIGITS * N_BONES
 SLOTS = len(SIDES) * BONES_PER_HAND
 """Phalanx slots in the physics: left hand 0..19, right hand 20..39, digit-major."""
 
+MAX_BONE_WIDTH = 0.05
+"""m: the widest bone a hand may have (a finger 5 cm thick; the Leap reports 8 to 22 mm)."""
+MAX_REACH = 10.0
+"""m: the farthest from the tracker a joint or palm may be (no tracker sees a hand farther away)."""
 MIN_PHALANX_LENGTH = 1e-4
 """Bones shorter than this (m) are not phalanges: the thumb's metacarpal is one."""
 
@@ -91,7 +95,9 @@ def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
 
 @dataclass(frozen=True, eq=False)
 class Hand:
-    """One tracked hand, in metres, in the tracker's frame (y up)."""
+    """One tracked hand, in metres, in the tracker's frame (y up). Construction refuses what no real
+    hand can be (infinite values, bones wider than ``MAX_BONE_WIDTH``, points farther than
+    ``MAX_REACH``, a palm orientation that is not a unit quaternion), naming the field and value."""
 
     side: str
     joints: np.ndarray
@@ -118,6 +124,24 @@ class Hand:
                 raise ValueError(f"Hand({self.side}).{name}{list(index)} = {value[index]}: infinite")
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+        with np.errstate(invalid="ignore"):
+            wide = np.argwhere(self.widths > MAX_BONE_WIDTH)
+            if len(wide):
+                d, b = (int(i) for i in wide[0])
+                raise ValueError(f"{self.side} widths[{d}, {b}] = {self.widths[d, b]:g} m: wider than any finger "
+                                 f"(at most {MAX_BONE_WIDTH:g} m)")
+            for name in ("joints", "palm_position"):
+                values = getattr(self, name)
+                far = np.argwhere(np.abs(values) > MAX_REACH)
+                if len(far):
+                    index = tuple(int(i) for i in far[0])
+                    raise ValueError(f"{self.side} {name}{list(index)} = {values[index]:g} m: farther from the "
+                                     f"tracker than {MAX_REACH:g} m")
+        q = self.palm_orientation
+        if np.isnan(q).any() and not np.isnan(q).all():
+            raise ValueError(f"{self.side} palm_orientation = {q.tolist()}: partly unknown")
+        if np.isfinite(q).all() and abs(float(np.sqrt(q @ q)) - 1.0) > 1e-3:
+            raise ValueError(f"{self.side} palm_orientation = {q.tolist()}: not a unit quaternion")
         known = np.isfinite(self.joints).all(axis=-1)
         bone_known = known[:, :-1] & known[:, 1:]
         bad = bone_known & np.isfinite(self.widths) & (self.widths <= 0) & (self.bone_lengths >= MIN_PHALANX_LENGTH)

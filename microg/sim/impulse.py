@@ -240,9 +240,9 @@ def apply_impulses(p, s, o, rot, springs, h):
         if since > 0.0:
             moved = True
             at_time_of_impact(s, o, velocity, angular_velocity, since)
-            for i in range(count):  # a bounce is over: its phalanx is clear
+            for i in range(count):  # a bounce that leaves is over: its phalanx is clear
                 if bounced[i]:
-                    clear(p, s, o, slots[i])
+                    end_bounce(p, s, o, slots[i], row(arms, i), row(normals, i))
         for i in range(count):
             if too_deep[i] > 0.0:
                 move_out(p, s, o, rot, row(arms, i), row(normals, i), too_deep[i], compliance[i])
@@ -266,6 +266,20 @@ def engaged(s, o, rot, k):
     normal = cell(s.normal, k, o)
     below = dot(sub(cell(s.anchor, k, o), local), normal)
     return below + s.radius[k], add(local, scale(below, normal))
+
+
+@kernel
+def end_bounce(p, s, o, k, r, n):
+    """After the impulse, contact (k, o) ends clear of the surface when its phalanx now leaves it
+    (``clear``). One that still meets the object, as the fingers of a pinch that close on it from
+    both sides do (no velocity can leave both), stays a contact when its phalanx is still inside:
+    its spring holds the object, and moving it out would push it away from the grasp."""
+    u = dot(n, sub(row(s.hand_velocity, k), point_velocity(row(s.velocity, o), row(s.angular_velocity, o), r)))
+    if classify(u, p.resting_tolerance) == SEPARATING:
+        clear(p, s, o, k)
+    elif engaged(s, o, rotation(s.orientation[o]), k)[0] <= 0.0:
+        s.active[k, o] = False
+        s.depth[k, o] = 0.0
 
 
 @kernel

@@ -29,7 +29,8 @@ face and only f_n acts.
 from __future__ import annotations
 
 
-from .contact import point_velocity, project_to_surface
+from .bodies import BOX
+from .contact import _with, point_velocity, project_to_surface
 from .hand import SLOTS
 from .vec import add, cell, dot, kernel, mat_t_vec, mat_vec, norm, row, scale, set_cell, sub
 from .wrench import add_point_force, add_point_matrix, outer
@@ -42,6 +43,27 @@ def spring_offset(rot, position, hand_position, radius, anchor, normal):
     offset = sub(anchor, sub(p, scale(radius, normal)))
     delta = dot(offset, normal)
     return offset, delta, sub(offset, scale(delta, normal))
+
+
+@kernel
+def along_face(shape, half_size, anchor, normal, tangential):
+    """The part of a sliding contact's tangential offset that friction can act on: without what
+    points past the edge of the face its anchor is held at (a box's phalanx is over its face up
+    to rho beyond the edge). The anchor cannot slide there, so that pull is no friction: its
+    direction is set by where the phalanx hangs over the edge, not by the sliding, and turning the
+    object under it, it does work that no motion of the hand paid for (a still fingertip resting
+    over the edge of a spinning box kept it spinning faster, at any step)."""
+    if shape != BOX:
+        return tangential
+    axis = 0
+    for i in range(1, 3):
+        if abs(normal[i]) > abs(normal[axis]):
+            axis = i
+    result = (tangential[0], tangential[1], tangential[2])
+    for i in range(3):
+        if i != axis and abs(anchor[i]) >= half_size[i] and anchor[i] * tangential[i] < 0.0:
+            result = _with(result, i, 0.0)
+    return result
 
 
 @kernel
@@ -88,9 +110,10 @@ def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h):
             continue
         if not friction or s.sliding[k, o]:  # an anchor held at a face's edge cannot pull past the cone
             limit = p.dynamic_friction[o] * delta if friction else 0.0
-            length = norm(tangential)
-            if length > limit:
-                offset = add(scale(delta, normal), scale(limit / length, tangential))
+            along = along_face(p.shape[o], row(p.half_size, o), anchor, normal, tangential)
+            length = norm(along)
+            if length > limit or along != tangential:
+                offset = add(scale(delta, normal), scale(min(1.0, limit / length) if length > 0.0 else 0.0, along))
         n_world = mat_vec(rot, normal)
         r = add(mat_vec(rot, anchor), scale(radius, n_world))
         on_object = scale(-gamma, mat_vec(rot, offset))

@@ -202,10 +202,21 @@ class HandFrames:
         return arrays
 
 
+MAX_INTERVAL = 60.0
+"""s: the longest a world integrates between two hand frames in one call (26 400 steps at the
+default dt); a frame further ahead is a clock that jumped, not a pause (the tracking guard
+re-anchors such jumps before the physics sees them)."""
+
+
 def _late(timestamp: float, frame_time: float, frames_seen: int) -> None:
+    """Refuse a frame that is not after the last one, or that is more than ``MAX_INTERVAL`` after it."""
     if frames_seen and timestamp <= frame_time:
         raise SceneError(f"hand frame timestamp {timestamp!r} is not after the previous frame's {frame_time!r}; "
                          "order frames (the tracking guard does) before the physics")
+    if frames_seen and timestamp - frame_time > MAX_INTERVAL:
+        raise SceneError(f"hand frame timestamp {timestamp!r} is {timestamp - frame_time:g} s after the previous "
+                         f"frame's {frame_time!r}, more than MAX_INTERVAL = {MAX_INTERVAL:g} s: the clock jumped; "
+                         "pass frames through the tracking guard (it re-anchors the clock) or start a new world")
 
 
 def _advance(model: Model, buffers, frames: HandFrames) -> None:
@@ -264,9 +275,10 @@ def step_batch(batch: Batch, frames: HandFrames | Sequence[HandFrame]) -> Batch:
         frames = HandFrames.stack(frames)
     if frames.timestamp.shape != (len(batch),):
         raise SceneError(f"step_batch: {frames.timestamp.shape[0]} frames for a batch of {len(batch)} worlds")
-    late = (batch.counts[:, COUNT_FRAMES] > 0) & (frames.timestamp <= batch.reals[:, CLOCK_FRAME])
-    if late.any():
-        i = int(np.argmax(late))
+    interval = frames.timestamp - batch.reals[:, CLOCK_FRAME]
+    wrong = (batch.counts[:, COUNT_FRAMES] > 0) & ((interval <= 0) | (interval > MAX_INTERVAL))
+    if wrong.any():
+        i = int(np.argmax(wrong))
         _late(float(frames.timestamp[i]), float(batch.reals[i, CLOCK_FRAME]), 1)
     buffers = (batch.reals.copy(), batch.flags.copy(), batch.counts.copy())
     _advance(batch.model, buffers, frames)

@@ -168,7 +168,8 @@ class ParticipantDisplay:
 
     def show(self, moment: Moment) -> None:
         """One frame's outcome: the rendered hand with its highlight, the object, the places, the
-        timers; kept as the newest frame and sent to each page as soon as it can take it."""
+        timers; kept as the newest frame and sent to each page as soon as it can take it. With
+        hands from the page, ``read`` is when the page read the newest of them (its own clock)."""
         self.deliver_events()
         world, state, display = moment.world, moment.state, moment.observation.display
         rendered = rendered_phalanges(world)
@@ -192,6 +193,8 @@ class ParticipantDisplay:
                    "place_timer": round(display.timer_s, 3),
                    "task_timer": round(t - state.started, 3) if state.started is not None else 0.0,
                    "attempts": state.drops, "held": state.held}
+        if self.hands is not None:
+            message["read"] = self.hands.last_read
         self._frame = json.dumps(message)
         self._frame_version += 1
         self._notify()

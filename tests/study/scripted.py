@@ -74,21 +74,25 @@ class ScriptedPinch:
 class Gated(ScriptedPinch):
     """A ScriptedPinch that waits on ``gate`` (a semaphore) before each ``every``-th frame: with
     ``every`` the protocol's frame batch, a session run from it commits a batch, then waits for the
-    test to let it make the next one, so a reader can be checked batch by batch on any machine."""
+    test to let it make the next one, so a reader can be checked batch by batch on any machine.
+    ``waiting`` (a semaphore), when given, is released each time it starts to wait."""
 
-    def __init__(self, keyframes, gate, every: int):
+    def __init__(self, keyframes, gate, every: int, waiting=None):
         super().__init__(keyframes)
-        self.gate, self.every = gate, every
+        self.gate, self.every, self.waiting = gate, every, waiting
 
     def next_frame(self, observation=None):
         if self.index and self.index % self.every == 0:
+            if self.waiting is not None:
+                self.waiting.release()
             self.gate.acquire()
         return super().next_frame(observation)
 
 
-def gated_session(folder, gate) -> threading.Thread:
+def gated_session(folder, gate, waiting=None) -> threading.Thread:
     """P01's session of the study in ``folder``, started now in another thread (it opens the study
-    itself), played by ``Gated`` pinches: each task commits a frame batch, then waits for ``gate``."""
+    itself), played by ``Gated`` pinches: each task commits a frame batch, then releases ``waiting``
+    (when given) and waits for ``gate``."""
     from microg.study.inputs import ScriptedInputs
     from microg.study.session import SimulationClock, run_session
     from microg.study.store import open_study
@@ -96,7 +100,7 @@ def gated_session(folder, gate) -> threading.Thread:
     def run() -> None:
         with open_study(folder) as store:
             every = store.protocol.frame_batch
-            inputs = ScriptedInputs(lambda plan, seed: Gated(pinch_keyframes(plan), gate, every))
+            inputs = ScriptedInputs(lambda plan, seed: Gated(pinch_keyframes(plan), gate, every, waiting))
             session = store.create_session("P01", "scripted", simulated=True, clock="simulation")
             run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
 

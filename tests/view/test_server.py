@@ -222,20 +222,22 @@ def test_a_live_view_waits_for_the_session_follows_it_and_moves_on_to_its_next_t
         try:
             view.tick(0.0)
             assert "waiting for a session to start" in view.hud.content
-            writer = gated_session(folder, gate)
+            waiting = threading.Semaphore(0)
+            writer = gated_session(folder, gate, waiting)
 
             def seen():
                 view.poll()
                 view.tick(0.0)
-                return (view.track.run.id, len(view.track.frames)) if view.track is not None else None
 
-            shown = []  # (task index, frames read, what the display says) after each batch the session commits
-            while writer.is_alive():
-                before = seen()
-                gate.release()  # the session may commit its next batch
-                wait_until(lambda: seen() != before or not writer.is_alive())
+            shown = []  # (task index, frames read, what the display says) each time the session waits on the gate
+            while True:
+                wait_until(lambda: waiting.acquire(blocking=False) or not writer.is_alive())
+                if not writer.is_alive():
+                    break
+                seen()  # the session is held at the gate: everything it committed is there to read
                 if view.track is not None and len(view.track.frames):
                     shown.append((view.track.run.task_index, len(view.track.frames), view.hud.content))
+                gate.release()  # the session may commit its next batch
             writer.join()
             seen()
             runs = store.db.execute("SELECT task_index, frames FROM task_runs ORDER BY id").fetchall()

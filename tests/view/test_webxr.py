@@ -16,8 +16,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from microg.bench import display as bench
+from microg.cli.session import _event_logger
 from microg.hands import load_recording
-from microg.hands.webxr import WebXRSource, hand_from_webxr
+from microg.hands.webxr import XR_JOINTS, WebXRSource, hand_from_webxr
 from microg.study import framelog
 from microg.study.assignment import Participant
 from microg.study.export import export_study, read_tables, run_frames, run_list
@@ -26,12 +28,10 @@ from microg.study.protocol import load_protocol
 from microg.study.session import WallClock, run_session
 from microg.study.store import Event, create_study, open_study
 from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
-
 from tests.study.conftest import PROTOCOLS
 
 from .browser import MISSING
 
-bench = pytest.importorskip("microg.bench.display")
 needs_headset = pytest.mark.skipif(bool(MISSING) or not bench.IWER.exists(),
                                    reason=f"needs {MISSING or 'iwer'} (apt-get install chromium chromium-driver; "
                                           "pip install selenium; npm ci)")
@@ -73,11 +73,11 @@ return { names, open: part(poses.open, (j) => Array.from(j.offsetMatrix.slice(12
 
 
 class EmulatedHand:
-    """The emulated right hand's geometry (iwer's poses, read from the page): its joints in the XR
-    space for a pose (position, rotation) and pinch value, and where it must be to put a point of
-    the hand somewhere."""
+    """The emulated right hand's geometry (iwer's poses, read from the page): its joints in its own
+    frame for a pinch value, and where on the hand the cube goes."""
 
     def __init__(self, data: dict):
+        assert tuple(data["names"]) == XR_JOINTS  # iwer's poses list the joints in WebXR's order
         mirror = np.array([-1.0, 1.0, 1.0])  # iwer mirrors its left-hand poses for the right hand
         self.open, self.pinch = np.asarray(data["open"]) * mirror, np.asarray(data["pinch"]) * mirror
         self.open_radii, self.pinch_radii = np.asarray(data["open_radii"]), np.asarray(data["pinch_radii"])
@@ -87,7 +87,7 @@ class EmulatedHand:
         return (1 - pinch) * self.open + pinch * self.pinch, (1 - pinch) * self.open_radii + pinch * self.pinch_radii
 
     def grip(self, pinch: float) -> np.ndarray:
-        """The middle of the thumb's distal bone and the index's distal joint: where the cube goes."""
+        """Between the thumb's distal phalanx and the index's distal joint: where the cube goes."""
         joints, radii = self.local(pinch)
         centres = hand_from_webxr("right", joints, radii).bone_centres
         return 0.5 * (centres[0, 3] + 0.5 * (centres[1, 2] + centres[1, 3]))
@@ -204,14 +204,14 @@ def headset_study(tmp_path):
 
 def session_in_background(folder, display: ParticipantDisplay, failures: list) -> threading.Thread:
     """P01's session with the hands from the page (``--input webxr``), the page's events logged
-    with it as ``microg session run`` logs them."""
+    with it by ``microg session run``'s logger."""
     def run():
         try:
             with open_study(folder) as store:
                 inputs = open_inputs("webxr", webxr=display.hands)
                 session = store.create_session("P01", inputs.spec, inputs.simulated, inputs.clock)
                 clock = WallClock()
-                display.on_event = lambda kind, data: store.log(session.id, [Event(clock.now(), kind, data)])
+                display.on_event = _event_logger(store, session.id, clock)
 
                 def rejected(item, stage, text, message):
                     store.log(session.id, [Event(clock.now(), "answer_rejected", {"answer": text})])
@@ -410,6 +410,7 @@ def test_webxr_frames_are_stamped_on_the_sessions_clock_and_bad_ones_refused():
     assert source.refused == 4
     frames = [source.next_frame(), source.next_frame()]
     assert [f.timestamp for f in frames] == [1.25, 1.26] and [f.hands for f in frames] == [(), ()]
+    assert source.last_read == 1010.0  # the page's read time of the frame handed out last
     for k in range(8):  # the session falls behind: only frames within 0.055 s of the newest wait
         source.receive(message(1020.0 + 10 * k, ("right", joints, radii)), clock)
     assert source.frames_dropped == 2 and source.next_frame().timestamp == pytest.approx(1.29)

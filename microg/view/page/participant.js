@@ -49,6 +49,8 @@ const microg = {
   layout: null,
   socket: null,
   clockOffset: 0,
+  /** The last clock sync: offset to the session's clock, quickest round trip, spread (ms). */
+  clock: null,
   /** Screen pixel (x, y from the top left) of a point in the tracker's frame. */
   project(x, y, z) {
     const p = new THREE.Vector3(x, y, z).project(camera);
@@ -173,7 +175,14 @@ question.addEventListener("submit", (event) => event.preventDefault());
 
 // ---------------------------------------------------------------- the connection
 
-const pings = [];
+// The clock: bursts of 12 pings, one every 10 s. Each ping gives the session's clock minus the
+// page's, measured at the middle of its round trip; it is off by at most half the round trip, so
+// the offset is the mean of the 4 quickest of the last 48 (four bursts, 40 s, too short for the two
+// clocks to drift apart by much): a page busy drawing handles some pongs late, and those are left out.
+const samples = [];
+const KEPT_SAMPLES = 48;
+const BURST = 12;
+let burst = 0;
 
 function ping() {
   microg.send({ type: "ping", t0: performance.timeOrigin + performance.now() });
@@ -181,18 +190,19 @@ function ping() {
 
 function pong(m) {
   const t1 = performance.timeOrigin + performance.now();
-  pings.push({ rtt: t1 - m.t0, offset: m.ts - (m.t0 + t1) / 2 });
-  if (pings.length < 12) {
+  samples.push({ rtt: t1 - m.t0, offset: m.ts - (m.t0 + t1) / 2 });
+  if (samples.length > KEPT_SAMPLES) samples.shift();
+  burst += 1;
+  if (burst < BURST) {
     setTimeout(ping, 20);
     return;
   }
-  // The offset of the quickest round trips: the least queueing, the best estimate.
-  const best = pings.sort((a, b) => a.rtt - b.rtt).slice(0, 4);
+  burst = 0;
+  const best = [...samples].sort((a, b) => a.rtt - b.rtt).slice(0, 4);
   const offsets = best.map((p) => p.offset);
   microg.clockOffset = offsets.reduce((a, b) => a + b, 0) / offsets.length;
-  microg.send({ type: "clock", offset: microg.clockOffset, rtt: best[0].rtt,
-                spread: Math.max(...offsets) - Math.min(...offsets) });
-  pings.length = 0;
+  microg.clock = { offset: microg.clockOffset, rtt: best[0].rtt, spread: Math.max(...offsets) - Math.min(...offsets) };
+  microg.send({ type: "clock", ...microg.clock });
   setTimeout(ping, 10000);
 }
 
@@ -278,6 +288,8 @@ function draw(time, xrFrame) {
       const drawn = microg.now();
       const report = { type: "drawn", i: frame.i, t: frame.t, ready: frame.ready, received: frame.received,
                        render: drawn - start, drawn };
+      // Hands read in this page: from reading them to drawing their physics, on the page's own clock.
+      if (frame.read != null) report.trip = performance.timeOrigin + performance.now() - frame.read;
       microg.send(report);
       microg.reports.push(report);
       if (microg.reports.length > KEPT_REPORTS) microg.reports.splice(0, microg.reports.length - KEPT_REPORTS);

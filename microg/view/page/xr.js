@@ -46,6 +46,8 @@ class Panel {
     this.canvas.height = Math.round(height * PX_PER_M);
     this.texture = new THREE.CanvasTexture(this.canvas);
     this.texture.colorSpace = THREE.SRGBColorSpace;
+    this.texture.generateMipmaps = false;  // redrawn with every timer tick: no mipmap chain to rebuild
+    this.texture.minFilter = THREE.LinearFilter;
     this.mesh = new THREE.Mesh(new THREE.PlaneGeometry(width, height),
                                new THREE.MeshBasicMaterial({ map: this.texture, transparent: true }));
     this.key = null;
