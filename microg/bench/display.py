@@ -181,8 +181,11 @@ class _Session:
                          "--handedness", "right", "--mr-experience", "no")):
             if _microg(*command, stdout=subprocess.DEVNULL).wait() != 0:
                 raise RuntimeError(f"microg {' '.join(map(str, command))} failed")
-        self.process = _microg("session", "run", study, "--participant", "P01", "--port", _free_port(),
-                               "--quiet", *args, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        self.log = folder / "session.log"
+        """The session's own messages (its pause when the benchmark interrupts it, or why it failed)."""
+        with self.log.open("w") as log:
+            self.process = _microg("session", "run", study, "--participant", "P01", "--port", _free_port(),
+                                   "--quiet", *args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log)
         self.process.stdin.write(stdin)
         self.process.stdin.close()
         self._lines: queue.Queue[str] = queue.Queue()
@@ -205,7 +208,8 @@ class _Session:
             if line.startswith("participant view: "):
                 return line.split(": ", 1)[1].strip()
         self.stop()
-        raise RuntimeError("`microg session run` did not print its participant view's address")
+        raise RuntimeError(f"`microg session run` did not print its participant view's address; its "
+                           f"messages: {self.log.read_text()[-2000:]}")
 
     @property
     def running(self) -> bool:

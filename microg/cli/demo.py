@@ -10,8 +10,9 @@ from .common import clear_errors
 @click.command()
 @click.option("--out", type=click.Path(file_okay=False), default="microg-demo", show_default=True,
               help="Folder for the study, its tables and its report (in the current folder by default).")
-@click.option("--participants", type=click.IntRange(1), default=30, show_default=True,
-              help="Simulated participants to enrol (the paper had 30).")
+@click.option("--participants", type=click.IntRange(2), default=30, show_default=True,
+              help="Simulated participants to enrol (the paper had 30; at least 2, one per group, for the "
+                   "report's between-group test).")
 @click.option("--seed", type=click.IntRange(0), default=1, show_default=True,
               help="Seed of the study: who is enrolled with which demographics, and every session.")
 @click.option("--protocol", default="paper", show_default=True,

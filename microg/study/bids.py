@@ -21,7 +21,10 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.csv as pa_csv
 
 from microg import __version__
 from microg.sim import BONES, DIGITS
@@ -93,6 +96,20 @@ def _write(path: Path, text: str) -> Path:
 
 def _tsv(table: pd.DataFrame, header: bool = True) -> str:
     return table.to_csv(sep="\t", index=False, header=header, na_rep="n/a", lineterminator="\n", float_format="%.7g")
+
+
+def _write_motion(path: Path, values: pd.DataFrame) -> Path:
+    """A ``*_motion.tsv``: no header, ``n/a`` where a value is unknown. The channels at the
+    tracker's precision (single, as the Leap Motion delivers them: 0.01 um at 1 m), the latency to
+    the microsecond. Written by Arrow's CSV writer, ten times faster than formatting each value in
+    Python: the frames are most of an export."""
+    columns = {name: pa.array(np.round(column.to_numpy(), 6) if name == "latency" else
+                              column.to_numpy(dtype=np.float32), from_pandas=True)
+               for name, column in values.items()}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pa_csv.write_csv(pa.table(columns), str(path), pa_csv.WriteOptions(
+        include_header=False, delimiter="\t", quoting_style="none", null_string="n/a"))
+    return path
 
 
 README = """# {name}
@@ -187,7 +204,7 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]
             "stage": e.data.get("stage", "n/a"), "place": e.data.get("place", "n/a")} for e in events],
             columns=["onset", "duration", "trial_type", "stage", "place"])
         written += [
-            _write(folder / f"{name}_motion.tsv", _tsv(values, header=False)),
+            _write_motion(folder / f"{name}_motion.tsv", values),
             _write(folder / f"{name}_channels.tsv", _tsv(pd.DataFrame(channels).drop(columns="source"))),
             _write(folder / f"{name}_channels.json", json.dumps({"reference_frame": {
                 "Description": "reference frame of the channel",

@@ -179,6 +179,6 @@ def test_a_protocol_simulated_participants_cannot_answer_warns_at_init_and_refus
     assert result.exit_code == 1 and "a simulated participant cannot run this study's protocol" in result.output
     with open_study(study) as store:
         assert store.session_of("P01") is None
-    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "demo"), "--participants", "1",
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "demo"), "--participants", "2",
                                        "--protocol", str(mine), "--quiet"])
     assert result.exit_code == 1 and "'comfort'" in result.output and not (tmp_path / "demo").exists()

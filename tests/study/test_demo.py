@@ -90,5 +90,5 @@ def test_same_seed_same_tables_whatever_the_number_of_workers(demo):
 
 def test_an_existing_demo_is_not_overwritten_unless_asked(demo):
     out, _ = demo
-    result = CliRunner().invoke(main, ["demo", "--out", str(out / "a"), "--participants", "1", "--quiet"])
+    result = CliRunner().invoke(main, ["demo", "--out", str(out / "a"), "--participants", "2", "--quiet"])
     assert result.exit_code == 1 and "exists and is not empty" in result.output
