@@ -28,3 +28,11 @@ def clear_errors(command):
         except EXPECTED as error:
             raise click.ClickException(str(error)) from None
     return wrapper
+
+
+def picture_size(text: str) -> tuple[int, int]:
+    """``--size WIDTHxHEIGHT`` in pixels (at least 16 each way)."""
+    width, _, height = text.partition("x")
+    if not (width.isdigit() and height.isdigit() and int(width) >= 16 and int(height) >= 16):
+        raise click.BadParameter(f"{text!r}: give WIDTHxHEIGHT in pixels, e.g. 480x360", param_hint="--size")
+    return int(width), int(height)

@@ -8,14 +8,7 @@ import click
 
 from microg.view import HAND_MODES
 
-from .common import clear_errors, study_dir_argument
-
-
-def _size(text: str) -> tuple[int, int]:
-    width, _, height = text.partition("x")
-    if not (width.isdigit() and height.isdigit() and int(width) >= 16 and int(height) >= 16):
-        raise click.BadParameter(f"{text!r}: give WIDTHxHEIGHT in pixels, e.g. 480x360", param_hint="--size")
-    return int(width), int(height)
+from .common import clear_errors, picture_size, study_dir_argument
 
 
 @click.command("view")
@@ -60,7 +53,7 @@ def view(study_dir: str, session: str | None, task_index: int | None, run: int |
             raise click.UsageError("--out writes pictures of one task: give --session and --task too")
         try:
             written = export_task(study_dir, session, task_index, out, run=run, hands=hands, seconds=seconds,
-                                  size=_size(size), fps=fps, speed=speed, title=title, overwrite=overwrite,
+                                  size=picture_size(size), fps=fps, speed=speed, title=title, overwrite=overwrite,
                                   progress=not quiet)
         except ValueError as error:
             raise click.ClickException(str(error)) from None

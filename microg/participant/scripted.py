@@ -45,20 +45,58 @@ def pinch_and_carry(centre: Sequence[float], half_width: float, carry: Sequence[
     """A thumb and an index fingertip that close on an object's -x and +x faces, squeeze ``depth``
     into them, carry it by ``carry`` (minimum jerk), and open again. Returns ``path(t)`` and the
     time at which the hand has let go."""
+    contacts = {"thumb.distal": ((-half_width, 0.0, 0.0), (-1.0, 0.0, 0.0)),
+                "index.distal": ((half_width, 0.0, 0.0), (1.0, 0.0, 0.0))}
+    return grip_and_carry(centre, contacts, carry, depth, approach, close, hold, move, hold, True, width)
+
+
+def grip_and_carry(centre: Sequence[float], contacts: Mapping[str, tuple[Sequence[float], Sequence[float]]],
+                   carry: Sequence[float], depth: float = 0.005, approach: float = 0.5, close: float = 0.5,
+                   hold: float = 0.3, move: float = 1.5, hold_after: float = 0.3, release: bool = True,
+                   width: float = 0.016, opening: float = 0.03):
+    """Phalanges that come down from 5 cm above an object, close onto it, carry it and hold it.
+
+    Parameters
+    ----------
+    centre
+        The object's centre (m) at the start.
+    contacts
+        For each phalanx (``"index.distal"``, ...), the point of the object's surface it closes on,
+        relative to ``centre``, and the surface's outward unit normal there (m).
+    carry
+        How far the closed hand moves (m), with a minimum-jerk motion of ``move`` seconds.
+    depth
+        How far each phalanx's sphere presses past the surface (m) once closed.
+    approach, close, hold, move, hold_after
+        Seconds to come down (open, ``opening`` m off the surface), to close, to hold before the
+        carry, to carry, and to hold after it.
+    release
+        Open again (``close`` seconds) after ``hold_after``; otherwise keep holding.
+
+    Returns
+    -------
+    path : callable
+        ``path(t)``: each phalanx's centre at time ``t`` (s), for ``probe_hand``.
+    done : float
+        The time at which the hand has let go (with ``release``) or ends its last hold.
+    """
     centre, carry = np.asarray(centre, dtype=float), np.asarray(carry, dtype=float)
     radius = width / 2
-    open_x, closed_x = half_width + radius + 0.03, half_width + radius - depth
+    closed = {name: centre + np.asarray(point, dtype=float) + (radius - depth) * np.asarray(normal, dtype=float)
+              for name, (point, normal) in contacts.items()}
+    opened = {name: closed[name] + (opening + depth) * np.asarray(normal, dtype=float)
+              for name, (_, normal) in contacts.items()}
     t_closed = approach + close
     t_moved = t_closed + hold + move
-    t_released = t_moved + hold + close
+    done = t_moved + hold_after + (close if release else 0.0)
 
     def path(t: float) -> dict[str, np.ndarray]:
-        lift = 0.05 * (1.0 - minimum_jerk(t / approach))
-        if t < t_moved:
-            x = open_x + (closed_x - open_x) * minimum_jerk((t - approach) / close)
+        if release and t >= t_moved:
+            grip = 1.0 - minimum_jerk((t - t_moved - hold_after) / close)
         else:
-            x = closed_x + (open_x - closed_x) * minimum_jerk((t - t_moved - hold) / close)
-        offset = centre + carry * minimum_jerk((t - t_closed - hold) / move) + (0.0, lift, 0.0)
-        return {"thumb.distal": offset + (-x, 0.0, 0.0), "index.distal": offset + (x, 0.0, 0.0)}
+            grip = minimum_jerk((t - approach) / close)
+        lift = 0.05 * (1.0 - minimum_jerk(t / approach))
+        offset = carry * minimum_jerk((t - t_closed - hold) / move) + (0.0, lift, 0.0)
+        return {name: opened[name] + grip * (closed[name] - opened[name]) + offset for name in contacts}
 
-    return path, t_released
+    return path, done

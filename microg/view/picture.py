@@ -1,7 +1,11 @@
-"""Pictures of a logged task for reports and papers: an image strip of its key moments (like the
-paper's Figs. 7 and 9) and a short animation, drawn headless by pybullet's CPU renderer
-(TinyRenderer: no display, no GPU). The strip is laid out with matplotlib, so it can be PNG, PDF
-or SVG, with each panel's heads-up display as text under it.
+"""Pictures for reports and papers: an image strip of a logged task's key moments (like the paper's
+Figs. 7 and 9) and a short animation, drawn headless by pybullet's CPU renderer (TinyRenderer: no
+display, no GPU). The strip is laid out with matplotlib, so it can be PNG, PDF or SVG, with each
+panel's heads-up display as text under it.
+
+The same drawing compares runs of one scene that no study logged (``microg sim gallery``: a
+scripted demo under each interaction model, its frames made by ``scene.world_scene``): a strip with
+a row per run, and an animation with the runs side by side.
 """
 
 from __future__ import annotations
@@ -10,7 +14,9 @@ import contextlib
 import ctypes
 import os
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -29,6 +35,8 @@ PANEL_FRAME = "0.35"
 """Grey of the line around each panel of a strip."""
 CENTRE_DOT = 0.005
 """Radius (m) of the dot at each place's centre."""
+LETTERS = "abcdefghijklmnopqrstuvwxyz"
+"""The panels' letters, as in the paper's figures: (a), (b), ..."""
 
 
 def _rgba(colour, fade: float = 0.0) -> list[float]:
@@ -139,31 +147,80 @@ def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[
                 hands: str = "rendered", size: tuple[int, int] = (480, 360), title: bool = True) -> Path:
     """An image strip, one panel per moment, each with its label above and the heads-up display
     (stage, task timer, place timer, attempts) under it."""
-    from matplotlib.figure import Figure
-
-    out = Path(out)
-    if out.suffix.lower() not in STRIP_FORMATS:
-        raise ValueError(f"--out {out}: an image strip is {', '.join(STRIP_FORMATS)}")
+    out = _format(out, STRIP_FORMATS, "an image strip")
     if not moments:
         raise ValueError(f"run {track.run.id} has no frames to draw")
     n_places = len(layout.places)
+    scenes = [track.scene(m.index, n_places) for m in moments]
     with Renderer(layout, camera, size) as renderer:
-        images = [renderer.draw(track.scene(m.index, n_places), hands) for m in moments]
+        images = [renderer.draw(scene, hands) for scene in scenes]
+    panels = [Panel(image, f"({letter}) {moment.label}", hud_lines(scene, layout.hold_s, n_places))
+              for letter, image, moment, scene in zip(LETTERS, images, moments, scenes)]
+    return _save_panels([panels], [""], out, size, _title(track) if title else None)
+
+
+def write_comparison_strip(runs: Mapping[str, Sequence[FrameScene]], labels: Sequence[str], layout: TaskLayout,
+                           camera: Camera, out: Path, hands: str = "rendered", size: tuple[int, int] = (320, 240),
+                           title: str | None = None) -> Path:
+    """Runs of one scene side by side, as the paper's Fig. 7 compares its model with CLAP: a row per
+    run (named at its left), a column per moment (``labels``: each run has one scene per label), each
+    panel captioned with its time and whether the object is held (``world_lines``)."""
+    out = _format(out, STRIP_FORMATS, "an image strip")
+    if not runs or any(len(scenes) != len(labels) for scenes in runs.values()):
+        raise ValueError(f"each run needs one scene per moment ({len(labels)}: {', '.join(labels)})")
+    with Renderer(layout, camera, size) as renderer:
+        rows = [[Panel(renderer.draw(scene, hands), f"({letter}) {label}", world_lines(scene))
+                 for letter, label, scene in zip(LETTERS, labels, scenes)] for scenes in runs.values()]
+    return _save_panels(rows, list(runs), out, size, title)
+
+
+def world_lines(scene: FrameScene) -> list[str]:
+    """The caption of a scene without a task: its time and whether the object is held."""
+    return [f"{scene.t:.2f} s · {'held' if scene.held else 'not held'}"]
+
+
+@dataclass(frozen=True, eq=False)
+class Panel:
+    """One picture of a strip: the image, the label above it, the lines of text under it."""
+
+    image: np.ndarray
+    label: str
+    lines: list[str]
+
+
+def _format(out: Path, formats: tuple[str, ...], what: str) -> Path:
+    out = Path(out)
+    if out.suffix.lower() not in formats:
+        raise ValueError(f"--out {out}: {what} is {', '.join(formats)}")
+    return out
+
+
+def _save_panels(rows: list[list[Panel]], row_labels: list[str], out: Path, size: tuple[int, int],
+                 title: str | None) -> Path:
+    """Lay the panels out in rows, each framed in grey, and save the figure."""
+    from matplotlib.figure import Figure
+
+    columns = max(len(row) for row in rows)
     aspect = size[1] / size[0]
-    figure = Figure(figsize=(2.4 * len(moments), 2.4 * aspect + 0.8 + (0.3 if title else 0.0)), layout="constrained")
-    axes = figure.subplots(1, len(moments), squeeze=False)[0]
-    for letter, ax, image, moment in zip("abcdefghijklmnopqrstuvwxyz", axes, images, moments):
-        scene = track.scene(moment.index, n_places)
-        ax.imshow(image)
-        ax.set_xticks([])
-        ax.set_yticks([])
-        for spine in ax.spines.values():
-            spine.set_color(PANEL_FRAME)
-        ax.set_title(f"({letter}) {moment.label}", fontsize=9)
-        ax.text(0.5, -0.04, "\n".join(hud_lines(scene, layout.hold_s, n_places)), transform=ax.transAxes,
-                ha="center", va="top", fontsize=7, linespacing=1.4)
+    lines = max(len(panel.lines) for row in rows for panel in row)
+    height = len(rows) * (2.4 * aspect + 0.35 + 0.15 * lines) + (0.3 if title else 0.0)
+    figure = Figure(figsize=(2.4 * columns, height), layout="constrained")
+    axes = figure.subplots(len(rows), columns, squeeze=False)
+    for row, label, row_axes in zip(rows, row_labels, axes):
+        for panel, ax in zip(row, row_axes):
+            ax.imshow(panel.image)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            for spine in ax.spines.values():
+                spine.set_color(PANEL_FRAME)
+            ax.set_title(panel.label, fontsize=9)
+            ax.text(0.5, -0.04, "\n".join(panel.lines), transform=ax.transAxes, ha="center", va="top", fontsize=7,
+                    linespacing=1.4)
+        row_axes[0].set_ylabel(label, fontsize=9)
+        for ax in row_axes[len(row):]:
+            ax.set_visible(False)
     if title:
-        figure.suptitle(_title(track), fontsize=9)
+        figure.suptitle(title, fontsize=9)
     figure.savefig(out, dpi=200, bbox_inches="tight")
     return out
 
@@ -173,29 +230,80 @@ def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path,
                     progress: bool = True) -> Path:
     """The run as an animated GIF or WebP at ``speed`` times real time, the heads-up display in a
     band under the scene."""
-    from PIL import Image, ImageDraw, ImageFont
     from tqdm import tqdm
 
-    out = Path(out)
-    if out.suffix.lower() not in ANIMATION_FORMATS:
-        raise ValueError(f"--out {out}: an animation is {', '.join(ANIMATION_FORMATS)}")
+    out = _format(out, ANIMATION_FORMATS, "an animation")
     if fps <= 0 or speed <= 0:
         raise ValueError(f"fps = {fps}, speed = {speed}: both must be positive")
     if not len(track.frames):
         raise ValueError(f"run {track.run.id} has no frames to draw")
     n_places = len(layout.places)
     times = np.arange(0.0, track.duration + 1e-9, speed / fps)
-    font = ImageFont.load_default(size=max(10, size[1] // 26))
-    band = 3 * (font.size + 4) + 8
     pictures = []
     with Renderer(layout, camera, size) as renderer:
         for t in tqdm(times, unit="frame", desc=out.name, disable=not progress):
             scene = track.scene(track.index_at(float(t)), n_places)
-            picture = Image.new("RGB", (size[0], size[1] + band), "white")
-            picture.paste(Image.fromarray(renderer.draw(scene, hands)), (0, 0))
-            ImageDraw.Draw(picture).multiline_text((8, size[1] + 6), "\n".join(hud_lines(scene, layout.hold_s,
-                                                                                           n_places)),
-                                                   fill="black", font=font, spacing=4)
-            pictures.append(picture)
+            pictures.append(_captioned(renderer.draw(scene, hands), hud_lines(scene, layout.hold_s, n_places)))
+    return _save_animation(pictures, out, fps)
+
+
+def write_comparison_animation(runs: Mapping[str, Sequence[FrameScene]], layout: TaskLayout, camera: Camera,
+                               out: Path, hands: str = "rendered", size: tuple[int, int] = (320, 240),
+                               fps: float = 15.0) -> Path:
+    """Runs of one scene side by side in one animation (GIF or WebP): frame i shows scene i of every
+    run, each named above and captioned under (``world_lines``); the runs' scenes are ``1 / fps``
+    seconds apart."""
+    out = _format(out, ANIMATION_FORMATS, "an animation")
+    if fps <= 0:
+        raise ValueError(f"fps = {fps}: must be positive")
+    counts = {len(scenes) for scenes in runs.values()}
+    if len(counts) != 1 or not counts.pop():
+        raise ValueError("the runs of a comparison need the same number of scenes, at least one")
+    pictures = []
+    with Renderer(layout, camera, size) as renderer:
+        for moment in zip(*runs.values()):
+            panels = [_captioned(renderer.draw(scene, hands), world_lines(scene), heading=name)
+                      for name, scene in zip(runs, moment)]
+            pictures.append(_side_by_side(panels))
+    return _save_animation(pictures, out, fps)
+
+
+def _font(size: tuple[int, int]):
+    from PIL import ImageFont
+
+    return ImageFont.load_default(size=max(10, size[1] // 26))
+
+
+def _captioned(image: np.ndarray, lines: list[str], heading: str | None = None):
+    """The image with ``lines`` in a white band under it (and ``heading`` in one over it)."""
+    from PIL import Image, ImageDraw
+
+    height, width = image.shape[:2]
+    font = _font((width, height))
+    line = font.size + 4
+    top = line + 8 if heading else 0
+    band = len(lines) * line + 8
+    picture = Image.new("RGB", (width, top + height + band), "white")
+    picture.paste(Image.fromarray(image), (0, top))
+    draw = ImageDraw.Draw(picture)
+    if heading:
+        draw.text((8, 4), heading, fill="black", font=font)
+    draw.multiline_text((8, top + height + 6), "\n".join(lines), fill="black", font=font, spacing=4)
+    return picture
+
+
+def _side_by_side(pictures):
+    """One picture of the given ones in a row."""
+    from PIL import Image
+
+    row = Image.new("RGB", (sum(p.width for p in pictures), max(p.height for p in pictures)), "white")
+    x = 0
+    for picture in pictures:
+        row.paste(picture, (x, 0))
+        x += picture.width
+    return row
+
+
+def _save_animation(pictures, out: Path, fps: float) -> Path:
     pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=round(1000 / fps), loop=0)
     return out

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microg.sim.hand import BONES_PER_HAND
 from microg.study.protocol import Protocol
 
 HAND_MODES = ("rendered", "tracked", "both")
@@ -105,6 +106,22 @@ def rendered_bones(hand: HandValues) -> Capsules:
 def both_sides(capsules: list[Capsules]) -> Capsules:
     """The left and right hands' capsules as one set of 40, in slot order."""
     return Capsules(*(np.concatenate([getattr(c, f) for c in capsules]) for f in ("start", "end", "radius")))
+
+
+def world_scene(t: float, object_position, object_orientation, joints: np.ndarray, widths: np.ndarray,
+                rendered: np.ndarray, touching: np.ndarray, held: bool) -> FrameScene:
+    """What a world shows that no study logged (a scripted demo): the object, the tracked hand as its
+    source delivered it (``joints`` (2, 5, 5, 3) and ``widths`` (2, 5, 4), left first; NaN where
+    untracked), the rendered phalanx centres (40, 3) and the phalanges in contact (40,), in slot
+    order. There is no task: no places, no task timer, no attempts."""
+    hands = [HandValues(joints[side], widths[side], np.full(3, np.nan), np.full(4, np.nan),
+                        rendered[side * BONES_PER_HAND:(side + 1) * BONES_PER_HAND]) for side in range(2)]
+    return FrameScene(t=t, stage="", place=0, place_lit=False, place_timer=0.0, held=held, attempts=0,
+                      object_position=np.asarray(object_position, dtype=np.float64),
+                      object_orientation=np.asarray(object_orientation, dtype=np.float64),
+                      tracked=both_sides([tracked_bones(h) for h in hands]),
+                      rendered=both_sides([rendered_bones(h) for h in hands]),
+                      touching=np.asarray(touching, dtype=bool), places=())
 
 
 def place_states(current: int, lit: bool, n_places: int) -> tuple[str, ...]:
@@ -197,6 +214,8 @@ class TaskLayout:
 TABLE_MARGIN = 0.12
 TABLE_DEPTH = 0.30
 TABLE_THICKNESS = 0.02
+DEMO_TABLE_HALF_WIDTH = 0.20
+"""Half the width (m) of the table drawn under a scene without a task."""
 CAMERA_MARGIN = 0.05
 """Space (m) the default camera leaves around the start and the places."""
 RING_TUBE = 0.003
@@ -217,6 +236,15 @@ def task_layout(protocol: Protocol, object_name: str) -> TaskLayout:
                       protocol.task.place_radius, protocol.task.hold_s, height, centre, size)
 
 
+def object_layout(shape: str, size, start, table_height: float | None = None) -> TaskLayout:
+    """The layout of a scene without a task (a scripted demo): one object that starts at ``start``,
+    no places, and a table of the task's depth and 40 cm wide under it when ``table_height`` is given."""
+    start = np.asarray(start, dtype=np.float64)
+    centre = np.array([start[0], table_height if table_height is not None else np.nan, start[2]])
+    return TaskLayout(shape, np.asarray(size, dtype=np.float64), start, np.empty((0, 3)), 0.0, 0.0, table_height,
+                      centre, np.array([2 * DEMO_TABLE_HALF_WIDTH, TABLE_THICKNESS, TABLE_DEPTH]))
+
+
 @dataclass(frozen=True)
 class Camera:
     """A pinhole camera looking at ``target`` from ``eye``, y up; ``fov_deg`` is the vertical field."""
@@ -230,9 +258,17 @@ def default_camera(layout: TaskLayout, aspect: float = 4 / 3, fov_deg: float = 4
     """The participant's side of the scene, a little from above (y up, +z toward the participant),
     just far enough back that the start and every place, with a margin, fill a view of ``aspect``
     (width / height)."""
-    points = np.vstack([layout.start, layout.places])
+    return framing_camera(np.vstack([layout.start, layout.places]), layout.place_radius + CAMERA_MARGIN, aspect,
+                          fov_deg)
+
+
+def framing_camera(points, margin: float, aspect: float = 4 / 3, fov_deg: float = 40.0) -> Camera:
+    """The participant's side of the scene, a little from above (y up, +z toward the participant),
+    just far enough back that ``points`` (P, 3), with ``margin`` (m) round them, fill a view of
+    ``aspect`` (width / height)."""
+    points = np.asarray(points, dtype=np.float64)
     target = 0.5 * (points.min(axis=0) + points.max(axis=0))
-    half = 0.5 * (points.max(axis=0) - points.min(axis=0)) + layout.place_radius + CAMERA_MARGIN
+    half = 0.5 * (points.max(axis=0) - points.min(axis=0)) + margin
     tangent = np.tan(np.radians(fov_deg) / 2)
     direction = np.array([0.0, 0.7, 1.0]) / np.linalg.norm([0.0, 0.7, 1.0])
     distance = max(half[1] / tangent, half[0] / (tangent * aspect)) + half[2]
