@@ -19,8 +19,22 @@ const STAGES = {
   timeout: "Time is up",
 };
 
+/**
+ * Whether WebGL runs on a graphics card. A software rasteriser (SwiftShader, llvmpipe: a computer
+ * without a usable GPU) draws multisampled frames several times slower, long enough to hold up the
+ * page's messages; there the page draws without antialiasing so that it keeps up with the tracker.
+ */
+function onGraphicsCard() {
+  const gl = document.createElement("canvas").getContext("webgl2");
+  if (!gl) return false;
+  const debug = gl.getExtension("WEBGL_debug_renderer_info");
+  const name = String(gl.getParameter(debug ? debug.UNMASKED_RENDERER_WEBGL : gl.RENDERER));
+  gl.getExtension("WEBGL_lose_context")?.loseContext();
+  return !/swiftshader|llvmpipe|softpipe|software/i.test(name);
+}
+
 const canvas = document.getElementById("scene");
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: onGraphicsCard() });
 renderer.setPixelRatio(window.devicePixelRatio);
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x1b1e24);
