@@ -2,7 +2,7 @@
 simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
 returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack)."""
 
-from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_systems
+from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_interactions
 from microg.analysis.anova import (
     ANOVA_COLUMNS,
     mixed_anova,
@@ -15,7 +15,7 @@ from microg.analysis.describe import cell_means
 from microg.analysis.figures import plot_bars, plot_ratings
 from microg.analysis.likert import likert_summary, likert_tests, unpaired_raters
 from microg.analysis.paired import (
-    compare_systems,
+    compare_interactions,
     paired_means,
     signed_rank,
     unpaired_participants,
@@ -43,8 +43,8 @@ __all__ = [
     "cell_means",
     "check_questionnaire",
     "check_trials",
-    "choose_systems",
-    "compare_systems",
+    "choose_interactions",
+    "compare_interactions",
     "complete_cases",
     "count_model",
     "incomplete_cases",

@@ -26,8 +26,8 @@ from microg.analysis.likert import (
     unpaired_raters,
 )
 from microg.analysis.paired import (
-    SYSTEMS_COLUMNS,
-    compare_systems,
+    INTERACTIONS_COLUMNS,
+    compare_interactions,
     unpaired_participants,
 )
 from microg.analysis.posthoc import (
@@ -42,7 +42,7 @@ from microg.analysis.tables import (
     check_same_groups,
     check_trials,
     complete_cases,
-    exclude_stages,
+    exclude_phases,
     incomplete_cases,
     is_simulated,
     participant_cells,
@@ -51,30 +51,30 @@ from microg.analysis.tables import (
     withdrawn,
 )
 
-DEFAULT_SYSTEM = "impulse_penetration"
+DEFAULT_INTERACTION = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
-EXCLUDED_STAGES = ("training",)
+EXCLUDED_PHASES = ("training",)
 ALPHA = 0.05
 """Significance level of every test the report words as significant or not (Box's M: .001)."""
 MIN_PAIRS = 3
-KEYS = ("system", "measure")
+KEYS = ("interaction", "measure")
 
 
 @dataclass(frozen=True)
 class StudyAnalysis:
     """Every table of a study's analysis, each a tidy DataFrame.
 
-    Tables computed per system and measure start with the columns ``system`` and ``measure`` (the
-    system's code and the measure's column name); :meth:`table` selects one. ``sample`` holds the
-    number of participants per group in the data (analysis "data") and in each analysis (the
-    effective N); ``dropped`` who was left out of which analysis and why; ``conditions`` each
-    system's label and role. A table with no rows means the analysis did not apply (no baseline, no
-    questionnaire); ``warnings`` says why.
+    Tables computed per interaction model and measure start with the columns ``interaction`` and
+    ``measure`` (the interaction model's code and the measure's column name); :meth:`table` selects
+    one. ``sample`` holds the number of participants per group in the data (analysis "data") and in
+    each analysis (the effective N); ``dropped`` who was left out of which analysis and why;
+    ``conditions`` each interaction model's label and role. A table with no rows means the analysis
+    did not apply (no baseline, no questionnaire); ``warnings`` says why.
     """
 
-    system: str
+    interaction: str
     baseline: str | None
-    systems: tuple[str, ...]
+    interactions: tuple[str, ...]
     objects: tuple[str, ...]
     measures: tuple[str, ...]
     counts: tuple[str, ...]
@@ -83,7 +83,7 @@ class StudyAnalysis:
     within: str
     ss_type: int
     alpha: float
-    excluded_stages: tuple[str, ...]
+    excluded_phases: tuple[str, ...]
     simulated_trials: bool
     simulated_ratings: bool
     conditions: pd.DataFrame
@@ -103,117 +103,117 @@ class StudyAnalysis:
     dropped: pd.DataFrame
     warnings: tuple[str, ...]
 
-    def table(self, name: str, system: str, measure: str) -> pd.DataFrame:
-        """The rows of table ``name`` (e.g. "anova") for one system and measure, without the keys."""
+    def table(self, name: str, interaction: str, measure: str) -> pd.DataFrame:
+        """The rows of table ``name`` (e.g. "anova") for one interaction and measure, without the keys."""
         frame = getattr(self, name)
-        rows = frame[(frame["system"] == system) & (frame["measure"] == measure)]
+        rows = frame[(frame["interaction"] == interaction) & (frame["measure"] == measure)]
         return rows.drop(columns=list(KEYS)).reset_index(drop=True)
 
-    def label(self, system: str) -> str:
-        """How a reader sees a system: its label when the tables give one, else its code."""
-        return self.conditions.set_index("system")["label"].get(system, system)
+    def label(self, interaction: str) -> str:
+        """How a reader sees an interaction: its label when the tables give one, else its code."""
+        return self.conditions.set_index("interaction")["label"].get(interaction, interaction)
 
     def analysed(self) -> list[tuple[str, str]]:
-        """The (system, measure) pairs that have an ANOVA, in the report's order."""
+        """The (interaction, measure) pairs that have an ANOVA, in the report's order."""
         keys = self.anova[list(KEYS)].drop_duplicates()
         return list(keys.itertuples(index=False, name=None))
 
 
-def choose_systems(
-    systems: Sequence[str], system: str | None, baseline: str | None, column: str = "system"
+def choose_interactions(
+    interactions: Sequence[str], interaction: str | None, baseline: str | None, column: str = "interaction"
 ) -> tuple[str, str | None]:
-    """The system under test and its baseline.
+    """The interaction model under test and its baseline.
 
     As asked; else impulse_penetration and soft_hand when present; else the first listed and the
-    next one (no baseline when there is a single system).
+    next one (no baseline when there is a single interaction model).
 
     Parameters
     ----------
-    systems : sequence of str
-        The systems in the data, in order of appearance.
-    system, baseline : str, optional
+    interactions : sequence of str
+        The interaction models in the data, in order of appearance.
+    interaction, baseline : str, optional
         The user's choice.
     column : str
-        The system column's name, for the error message.
+        The interaction column's name, for the error message.
 
     Returns
     -------
     tuple of (str, str or None)
-        The system under test and the baseline.
+        The interaction model under test and the baseline.
 
     Raises
     ------
     AnalysisInputError
-        When a chosen system is not in the data, or system and baseline are the same.
+        When a chosen interaction model is not in the data, or it and the baseline are the same.
 
     Examples
     --------
-    >>> from microg.analysis import choose_systems
-    >>> choose_systems(["soft_hand", "impulse_penetration"], None, None)
+    >>> from microg.analysis import choose_interactions
+    >>> choose_interactions(["soft_hand", "impulse_penetration"], None, None)
     ('impulse_penetration', 'soft_hand')
-    >>> choose_systems(["a", "b", "c"], "c", None)
+    >>> choose_interactions(["a", "b", "c"], "c", None)
     ('c', 'a')
     """
-    listed = list(dict.fromkeys(systems))
-    for name in (system, baseline):
+    listed = list(dict.fromkeys(interactions))
+    for name in (interaction, baseline):
         if name is not None and name not in listed:
             raise AnalysisInputError(f"column {column!r} has no value {name!r} (values: {', '.join(listed)})")
-    if system is None:
-        system = DEFAULT_SYSTEM if DEFAULT_SYSTEM in listed else listed[0]
-    others = [name for name in listed if name != system]
+    if interaction is None:
+        interaction = DEFAULT_INTERACTION if DEFAULT_INTERACTION in listed else listed[0]
+    others = [name for name in listed if name != interaction]
     if baseline is None:
         baseline = DEFAULT_BASELINE if DEFAULT_BASELINE in others else (others[0] if others else None)
-    if baseline == system:
-        raise AnalysisInputError(f"system and baseline are both {system!r}")
-    return system, baseline
+    if baseline == interaction:
+        raise AnalysisInputError(f"interaction and baseline are both {interaction!r}")
+    return interaction, baseline
 
 
 def analyse_study(
     trials: pd.DataFrame | str | Path,
     questionnaire: pd.DataFrame | str | Path | None = None,
-    system: str | None = None,
+    interaction: str | None = None,
     baseline: str | None = None,
     ss_type: int = 3,
-    excluded_stages: Sequence[str] = EXCLUDED_STAGES,
+    excluded_phases: Sequence[str] = EXCLUDED_PHASES,
     *,
     subject: str = "participant",
     group: str = "group",
     within: str = "object",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
     dv: Sequence[str] = ("time_s", "attempts"),
     counts: Sequence[str] = ("attempts",),
     completed: str = "completed",
-    stage: str = "stage",
-    label: str = "system_label",
+    phase: str = "phase",
+    label: str = "interaction_label",
     item: str = "item",
     rating: str = "rating",
     alpha: float = ALPHA,
 ) -> StudyAnalysis:
-    """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per system and
-    measure; system vs baseline; the Likert analysis.
+    """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per interaction
+    model and measure; interaction model vs baseline; the Likert analysis.
 
     Parameters
     ----------
     trials : pandas.DataFrame, str or Path
         One row per task (a table, or a CSV/Parquet file); checked by :func:`check_trials`.
     questionnaire : pandas.DataFrame, str or Path, optional
-        One row per participant, system and item.
-    system, baseline : str, optional
-        The system under test and its baseline (see :func:`choose_systems`).
+        One row per participant, interaction model and item.
+    interaction, baseline : str, optional
+        The interaction model under test and its baseline (see :func:`choose_interactions`).
     ss_type : {3, 2}
         Sums-of-squares type of the ANOVA.
-    excluded_stages : sequence of str
-        Trials of these stages are left out (training, which only one group does).
-    subject, group, within, system_column : str
-        Columns of the participant, the between factor, the within factor and the system.
+    excluded_phases : sequence of str
+        Trials of these phases are left out (training, which only one group does).
+    subject, group, within, interaction_column : str
+        Columns of the participant, the between factor, the within factor and the interaction model.
     dv : sequence of str
         The measures. A measure that is not in ``counts`` uses completed tasks only (when the
         ``completed`` column exists); a count uses every task with a value.
     counts : sequence of str
         Measures that count events: whole numbers, analysed also with :func:`count_model`.
-    completed, stage, label, item, rating : str
-        Columns of the finished-task flag, the stage, each system's label for readers (optional),
-        the questionnaire item and the rating.
+    completed, phase, label, item, rating : str
+        Columns of the finished-task flag, the phase, each interaction model's label for readers
+        (optional), the questionnaire item and the rating.
     alpha : float
         Level at which a test counts as significant (and simple effects are read).
 
@@ -227,7 +227,7 @@ def analyse_study(
     >>> import pingouin as pg
     >>> from microg.analysis import analyse_study
     >>> data = pg.read_dataset("mixed_anova").assign(tool="s", done=True)
-    >>> study = analyse_study(data, subject="Subject", group="Group", within="Time", system_column="tool",
+    >>> study = analyse_study(data, subject="Subject", group="Group", within="Time", interaction_column="tool",
     ...                       dv=["Scores"], counts=[], completed="done")
     >>> study.table("anova", "s", "Scores")[["source", "F", "p_unc"]].round(3)
            source      F  p_unc
@@ -235,37 +235,39 @@ def analyse_study(
     1        Time  4.027  0.020
     2  Group:Time  2.728  0.070
     """
-    columns = {"subject": subject, "group": group, "within": within, "system": system_column}
+    columns = {"subject": subject, "group": group, "within": within, "interaction": interaction_column}
     trials = _checked(trials, read_trials, check_trials, **columns, dv=dv, counts=counts, completed=completed,
                       label=label)  # fmt: skip
-    trials = exclude_stages(trials, excluded_stages, stage)
+    trials = exclude_phases(trials, excluded_phases, phase)
     if questionnaire is not None:
         questionnaire = _checked(questionnaire, read_questionnaire, check_questionnaire, subject=subject,
-                                 group=group, system=system_column, item=item, rating=rating, label=label)  # fmt: skip
+                                 group=group, interaction=interaction_column, item=item, rating=rating,
+                                 label=label)  # fmt: skip
         check_same_groups(trials, questionnaire, subject, group)
     gone = sorted(withdrawn(trials, subject) | withdrawn(questionnaire, subject))
     trials = trials[~trials[subject].isin(gone)]
     if questionnaire is not None:
         questionnaire = questionnaire[~questionnaire[subject].isin(gone)]
-    system, baseline = choose_systems(trials[system_column], system, baseline, system_column)
-    systems = tuple(dict.fromkeys([system, *([baseline] if baseline else []), *trials[system_column]]))
-    conditions = _conditions(systems, system, baseline, [trials, questionnaire], system_column, label)
-    names = dict(zip(conditions["system"], conditions["label"]))
-    design = _Design(subject, group, within, system_column, tuple(dv), tuple(counts), completed, ss_type, alpha, names)
+    interaction, baseline = choose_interactions(trials[interaction_column], interaction, baseline, interaction_column)
+    interactions = tuple(dict.fromkeys([interaction, *([baseline] if baseline else []), *trials[interaction_column]]))
+    conditions = _conditions(interactions, interaction, baseline, [trials, questionnaire], interaction_column, label)
+    names = dict(zip(conditions["interaction"], conditions["label"]))
+    design = _Design(subject, group, within, interaction_column, tuple(dv), tuple(counts), completed, ss_type, alpha,
+                     names)
 
-    per_system = _per_system(trials, systems, design)
-    pairs = _versus_baseline(trials, system, baseline, design)
-    likert = _likert(questionnaire, system, baseline, design, item, rating)
-    withdrew = pd.DataFrame({"analysis": "all", "system": "", "measure": "", subject: gone,
+    per_interaction = _per_interaction(trials, interactions, design)
+    pairs = _versus_baseline(trials, interaction, baseline, design)
+    likert = _likert(questionnaire, interaction, baseline, design, item, rating)
+    withdrew = pd.DataFrame({"analysis": "all", "interaction": "", "measure": "", subject: gone,
                              "reason": "withdrew from the study"})  # fmt: skip
-    parts = (per_system, pairs, likert)
+    parts = (per_interaction, pairs, likert)
     in_data = trials.drop_duplicates(subject).groupby(group, observed=True).size()
-    data_sample = pd.DataFrame({"analysis": "data", "system": "", "measure": "", group: in_data.index,
+    data_sample = pd.DataFrame({"analysis": "data", "interaction": "", "measure": "", group: in_data.index,
                                 "n": in_data.to_numpy()})  # fmt: skip
     return StudyAnalysis(
-        system=system,
+        interaction=interaction,
         baseline=baseline,
-        systems=systems,
+        interactions=interactions,
         objects=tuple(sorted(trials[within].unique())),
         measures=tuple(dv),
         counts=tuple(m for m in dv if m in counts),
@@ -274,25 +276,25 @@ def analyse_study(
         within=within,
         ss_type=ss_type,
         alpha=alpha,
-        excluded_stages=tuple(excluded_stages),
+        excluded_phases=tuple(excluded_phases),
         simulated_trials=is_simulated(trials),
         simulated_ratings=is_simulated(questionnaire),
         conditions=conditions,
         sample=pd.concat([data_sample, *(part.tables["sample"] for part in parts)], ignore_index=True),
         dropped=pd.concat([withdrew, *(part.dropped for part in parts)], ignore_index=True)[
-            ["analysis", "system", "measure", subject, "reason"]
+            ["analysis", "interaction", "measure", subject, "reason"]
         ],
         warnings=tuple(note for part in parts for note in part.notes),
-        **{name: per_system.tables[name] for name in PER_SYSTEM},
+        **{name: per_interaction.tables[name] for name in PER_INTERACTION},
         comparison=pairs.tables["comparison"],
         likert_summary=likert.tables["likert_summary"],
         likert_tests=likert.tables["likert_tests"],
     )
 
 
-PER_SYSTEM = ("cells", "cell_means", "anova", "corrections", "posthoc", "simple_effects", "simple_pairs", "assumptions",
-              "count_model")  # fmt: skip
-"""The tables computed per system and measure."""
+PER_INTERACTION = ("cells", "cell_means", "anova", "corrections", "posthoc", "simple_effects", "simple_pairs",
+                   "assumptions", "count_model")  # fmt: skip
+"""The tables computed per interaction and measure."""
 
 
 @dataclass(frozen=True)
@@ -300,7 +302,7 @@ class _Design:
     subject: str
     group: str
     within: str
-    system: str
+    interaction: str
     measures: tuple[str, ...]
     counts: tuple[str, ...]
     completed: str
@@ -311,7 +313,7 @@ class _Design:
     def cells(self, trials: pd.DataFrame, dv: str) -> pd.DataFrame:
         """Participant-level cells of ``dv`` by the rules for counts and for measures of finished tasks."""
         finished = self.completed if dv not in self.counts and self.completed in trials.columns else None
-        return participant_cells(trials, dv, self.subject, self.group, self.system, self.within, finished)
+        return participant_cells(trials, dv, self.subject, self.group, self.interaction, self.within, finished)
 
 
 @dataclass(frozen=True)
@@ -323,30 +325,30 @@ class _Part:
     notes: list[str]
 
 
-def _per_system(trials: pd.DataFrame, systems: Sequence[str], design: _Design) -> _Part:
+def _per_interaction(trials: pd.DataFrame, interactions: Sequence[str], design: _Design) -> _Part:
     d = design
-    tables: dict[str, list[pd.DataFrame]] = {name: [] for name in (*PER_SYSTEM, "sample")}
+    tables: dict[str, list[pd.DataFrame]] = {name: [] for name in (*PER_INTERACTION, "sample")}
     notes, dropped = [], []
-    for name in systems:
-        rows = trials[trials[d.system] == name]
+    for name in interactions:
+        rows = trials[trials[d.interaction] == name]
         levels = sorted(rows[d.within].unique())
         for dv in d.measures:
             cells = d.cells(rows, dv)
             missing = incomplete_cases(cells, dv, d.within, d.subject, levels)
             absent = sorted(set(rows[d.subject]) - set(cells[d.subject]))
             missing = pd.concat([missing, pd.DataFrame({d.subject: absent, "reason": f"no {dv} at all"})])
-            dropped.append(missing.assign(analysis="ANOVA", system=name, measure=dv))
+            dropped.append(missing.assign(analysis="ANOVA", interaction=name, measure=dv))
             complete = complete_cases(cells, dv, d.within, d.subject, levels)
             try:
                 anova = mixed_anova(complete, dv, d.within, d.group, d.subject, d.ss_type)
             except AnalysisInputError as error:
                 notes.append(f"No {dv} ANOVA for {d.labels[name]}: {error}.")
                 continue
-            keys = {"system": name, "measure": dv}
+            keys = {"interaction": name, "measure": dv}
             post = posthoc(complete, dv, d.within, d.group, d.subject, within_by_group=True)
             by_group = post["at"].notna() & (post["factor"] == d.within)
             results = {
-                "cells": complete.drop(columns=[d.system]).rename(columns={dv: "value"}),
+                "cells": complete.drop(columns=[d.interaction]).rename(columns={dv: "value"}),
                 "cell_means": cell_means(complete, dv, d.within, d.group),
                 "anova": anova,
                 "corrections": sphericity_correction(anova, d.alpha),
@@ -362,7 +364,7 @@ def _per_system(trials: pd.DataFrame, systems: Sequence[str], design: _Design) -
             for piece, frame in results.items():
                 tables[piece].append(_keyed(frame.reset_index(drop=True), keys))
             notes.extend(_anova_notes(d.labels[name], dv, complete, anova, d))
-    empty = {  # the columns of a table no system has
+    empty = {  # the columns of a table no interaction has
         "cells": (d.subject, d.group, d.within, "value"),
         "cell_means": (d.group, d.within, *CELL_MEANS_COLUMNS),
         "anova": ANOVA_COLUMNS,
@@ -378,83 +380,87 @@ def _per_system(trials: pd.DataFrame, systems: Sequence[str], design: _Design) -
     return _Part(frames, pd.concat(dropped, ignore_index=True), notes)
 
 
-def _versus_baseline(trials: pd.DataFrame, system: str, baseline: str | None, design: _Design) -> _Part:
+def _versus_baseline(trials: pd.DataFrame, interaction: str, baseline: str | None, design: _Design) -> _Part:
     d = design
-    nobody = pd.DataFrame(columns=["analysis", "system", "measure", d.subject, "reason"])
+    nobody = pd.DataFrame(columns=["analysis", "interaction", "measure", d.subject, "reason"])
     sample_columns = ("analysis", d.group, "n")
     if baseline is None:
-        return _Part({"comparison": pd.DataFrame(columns=SYSTEMS_COLUMNS), "sample": _concat([], sample_columns)},
+        return _Part({"comparison": pd.DataFrame(columns=INTERACTIONS_COLUMNS), "sample": _concat([], sample_columns)},
                      nobody, [])  # fmt: skip
     rows, notes, dropped, sample = [], [], [], []
-    versus = f"{d.labels[system]} vs {d.labels[baseline]}"
+    versus = f"{d.labels[interaction]} vs {d.labels[baseline]}"
     for dv in d.measures:
         cells = d.cells(trials, dv)
-        named = cells.assign(**{d.system: cells[d.system].map(d.labels)})  # the reasons name labels
-        missing = unpaired_participants(named, dv, d.labels[system], d.labels[baseline], d.within, d.subject, d.system)
-        dropped.append(missing.assign(analysis="pairs", system=system, measure=dv))
+        named = cells.assign(**{d.interaction: cells[d.interaction].map(d.labels)})  # the reasons name labels
+        missing = unpaired_participants(named, dv, d.labels[interaction], d.labels[baseline], d.within, d.subject,
+                                        d.interaction)
+        dropped.append(missing.assign(analysis="pairs", interaction=interaction, measure=dv))
         paired = cells[~cells[d.subject].isin(missing[d.subject])]
         if paired[d.subject].nunique() < MIN_PAIRS:
             notes.append(f"No {versus} comparison of {dv}: {paired[d.subject].nunique()} complete pair(s).")
             continue
-        row = compare_systems(paired, dv, system, baseline, d.within, d.subject, d.system)
+        row = compare_interactions(paired, dv, interaction, baseline, d.within, d.subject, d.interaction)
         rows.append(row)
-        sample.append(_keyed(_group_sizes(paired[paired[d.system] == system], d, "pairs"),
-                             {"system": system, "measure": dv}))  # fmt: skip
+        sample.append(_keyed(_group_sizes(paired[paired[d.interaction] == interaction], d, "pairs"),
+                             {"interaction": interaction, "measure": dv}))  # fmt: skip
         p_shapiro = row["p_shapiro"].iloc[0]
         if p_shapiro < d.alpha:
             notes.append(
-                f"The paired differences of {dv} ({d.labels[system]} - {d.labels[baseline]}) are far from normal "
+                f"The paired differences of {dv} ({d.labels[interaction]} - {d.labels[baseline]}) are far from normal "
                 f"(Shapiro-Wilk p = {p_shapiro:.3g}): read the Wilcoxon signed-rank test, not the t-test."
             )
-    comparison = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=SYSTEMS_COLUMNS)
+    comparison = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=INTERACTIONS_COLUMNS)
     tables = {"comparison": comparison, "sample": _concat(sample, sample_columns)}
     return _Part(tables, pd.concat(dropped, ignore_index=True), notes)
 
 
-def _likert(questionnaire, system: str, baseline: str | None, design: _Design, item: str, rating: str) -> _Part:
+def _likert(questionnaire, interaction: str, baseline: str | None, design: _Design, item: str, rating: str) -> _Part:
     d = design
-    nobody = pd.DataFrame(columns=["analysis", "system", "measure", d.subject, "reason"])
+    nobody = pd.DataFrame(columns=["analysis", "interaction", "measure", d.subject, "reason"])
     no_tests = pd.DataFrame(columns=LIKERT_TEST_COLUMNS)
     sample_columns = ("analysis", d.group, "n")
     no_sample = _concat([], sample_columns)
     if questionnaire is None:
         return _Part({"likert_summary": pd.DataFrame(), "likert_tests": no_tests, "sample": no_sample}, nobody, [])
-    summary = likert_summary(questionnaire, item, d.system, rating)
-    if baseline is None or not {system, baseline} <= set(questionnaire[d.system]):
-        note = f"The questionnaire does not rate both {d.labels[system]} and {d.labels.get(baseline)}: no Likert test."
+    summary = likert_summary(questionnaire, item, d.interaction, rating)
+    if baseline is None or not {interaction, baseline} <= set(questionnaire[d.interaction]):
+        note = (f"The questionnaire does not rate both {d.labels[interaction]} and {d.labels.get(baseline)}: "
+                "no Likert test.")
         return _Part({"likert_summary": summary, "likert_tests": no_tests, "sample": no_sample}, nobody, [note])
-    tests = likert_tests(questionnaire, system, baseline, d.subject, item, d.system, rating)
-    named = questionnaire.assign(**{d.system: questionnaire[d.system].map(lambda code: d.labels.get(code, code))})
-    unpaired = unpaired_raters(named, d.labels[system], d.labels[baseline], d.subject, item, d.system)
+    tests = likert_tests(questionnaire, interaction, baseline, d.subject, item, d.interaction, rating)
+    named = questionnaire.assign(
+        **{d.interaction: questionnaire[d.interaction].map(lambda code: d.labels.get(code, code))})
+    unpaired = unpaired_raters(named, d.labels[interaction], d.labels[baseline], d.subject, item, d.interaction)
     sample = []
     for name, answers in questionnaire.groupby(item, sort=True):
-        raters = answers[answers[d.system].isin([system, baseline])]
-        both = raters.groupby(d.subject)[d.system].nunique() == 2
-        rated = raters[raters[d.subject].isin(both[both].index) & (raters[d.system] == system)]
+        raters = answers[answers[d.interaction].isin([interaction, baseline])]
+        both = raters.groupby(d.subject)[d.interaction].nunique() == 2
+        rated = raters[raters[d.subject].isin(both[both].index) & (raters[d.interaction] == interaction)]
         if d.group not in rated.columns:
             rated = rated.assign(**{d.group: "all"})
-        sample.append(_keyed(_group_sizes(rated, d, "Likert"), {"system": system, "measure": name}))
+        sample.append(_keyed(_group_sizes(rated, d, "Likert"), {"interaction": interaction, "measure": name}))
     tables = {"likert_summary": summary, "likert_tests": tests, "sample": _concat(sample, sample_columns)}
-    return _Part(tables, unpaired.assign(analysis="Likert", system=system, measure=""), [])
+    return _Part(tables, unpaired.assign(analysis="Likert", interaction=interaction, measure=""), [])
 
 
-def _conditions(systems, system, baseline, tables, system_column: str, label: str) -> pd.DataFrame:
+def _conditions(interactions, interaction, baseline, tables, interaction_column: str, label: str) -> pd.DataFrame:
     labels: dict[str, str] = {}
     for table in tables:
         if table is None or label not in table.columns:
             continue
-        for code, name in table.drop_duplicates(system_column)[[system_column, label]].itertuples(index=False):
+        pairs = table.drop_duplicates(interaction_column)[[interaction_column, label]]
+        for code, name in pairs.itertuples(index=False):
             if labels.setdefault(code, name) != name:
                 raise AnalysisInputError(
-                    f"{system_column} {code!r} is labelled {labels[code]!r} in one table and {name!r} in another "
+                    f"{interaction_column} {code!r} is labelled {labels[code]!r} in one table and {name!r} in another "
                     f"(column {label!r})"
                 )
-    roles = {system: "system under test", baseline: "baseline"}
+    roles = {interaction: "interaction model under test", baseline: "baseline"}
     return pd.DataFrame(
         {
-            "system": list(systems),
-            "label": [labels.get(name, name) for name in systems],
-            "role": [roles.get(name, "also analysed") for name in systems],
+            "interaction": list(interactions),
+            "label": [labels.get(name, name) for name in interactions],
+            "role": [roles.get(name, "also analysed") for name in interactions],
         }
     )
 
@@ -478,23 +484,24 @@ def _checked(table, read, check, **columns) -> pd.DataFrame:
     return check(table, **columns) if isinstance(table, pd.DataFrame) else read(table, **columns)
 
 
-def _anova_notes(system: str, dv: str, complete: pd.DataFrame, anova: pd.DataFrame, design: _Design) -> list[str]:
+def _anova_notes(interaction: str, dv: str, complete: pd.DataFrame, anova: pd.DataFrame, design: _Design) -> list[str]:
     notes = []
     sizes = complete.drop_duplicates(design.subject)[design.group].value_counts().sort_index()
     if sizes.nunique() > 1:
         listed = ", ".join(f"{g}: {n}" for g, n in sizes.items())
         notes.append(
-            f"Unbalanced design in the {dv} ANOVA of {system} ({listed}): type {design.ss_type} sums of squares"
+            f"Unbalanced design in the {dv} ANOVA of {interaction} ({listed}): type {design.ss_type} sums of squares"
             + (" (afex's default; equal weight per group)." if design.ss_type == 3 else " (groups weighted by size).")
         )
     violated = anova[anova["p_mauchly"] < design.alpha]
     if len(violated):
         row = violated.iloc[0]
         notes.append(
-            f"Sphericity violated for {' and '.join(violated['source'])} in the {dv} ANOVA of {system} "
+            f"Sphericity violated for {' and '.join(violated['source'])} in the {dv} ANOVA of {interaction} "
             f"(Mauchly W = {row['W_mauchly']:.3f}, p = {row['p_mauchly']:.3g}): Greenhouse-Geisser correction "
             f"applied (epsilon = {row['eps_GG']:.3f})."
         )
     if np.isclose(complete[dv].std(), 0):
-        notes.append(f"The {dv} of {system} does not vary (every value is {complete[dv].iloc[0]:g}): nothing to test.")
+        notes.append(f"The {dv} of {interaction} does not vary (every value is {complete[dv].iloc[0]:g}): "
+                     "nothing to test.")
     return notes

@@ -2,7 +2,7 @@
 
 The same participants did the same tasks with the same hand motion (``microg session resimulate``):
 per phase and object, how the tasks ended in each; per phase and measure, the paired comparison
-(participant means over the objects completed in both, as the paper's Table 1 compares systems).
+(participant means over the objects completed in both, as the paper's Table 1 compares interaction models).
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from .paired import compare_systems
+from .paired import compare_interactions
 from .report import markdown_table
 from .tables import read_trials
 
@@ -21,7 +21,7 @@ RUN_SET = "run_set"
 
 def compare_run_sets(first: pd.DataFrame, second: pd.DataFrame, labels: tuple[str, str] = ("original", "re-simulated"),
                      measures: tuple[str, ...] = ("time_s", "attempts"), subject: str = "participant",
-                     phase: str = "stage", within: str = "object", status: str = "status") -> dict[str, pd.DataFrame]:
+                     phase: str = "phase", within: str = "object", status: str = "status") -> dict[str, pd.DataFrame]:
     """Outcomes and paired tests of two run sets of the same tasks.
 
     Parameters
@@ -38,13 +38,13 @@ def compare_run_sets(first: pd.DataFrame, second: pd.DataFrame, labels: tuple[st
     -------
     dict of pandas.DataFrame
         ``outcomes``: per phase, object and run set, how many tasks ended each way; ``tests``: per
-        phase and measure, one row of :func:`microg.analysis.compare_systems` (second against first).
+        phase and measure, one row of :func:`microg.analysis.compare_interactions` (second against first).
 
     Examples
     --------
     >>> import pandas as pd
     >>> from microg.analysis.compare import compare_run_sets
-    >>> a = pd.DataFrame({"participant": list("ppqqrr"), "stage": "s1", "object": list("CFCFCF"),
+    >>> a = pd.DataFrame({"participant": list("ppqqrr"), "phase": "s1", "object": list("CFCFCF"),
     ...                   "status": "completed", "time_s": [10., 12, 11, 13, 9, 14], "attempts": 0})
     >>> b = a.assign(time_s=a.time_s + [1., 2, 1, 3, 2, 2])
     >>> compare_run_sets(a, b, measures=("time_s",))["tests"][["phase", "n", "mean_diff"]]
@@ -65,7 +65,7 @@ def compare_run_sets(first: pd.DataFrame, second: pd.DataFrame, labels: tuple[st
                 continue
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                row = compare_systems(cells, dv, labels[1], labels[0], within, subject, RUN_SET)
+                row = compare_interactions(cells, dv, labels[1], labels[0], within, subject, RUN_SET)
             rows.append(row.assign(phase=name))
     tests = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=["phase", "measure", "n"])
     tests = tests[["phase"] + [c for c in tests.columns if c != "phase"]]
@@ -82,12 +82,13 @@ def write_comparison(first, second, out_dir: str | Path, labels: tuple[str, str]
     out.mkdir(parents=True, exist_ok=True)
     result["outcomes"].to_csv(out / "comparison_outcomes.csv", index=False)
     result["tests"].to_csv(out / "comparison_tests.csv", index=False)
-    shown = result["tests"][[c for c in ("phase", "measure", "n", "mean_baseline", "sd_baseline", "mean_system",
-                                         "sd_system", "mean_diff", "diff_ci_low", "diff_ci_high", "p_t",
-                                         "p_wilcoxon") if c in result["tests"].columns]].rename(columns={
-        "mean_baseline": f"mean {labels[0]}", "sd_baseline": f"SD {labels[0]}", "mean_system": f"mean {labels[1]}",
-        "sd_system": f"SD {labels[1]}", "mean_diff": "difference", "diff_ci_low": "95% CI low",
-        "diff_ci_high": "95% CI high", "p_t": "p (paired t)", "p_wilcoxon": "p (Wilcoxon)"})
+    listed = ("phase", "measure", "n", "mean_baseline", "sd_baseline", "mean_interaction", "sd_interaction",
+              "mean_diff", "diff_ci_low", "diff_ci_high", "p_t", "p_wilcoxon")
+    shown = result["tests"][[c for c in listed if c in result["tests"].columns]].rename(columns={
+        "mean_baseline": f"mean {labels[0]}", "sd_baseline": f"SD {labels[0]}",
+        "mean_interaction": f"mean {labels[1]}", "sd_interaction": f"SD {labels[1]}", "mean_diff": "difference",
+        "diff_ci_low": "95% CI low", "diff_ci_high": "95% CI high", "p_t": "p (paired t)",
+        "p_wilcoxon": "p (Wilcoxon)"})
     text = "\n".join([
         f"# {labels[0]} and {labels[1]}, side by side", "",
         f"The same participants' tasks with the same hand motion. Differences are {labels[1]} - {labels[0]}, "

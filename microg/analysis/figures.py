@@ -101,16 +101,17 @@ def plot_bars(
     return fig
 
 
-def plot_ratings(summary: pd.DataFrame, title: str | None = None, item: str = "item", system: str = "system") -> Figure:
-    """Diverging stacked bars of the ratings per item and system: shares below the neutral 5 to the
+def plot_ratings(summary: pd.DataFrame, title: str | None = None, item: str = "item",
+                 interaction: str = "interaction") -> Figure:
+    """Diverging stacked bars of the ratings per item and interaction model: shares below the neutral 5 to the
     left, above it to the right, the neutral share split across zero.
 
     Parameters
     ----------
     summary : pandas.DataFrame
-        :func:`microg.analysis.likert_summary`: columns ``item``, ``system``, ``count_0`` ... ``count_10``.
+        :func:`microg.analysis.likert_summary`: columns ``item``, ``interaction``, ``count_0`` ... ``count_10``.
     title : str, optional
-    item, system : str
+    item, interaction : str
         The columns that name each bar.
 
     Returns
@@ -121,14 +122,14 @@ def plot_ratings(summary: pd.DataFrame, title: str | None = None, item: str = "i
     --------
     >>> import pandas as pd
     >>> from microg.analysis import likert_summary, plot_ratings
-    >>> answers = pd.DataFrame({"item": "ease", "system": ["s"] * 3 + ["b"] * 3, "rating": [8, 7, 9, 3, 5, 4]})
+    >>> answers = pd.DataFrame({"item": "ease", "interaction": ["s"] * 3 + ["b"] * 3, "rating": [8, 7, 9, 3, 5, 4]})
     >>> fig = plot_ratings(likert_summary(answers))
     >>> [label.get_text() for label in fig.axes[0].get_yticklabels()]
     ['ease\\nb', 'ease\\ns']
     """
     counts = summary[[f"count_{score}" for score in SCALE]].to_numpy(float)
     shares = 100 * counts / counts.sum(axis=1, keepdims=True)
-    labels = [f"{name}\n{code}" for name, code in zip(summary[item], summary[system])]
+    labels = [f"{name}\n{code}" for name, code in zip(summary[item], summary[interaction])]
     colours = matplotlib.colormaps["RdYlBu"](np.linspace(0.05, 0.95, len(SCALE)))
     fig = Figure(figsize=(8, 0.7 * len(labels) + 1.6), layout="constrained")
     ax = fig.subplots()

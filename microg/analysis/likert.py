@@ -1,5 +1,5 @@
-"""The 11-point Likert items: distribution per item and system, and the paired Wilcoxon signed-rank
-test of system vs baseline per item with effect sizes, Bonferroni-corrected across items."""
+"""The 11-point Likert items: distribution per item and interaction model, and the paired Wilcoxon signed-rank
+test of interaction vs baseline per item with effect sizes, Bonferroni-corrected across items."""
 
 from __future__ import annotations
 
@@ -12,46 +12,46 @@ from microg.analysis.tables import RATING_RANGE, stars
 
 SCALE = tuple(range(RATING_RANGE[0], RATING_RANGE[1] + 1))
 LIKERT_TEST_COLUMNS = (
-    "item", "system", "baseline", "n", "median_system", "median_baseline",
+    "item", "interaction", "baseline", "n", "median_interaction", "median_baseline",
     "V", "p_unc", "p_bonf", "z", "r", "rbc", "stars", "rbc_ci_low", "rbc_ci_high",
 )  # fmt: skip
 
 
 def likert_summary(
-    answers: pd.DataFrame, item: str = "item", system: str = "system", rating: str = "rating"
+    answers: pd.DataFrame, item: str = "item", interaction: str = "interaction", rating: str = "rating"
 ) -> pd.DataFrame:
-    """The distribution of the ratings per item and system.
+    """The distribution of the ratings per item and interaction model.
 
     Parameters
     ----------
     answers : pandas.DataFrame
         One row per rating.
-    item, system, rating : str
-        Columns of the item, the system rated and the rating (0-10).
+    item, interaction, rating : str
+        Columns of the item, the interaction model rated and the rating (0-10).
 
     Returns
     -------
     pandas.DataFrame
-        Per ``item`` and ``system``: n, median, quartiles q1 and q3 (linear interpolation, R's
+        Per ``item`` and ``interaction``: n, median, quartiles q1 and q3 (linear interpolation, R's
         default), iqr, mean, and the count of each rating 0-10 in ``count_0`` ... ``count_10``.
 
     Examples
     --------
     >>> import pandas as pd
     >>> from microg.analysis import likert_summary
-    >>> answers = pd.DataFrame({"item": "ease", "system": "s", "rating": [3, 7, 8, 8]})
-    >>> likert_summary(answers)[["item", "system", "n", "median", "q1", "q3", "count_8"]]
-       item system  n  median  q1  q3  count_8
-    0  ease      s  4     7.5  6.0  8.0        2
+    >>> answers = pd.DataFrame({"item": "ease", "interaction": "s", "rating": [3, 7, 8, 8]})
+    >>> likert_summary(answers)[["item", "interaction", "n", "median", "q1", "q3", "count_8"]]
+       item interaction  n  median   q1   q3  count_8
+    0  ease           s  4     7.5  6.0  8.0        2
     """
     rows = []
-    for (item_name, system_name), values in answers.groupby([item, system], sort=True)[rating]:
+    for (item_name, interaction_name), values in answers.groupby([item, interaction], sort=True)[rating]:
         q1, median, q3 = np.percentile(values, [25, 50, 75])
         counts = values.value_counts().reindex(SCALE, fill_value=0)
         rows.append(
             {
                 item: item_name,
-                system: system_name,
+                interaction: interaction_name,
                 "n": len(values),
                 "median": median,
                 "q1": q1,
@@ -66,25 +66,25 @@ def likert_summary(
 
 def likert_tests(
     answers: pd.DataFrame,
-    system: str,
+    interaction: str,
     baseline: str,
     subject: str = "participant",
     item: str = "item",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
     rating: str = "rating",
 ) -> pd.DataFrame:
-    """Per item, the Wilcoxon signed-rank test of ``system`` vs ``baseline`` on the same raters.
+    """Per item, the Wilcoxon signed-rank test of ``interaction`` vs ``baseline`` on the same raters.
 
-    Only participants who rated the item for both systems count (:func:`unpaired_raters` lists the
+    Only participants who rated the item for both interaction models count (:func:`unpaired_raters` lists the
     others). The p-value is Bonferroni-corrected across items.
 
     Parameters
     ----------
     answers : pandas.DataFrame
-        One row per participant, system and item.
-    system, baseline : str
-        The systems compared (values of ``system_column``).
-    subject, item, system_column, rating : str
+        One row per participant, interaction model and item.
+    interaction, baseline : str
+        The interaction models compared (values of ``interaction_column``).
+    subject, item, interaction_column, rating : str
         The column names.
 
     Returns
@@ -98,23 +98,23 @@ def likert_tests(
     >>> import pandas as pd
     >>> from microg.analysis import likert_tests
     >>> answers = pd.DataFrame({"participant": [f"P{i}" for i in range(6)] * 2, "item": "ease",
-    ...                         "system": ["s"] * 6 + ["b"] * 6, "rating": [8, 7, 9, 6, 8, 7, 4, 5, 3, 6, 2, 5]})
+    ...                         "interaction": ["s"] * 6 + ["b"] * 6, "rating": [8, 7, 9, 6, 8, 7, 4, 5, 3, 6, 2, 5]})
     >>> likert_tests(answers, "s", "b")[["item", "n", "V", "p_bonf", "rbc"]].round(3)
        item  n     V  p_bonf  rbc
     0  ease  6  15.0   0.057  1.0
     """
     rows = []
     for item_name, ratings in answers.groupby(item, sort=True):
-        wide = ratings.pivot(index=subject, columns=system_column, values=rating)
-        pairs = wide.reindex(columns=[system, baseline]).dropna()
-        test = signed_rank(pairs[system].to_numpy(), pairs[baseline].to_numpy()).iloc[0]
+        wide = ratings.pivot(index=subject, columns=interaction_column, values=rating)
+        pairs = wide.reindex(columns=[interaction, baseline]).dropna()
+        test = signed_rank(pairs[interaction].to_numpy(), pairs[baseline].to_numpy()).iloc[0]
         rows.append(
             {
                 "item": item_name,
-                "system": system,
+                "interaction": interaction,
                 "baseline": baseline,
                 "n": int(test["n"]),
-                "median_system": pairs[system].median(),
+                "median_interaction": pairs[interaction].median(),
                 "median_baseline": pairs[baseline].median(),
                 "V": test["V"],
                 "p_unc": test["p"],
@@ -133,17 +133,17 @@ def likert_tests(
 
 def unpaired_raters(
     answers: pd.DataFrame,
-    system: str,
+    interaction: str,
     baseline: str,
     subject: str = "participant",
     item: str = "item",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
 ) -> pd.DataFrame:
-    """Participants left out of an item's test because they rated it for only one of the systems.
+    """Participants left out of an item's test because they rated it for only one of the interaction models.
 
     Parameters
     ----------
-    answers, system, baseline, subject, item, system_column
+    answers, interaction, baseline, subject, item, interaction_column
         As for :func:`likert_tests`.
 
     Returns
@@ -157,12 +157,12 @@ def unpaired_raters(
     >>> from microg.analysis import unpaired_raters
     >>> answers = pd.DataFrame({"who": ["a", "a", "b"], "question": "ease", "tool": ["s", "b", "s"],
     ...                         "rating": [7, 5, 6]})
-    >>> unpaired_raters(answers, "s", "b", subject="who", item="question", system_column="tool")
+    >>> unpaired_raters(answers, "s", "b", subject="who", item="question", interaction_column="tool")
       who                 reason
     0   b  rated ease only for s
     """
-    rated = answers[answers[system_column].isin([system, baseline])]
-    per_item = rated.groupby([item, subject])[system_column].agg(set)
+    rated = answers[answers[interaction_column].isin([interaction, baseline])]
+    per_item = rated.groupby([item, subject])[interaction_column].agg(set)
     missing = per_item[per_item.map(len) < 2]
-    rows = [(who, f"rated {name} only for {next(iter(systems))}") for (name, who), systems in missing.items()]
+    rows = [(who, f"rated {name} only for {next(iter(interactions))}") for (name, who), interactions in missing.items()]
     return pd.DataFrame(rows, columns=[subject, "reason"])

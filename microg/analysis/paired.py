@@ -1,6 +1,6 @@
-"""System vs baseline on the same participants (the paper's Table 1): descriptives, paired t-test,
+"""Interaction model vs baseline on the same participants (the paper's Table 1): descriptives, paired t-test,
 Wilcoxon signed-rank test and effect sizes with confidence intervals, all on one value per
-participant and system."""
+participant and interaction."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from scipy import stats
 from microg.analysis.anova import CONFIDENCE, noncentrality
 from microg.analysis.tables import incomplete_cases
 
-SYSTEMS_COLUMNS = (
-    "measure", "system", "baseline", "n", "mean_system", "sd_system", "mean_baseline", "sd_baseline",
+INTERACTIONS_COLUMNS = (
+    "measure", "interaction", "baseline", "n", "mean_interaction", "sd_interaction", "mean_baseline", "sd_baseline",
     "mean_diff", "T", "dof", "p_t", "cohen_d", "V", "p_wilcoxon", "rbc", "p_shapiro",
     "diff_ci_low", "diff_ci_high", "d_z", "d_z_ci_low", "d_z_ci_high", "rbc_ci_low", "rbc_ci_high", "n_nonzero",
 )  # fmt: skip
@@ -78,62 +78,62 @@ def signed_rank(x, y) -> pd.DataFrame:
 def paired_means(
     cells: pd.DataFrame,
     dv: str,
-    system: str,
+    interaction: str,
     baseline: str,
     within: str = "object",
     subject: str = "participant",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
 ) -> pd.DataFrame:
-    """Each participant's mean of ``dv`` over the ``within`` levels with the system and the baseline.
+    """Each participant's mean of ``dv`` over the ``within`` levels with the interaction model and the baseline.
 
-    Only participants with a value in every level for both systems are paired (a mean over fewer
+    Only participants with a value in every level for both interaction models are paired (a mean over fewer
     levels would not be comparable); :func:`unpaired_participants` says who is left out and why.
 
     Parameters
     ----------
     cells : pandas.DataFrame
-        Participant-level cells: one row per participant, system and ``within`` level.
-    dv, system, baseline, within, subject, system_column
-        As for :func:`compare_systems`.
+        Participant-level cells: one row per participant, interaction and ``within`` level.
+    dv, interaction, baseline, within, subject, interaction_column
+        As for :func:`compare_interactions`.
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``subject, system_column, dv``: two rows per paired participant.
+        Columns ``subject, interaction_column, dv``: two rows per paired participant.
 
     Examples
     --------
     >>> import pandas as pd
     >>> from microg.analysis import paired_means
-    >>> cells = pd.DataFrame({"participant": ["a"] * 4 + ["b"] * 3, "system": ["s", "s", "b", "b", "s", "s", "b"],
+    >>> cells = pd.DataFrame({"participant": ["a"] * 4 + ["b"] * 3, "interaction": ["s", "s", "b", "b", "s", "s", "b"],
     ...                       "object": ["x", "y"] * 3 + ["x"], "time_s": [1.0, 3.0, 4.0, 6.0, 2.0, 2.0, 9.0]})
     >>> paired_means(cells, "time_s", "s", "b")
-      participant system  time_s
-    0           a      s     2.0
-    1           a      b     5.0
+      participant interaction  time_s
+    0           a           s     2.0
+    1           a           b     5.0
     """
-    left_out = unpaired_participants(cells, dv, system, baseline, within, subject, system_column)[subject]
-    kept = cells[cells[system_column].isin([system, baseline]) & ~cells[subject].isin(left_out)]
-    means = kept.groupby([subject, system_column], observed=True)[dv].mean().reset_index()
-    order = means[system_column].map({system: 0, baseline: 1})
+    left_out = unpaired_participants(cells, dv, interaction, baseline, within, subject, interaction_column)[subject]
+    kept = cells[cells[interaction_column].isin([interaction, baseline]) & ~cells[subject].isin(left_out)]
+    means = kept.groupby([subject, interaction_column], observed=True)[dv].mean().reset_index()
+    order = means[interaction_column].map({interaction: 0, baseline: 1})
     return means.assign(_order=order).sort_values([subject, "_order"]).drop(columns="_order").reset_index(drop=True)
 
 
 def unpaired_participants(
     cells: pd.DataFrame,
     dv: str,
-    system: str,
+    interaction: str,
     baseline: str,
     within: str = "object",
     subject: str = "participant",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
 ) -> pd.DataFrame:
-    """The participants :func:`paired_means` leaves out: a ``within`` level missing with a system.
+    """The participants :func:`paired_means` leaves out: a ``within`` level missing with an interaction.
 
     Parameters
     ----------
-    cells, dv, system, baseline, within, subject, system_column
-        As for :func:`compare_systems`.
+    cells, dv, interaction, baseline, within, subject, interaction_column
+        As for :func:`compare_interactions`.
 
     Returns
     -------
@@ -144,7 +144,7 @@ def unpaired_participants(
     --------
     >>> import pandas as pd
     >>> from microg.analysis import unpaired_participants
-    >>> cells = pd.DataFrame({"participant": ["a", "a", "a"], "system": ["s", "s", "b"],
+    >>> cells = pd.DataFrame({"participant": ["a", "a", "a"], "interaction": ["s", "s", "b"],
     ...                       "object": ["x", "y", "x"], "time_s": [1.0, 3.0, 4.0]})
     >>> unpaired_participants(cells, "time_s", "s", "b")
       participant                         reason
@@ -152,8 +152,8 @@ def unpaired_participants(
     """
     levels = sorted(cells[within].unique())
     reasons: dict[str, list[str]] = {}
-    for name in (system, baseline):
-        rows = cells[cells[system_column] == name]
+    for name in (interaction, baseline):
+        rows = cells[cells[interaction_column] == name]
         for who, why in incomplete_cases(rows, dv, within, subject, levels).itertuples(index=False):
             reasons.setdefault(who, []).append(f"{why} with {name}")
         for who in sorted(set(cells[subject]) - set(rows[subject])):
@@ -161,36 +161,36 @@ def unpaired_participants(
     return pd.DataFrame({subject: list(reasons), "reason": ["; ".join(why) for why in reasons.values()]})
 
 
-def compare_systems(
+def compare_interactions(
     cells: pd.DataFrame,
     dv: str,
-    system: str,
+    interaction: str,
     baseline: str,
     within: str = "object",
     subject: str = "participant",
-    system_column: str = "system",
+    interaction_column: str = "interaction",
 ) -> pd.DataFrame:
-    """Compare ``system`` with ``baseline`` on ``dv``, paired by participant (the paper's Table 1).
+    """Compare ``interaction`` with ``baseline`` on ``dv``, paired by participant (the paper's Table 1).
 
     Per participant, ``dv`` is averaged over the ``within`` levels (participants without every
-    level with both systems are dropped, with a warning naming them); mean and sample SD are over
+    level with both interaction models are dropped, with a warning naming them); mean and sample SD are over
     participants.
 
     Parameters
     ----------
     cells : pandas.DataFrame
-        Participant-level cells: one row per participant, system and ``within`` level.
+        Participant-level cells: one row per participant, interaction and ``within`` level.
     dv : str
         The measure.
-    system, baseline : str
-        The two systems (values of ``system_column``); differences are system - baseline.
-    within, subject, system_column : str
-        Columns of the within factor, the participant and the system.
+    interaction, baseline : str
+        The two interaction models (values of ``interaction_column``); differences are interaction - baseline.
+    within, subject, interaction_column : str
+        Columns of the within factor, the participant and the interaction model.
 
     Returns
     -------
     pandas.DataFrame
-        One row, columns SYSTEMS_COLUMNS: n pairs; means and SDs; mean_diff (system - baseline) with
+        One row, columns INTERACTIONS_COLUMNS: n pairs; means and SDs; mean_diff (interaction - baseline) with
         its 95 % CI (diff_ci_low, diff_ci_high); the paired t-test (T, dof, p_t); Cohen's d on the
         average SD (cohen_d, pingouin's paired d) and d_z = mean_diff / SD of the differences with
         its 95 % CI from the noncentral t (as R's effectsize::cohens_d(paired = TRUE)); the Wilcoxon
@@ -200,21 +200,21 @@ def compare_systems(
     Examples
     --------
     >>> import pingouin as pg
-    >>> from microg.analysis import compare_systems
+    >>> from microg.analysis import compare_interactions
     >>> data = pg.read_dataset("mixed_anova").query("Time != 'June'").assign(object="all")
-    >>> row = compare_systems(data, "Scores", "August", "January", subject="Subject", system_column="Time")
+    >>> row = compare_interactions(data, "Scores", "August", "January", subject="Subject", interaction_column="Time")
     >>> row[["n", "mean_diff", "diff_ci_low", "diff_ci_high", "p_t", "d_z"]].round(3)
         n  mean_diff  diff_ci_low  diff_ci_high    p_t    d_z
     0  60     -0.317       -0.681         0.047  0.087 -0.225
     """
-    dropped = unpaired_participants(cells, dv, system, baseline, within, subject, system_column)
+    dropped = unpaired_participants(cells, dv, interaction, baseline, within, subject, interaction_column)
     if len(dropped):
         listed = "; ".join(f"{p}: {r}" for p, r in dropped.itertuples(index=False))
         warnings.warn(f"dropped {len(dropped)} {subject}(s) from the {dv} pairs: {listed}", stacklevel=2)
-    wide = paired_means(cells, dv, system, baseline, within, subject, system_column).pivot(
-        index=subject, columns=system_column, values=dv
+    wide = paired_means(cells, dv, interaction, baseline, within, subject, interaction_column).pivot(
+        index=subject, columns=interaction_column, values=dv
     )
-    x, y = wide[system].to_numpy(), wide[baseline].to_numpy()
+    x, y = wide[interaction].to_numpy(), wide[baseline].to_numpy()
     n = len(x)
     ttest = pg.ttest(x, y, paired=True).iloc[0]
     rank = signed_rank(x, y).iloc[0]
@@ -224,11 +224,11 @@ def compare_systems(
     p_shapiro = stats.shapiro(diff).pvalue if n >= 3 and np.ptp(diff) > 0 else np.nan
     row = {
         "measure": dv,
-        "system": system,
+        "interaction": interaction,
         "baseline": baseline,
         "n": n,
-        "mean_system": x.mean(),
-        "sd_system": x.std(ddof=1),
+        "mean_interaction": x.mean(),
+        "sd_interaction": x.std(ddof=1),
         "mean_baseline": y.mean(),
         "sd_baseline": y.std(ddof=1),
         "mean_diff": diff.mean(),
@@ -248,7 +248,7 @@ def compare_systems(
         "rbc_ci_high": rank["rbc_ci_high"],
         "n_nonzero": rank["n_nonzero"],
     }
-    return pd.DataFrame([row], columns=list(SYSTEMS_COLUMNS))
+    return pd.DataFrame([row], columns=list(INTERACTIONS_COLUMNS))
 
 
 def _standardised_mean_ci(t: float, n: int) -> tuple[float, float]:

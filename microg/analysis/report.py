@@ -15,7 +15,7 @@ from markupsafe import Markup
 
 from microg import __version__
 from microg.analysis import results as r
-from microg.analysis.analyse import EXCLUDED_STAGES, StudyAnalysis, analyse_study
+from microg.analysis.analyse import EXCLUDED_PHASES, StudyAnalysis, analyse_study
 from microg.analysis.anova import ANOVA_COLUMNS, SPHERICITY_ALPHA
 from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.figures import plot_bars, plot_ratings, save_figure
@@ -23,9 +23,9 @@ from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.report_template import TEMPLATE
 
 MEASURE_FILES = {"time_s": "time"}
-SYSTEM_DESCRIPTIONS = {
+INTERACTION_DESCRIPTIONS = {
     "impulse_penetration": "impulse + penetration contact model, the paper's method",
-    "soft_hand": "compliant soft-hand coupling, standing in for the paper's comparison system",
+    "soft_hand": "compliant soft-hand coupling, standing in for the paper's comparison interaction model",
     "penetration_only": "penetration phase only, the prior method the paper improves on",
 }
 REPORT_FILE = "report.html"
@@ -39,10 +39,10 @@ def write_report(
     trials: pd.DataFrame | str | Path,
     questionnaire: pd.DataFrame | str | Path | None,
     out_dir: str | Path,
-    system: str | None = None,
+    interaction: str | None = None,
     baseline: str | None = None,
     ss_type: int = 3,
-    excluded_stages: Sequence[str] = EXCLUDED_STAGES,
+    excluded_phases: Sequence[str] = EXCLUDED_PHASES,
     title: str = "Study report",
     **columns,
 ) -> Path:
@@ -50,7 +50,7 @@ def write_report(
 
     Parameters
     ----------
-    trials, questionnaire, system, baseline, ss_type, excluded_stages
+    trials, questionnaire, interaction, baseline, ss_type, excluded_phases
         As for :func:`microg.analysis.analyse_study`.
     out_dir : str or Path
         Folder for report.html, report.md, the CSV tables and figures/.
@@ -58,7 +58,7 @@ def write_report(
         The report's title.
     **columns
         Column names and options passed to :func:`microg.analysis.analyse_study` (subject, group,
-        within, system_column, dv, counts, completed, stage, label, item, rating, alpha).
+        within, interaction_column, dv, counts, completed, phase, label, item, rating, alpha).
 
     Returns
     -------
@@ -73,11 +73,11 @@ def write_report(
     >>> from microg.analysis import write_report
     >>> data = pg.read_dataset("mixed_anova").assign(tool="s")
     >>> path = write_report(data, None, tempfile.mkdtemp(), subject="Subject", group="Group", within="Time",
-    ...                     system_column="tool", dv=["Scores"], counts=[])
+    ...                     interaction_column="tool", dv=["Scores"], counts=[])
     >>> path.name, (path.parent / "report.md").exists()
     ('report.html', True)
     """
-    analysis = analyse_study(trials, questionnaire, system, baseline, ss_type, excluded_stages, **columns)
+    analysis = analyse_study(trials, questionnaire, interaction, baseline, ss_type, excluded_phases, **columns)
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out)
@@ -92,20 +92,20 @@ def write_report(
 def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
     """The CSV tables at full precision; returns the files written.
 
-    Per system and measure (suffix ``_<system>`` for systems other than the one under test):
+    Per interaction model and measure (suffix ``_<interaction>`` for models other than the one under test):
     anova_<measure>.csv and posthoc_<measure>.csv. An ANOVA the data cannot support is written with
     its sources and empty statistics; the report says why. One tidy table each, with the columns
-    system and measure: sample.csv (N per group in the data and in each analysis), cell_means.csv,
+    interaction and measure: sample.csv (N per group in the data and in each analysis), cell_means.csv,
     corrections.csv, simple_effects.csv, simple_pairs.csv, assumptions.csv, count_model.csv. Also
-    systems.csv (system vs baseline), likert.csv, dropped.csv and conditions.csv (labels).
+    interactions.csv (interaction model under test vs baseline), likert.csv, dropped.csv and conditions.csv (labels).
     """
     a = analysis
     written = []
     sources = [a.group, a.within, f"{a.group}:{a.within}"]
     not_estimable = pd.DataFrame({"source": sources}).reindex(columns=ANOVA_COLUMNS)
     analysed = set(a.analysed())
-    for name, dv in ((name, dv) for name in a.systems for dv in a.measures):
-        suffix = "" if name == a.system else f"_{name}"
+    for name, dv in ((name, dv) for name in a.interactions for dv in a.measures):
+        suffix = "" if name == a.interaction else f"_{name}"
         anova = a.table("anova", name, dv) if (name, dv) in analysed else not_estimable
         post = a.table("posthoc", name, dv) if (name, dv) in analysed else pd.DataFrame(columns=POSTHOC_COLUMNS)
         for kind, frame in (("anova", anova), ("posthoc", post)):
@@ -113,7 +113,7 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
     for name in TIDY_TABLES:
         written.append(_csv(getattr(a, name), out / f"{name}.csv"))
     if not a.comparison.empty:
-        written.append(_csv(a.comparison, out / "systems.csv"))
+        written.append(_csv(a.comparison, out / "interactions.csv"))
     if not a.likert_summary.empty:
         written.append(_csv(likert_table(a), out / "likert.csv"))
     written.append(_csv(a.conditions, out / "conditions.csv"))
@@ -122,18 +122,18 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
 
 
 def likert_table(analysis: StudyAnalysis) -> pd.DataFrame:
-    """Distribution per item and system, with the item's system-vs-baseline test on each row."""
+    """Distribution per item and interaction model, with the item's test against the baseline on each row."""
     if analysis.likert_tests.empty:
         return analysis.likert_summary
-    tests = analysis.likert_tests.drop(columns=["median_system", "median_baseline"]).rename(
-        columns={"system": "test_system", "baseline": "test_baseline", "n": "n_pairs"}
+    tests = analysis.likert_tests.drop(columns=["median_interaction", "median_baseline"]).rename(
+        columns={"interaction": "test_interaction", "baseline": "test_baseline", "n": "n_pairs"}
     )
     item = analysis.likert_summary.columns[0]
     return analysis.likert_summary.merge(tests.rename(columns={"item": item}), on=item, how="left")
 
 
 def write_figures(analysis: StudyAnalysis, folder: Path) -> list[dict]:
-    """Bars with each participant's point per system and measure, and the rating distribution."""
+    """Bars with each participant's point per interaction model and measure, and the rating distribution."""
     a = analysis
     figures = []
     for name, dv in a.analysed():
@@ -150,8 +150,8 @@ def write_figures(analysis: StudyAnalysis, folder: Path) -> list[dict]:
         summary = a.likert_summary.copy()
         summary.iloc[:, 1] = summary.iloc[:, 1].map(a.label)
         fig = plot_ratings(summary, title="Ratings (simulated)" if a.simulated_ratings else None,
-                           item=summary.columns[0], system=summary.columns[1])  # fmt: skip
-        caption = "Distribution of the 0-10 ratings per item and system (diverging at the neutral 5)"
+                           item=summary.columns[0], interaction=summary.columns[1])  # fmt: skip
+        caption = "Distribution of the 0-10 ratings per item and interaction model (diverging at the neutral 5)"
         figures.append(_figure(fig, folder / "ratings", caption))
     return figures
 
@@ -189,11 +189,11 @@ def report_sections(analysis: StudyAnalysis) -> dict:
     if not a.comparison.empty:
         comparison = [r.comparison_paragraph(a, dv) for dv in a.comparison["measure"]]
     return {
-        "systems": [
+        "interactions": [
             f"{label} ({role})"
             + (f": {name}" if label != name else "")
-            + (f", {SYSTEM_DESCRIPTIONS[name]}" if name in SYSTEM_DESCRIPTIONS else "")
-            for name, label, role in a.conditions[["system", "label", "role"]].itertuples(index=False)
+            + (f", {INTERACTION_DESCRIPTIONS[name]}" if name in INTERACTION_DESCRIPTIONS else "")
+            for name, label, role in a.conditions[["interaction", "label", "role"]].itertuples(index=False)
         ],
         "sample": r.sample_table(a),
         "dropped": r.dropped_table(a) if len(a.dropped) else None,
@@ -224,11 +224,11 @@ def render_html(analysis: StudyAnalysis, figures: list[dict], title: str, sectio
         generated=datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         simulated=[text for flag, text in banners if flag],
         simulated_ratings=SIMULATED_RATINGS if a.simulated_ratings else "",
-        system=a.label(a.system),
+        interaction=a.label(a.interaction),
         baseline=a.label(a.baseline) if a.baseline else "",
         objects=a.objects,
         within=a.within,
-        excluded_stages=a.excluded_stages,
+        excluded_phases=a.excluded_phases,
         warnings=a.warnings,
         figures=figures,
         **(sections or report_sections(a)),
@@ -246,7 +246,7 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
     lines += [
         "## Participants",
         "",
-        *[f"- {line}" for line in sections["systems"]],
+        *[f"- {line}" for line in sections["interactions"]],
         "",
         markdown_table(sections["sample"]),
         "",
@@ -259,7 +259,7 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
         for caption, table in block["tables"]:
             lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["comparison"]:
-        lines += ["### System vs baseline (Table 1)", "", *[p + "\n" for p in sections["comparison"]]]
+        lines += ["### Interaction model vs baseline (Table 1)", "", *[p + "\n" for p in sections["comparison"]]]
         for caption in ("table1", "ttests", "wilcoxon"):
             lines += [markdown_table(sections[caption]), ""]
     if sections["likert"]:
@@ -280,21 +280,22 @@ def methods(analysis: StudyAnalysis) -> list[str]:
     )
     statements = [
         (
-            f"Unit of analysis: one value per participant, system and {a.within}, the mean of that cell's trials. "
-            "Measures of finished tasks (completion time) use completed tasks only (an unfinished task has no time; "
-            "it is not a zero); counts (drops) use every task with a recorded count, completed or not. Withdrawn "
-            f"participants and trials of the stage(s) {', '.join(a.excluded_stages) or '(none)'} are left out."
+            f"Unit of analysis: one value per participant, interaction model and {a.within}, the mean of that cell's "
+            "trials. Measures of finished tasks (completion time) use completed tasks only (an unfinished task has "
+            "no time; it is not a zero); counts (drops) use every task with a recorded count, completed or not. "
+            "Withdrawn "
+            f"participants and trials of the phase(s) {', '.join(a.excluded_phases) or '(none)'} are left out."
         ),
         (
-            f"A participant without a value for every {a.within} is left out of that system's ANOVA and of the "
-            "system-vs-baseline pairs (complete cases, as afex does); every N in this report is the N analysed, "
+            f"A participant without a value for every {a.within} is left out of that interaction model's ANOVA and of "
+            "the pairs against the baseline (complete cases, as afex does); every N in this report is the N analysed, "
             "and the excluded participants are listed with the reason."
         ),
         (
-            f"Mixed ANOVA, {a.group} between x {a.within} within, per system and measure; {ss}, from the multivariate "
-            f"linear model of the wide data (as R's afex/car). Effect sizes: partial eta squared ({r.ETA_P}) with its "
-            f"95 % CI from the noncentral F on the uncorrected df (R's effectsize), and generalised eta squared "
-            f"({r.ETA_G}, afex's default). "
+            f"Mixed ANOVA, {a.group} between x {a.within} within, per interaction model and measure; {ss}, from the "
+            f"multivariate linear model of the wide data (as R's afex/car). Effect sizes: partial eta squared "
+            f"({r.ETA_P}) with its 95 % CI from the noncentral F on the uncorrected df (R's effectsize), and "
+            f"generalised eta squared ({r.ETA_G}, afex's default). "
             "An effect with a sum of squares of 0 has F = 0 and p = 1."
         ),
         (
@@ -323,18 +324,18 @@ def methods(analysis: StudyAnalysis) -> list[str]:
             f"at each {a.within}); each at {a.alpha} unless stated, with what follows from it."
         ),
         (
-            "System vs baseline: per participant, the mean over objects; mean and sample SD over participants; "
-            "paired t-test with the 95 % CI of the difference, d_z (mean difference / SD of the differences) with "
-            "its 95 % CI from the noncentral t, and Cohen's d on the average SD (d_av); Wilcoxon signed-rank test "
-            "(zero differences dropped; exact p below 50 pairs without ties, else normal approximation with "
-            "continuity correction, as R's wilcox.test) with the rank-biserial correlation r_rb and its 95 % CI "
-            "(Fisher z, as R's effectsize); Shapiro-Wilk on the paired differences."
+            "Interaction model vs baseline: per participant, the mean over objects; mean and sample SD over "
+            "participants; paired t-test with the 95 % CI of the difference, d_z (mean difference / SD of the "
+            "differences) with its 95 % CI from the noncentral t, and Cohen's d on the average SD (d_av); Wilcoxon "
+            "signed-rank test (zero differences dropped; exact p below 50 pairs without ties, else normal "
+            "approximation with continuity correction, as R's wilcox.test) with the rank-biserial correlation r_rb "
+            "and its 95 % CI (Fisher z, as R's effectsize); Shapiro-Wilk on the paired differences."
         ),
         (
-            "Likert: per item and system the distribution, median and quartiles (linear interpolation); Wilcoxon "
-            "signed-rank test of the system vs the baseline on participants who rated both, r = z / sqrt(n) with z "
-            "the normal approximation without continuity correction and n the non-zero differences; Bonferroni "
-            "across items."
+            "Likert: per item and interaction model the distribution, median and quartiles (linear interpolation); "
+            "Wilcoxon signed-rank test of the interaction model under test vs the baseline on participants who "
+            "rated both, r = z / sqrt(n) with z the normal approximation without continuity correction and n the "
+            "non-zero differences; Bonferroni across items."
         ),
     ]
     if a.counts:

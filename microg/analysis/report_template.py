@@ -35,10 +35,10 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 {% for line in simulated %}<div class="banner">{{ line }}</div>{% endfor %}
 
 <h2>Summary</h2>
-<ul>{% for line in systems %}<li>{{ line }}</li>{% endfor %}</ul>
-{% if not baseline %}<p>No baseline system in the data.</p>{% endif %}
+<ul>{% for line in interactions %}<li>{{ line }}</li>{% endfor %}</ul>
+{% if not baseline %}<p>No baseline interaction model in the data.</p>{% endif %}
 <p>{{ within | capitalize }}s: {{ objects | join(", ") }}.
-{% if excluded_stages %}Trials of the stage(s) {{ excluded_stages | join(", ") }} are left out.{% endif %}</p>
+{% if excluded_phases %}Trials of the phase(s) {{ excluded_phases | join(", ") }} are left out.{% endif %}</p>
 <p class="caption">Participants analysed (the effective N, per group)</p>
 <div class="table">{{ sample | html }}</div>
 <h3>Warnings</h3>
@@ -49,7 +49,7 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 <h2>Results</h2>
 {% for block in blocks %}<h3>{{ block.title }}</h3><p class="results">{{ block.results }}</p>
 <p class="results">{{ block.assumptions }}</p>{% endfor %}
-{% if comparison %}<h3>{{ system }} vs {{ baseline }}</h3>{% for p in comparison %}<p class="results">{{ p }}</p>{% endfor %}{% endif %}
+{% if comparison %}<h3>{{ interaction }} vs {{ baseline }}</h3>{% for p in comparison %}<p class="results">{{ p }}</p>{% endfor %}{% endif %}
 {% if likert %}<h3>Questionnaire</h3><p class="results">{{ likert }}</p>{% endif %}
 
 <h2>Methods</h2>
@@ -61,22 +61,22 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 {% for caption, table in block.tables %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}
 {% endfor %}
 
-<h2>System vs baseline (Table 1)</h2>
+<h2>Interaction model vs baseline (Table 1)</h2>
 {% if table1 is not none %}
 <p class="caption">Mean (SD) over participants of each participant's mean over {{ within }}s, and the number of pairs</p>
 <div class="table">{{ table1 | html }}</div>
-<p class="caption">Paired t-tests ({{ system }} &minus; {{ baseline }})</p>
+<p class="caption">Paired t-tests ({{ interaction }} &minus; {{ baseline }})</p>
 <div class="table">{{ ttests | html }}</div>
-<p class="caption">Wilcoxon signed-rank tests ({{ system }} vs {{ baseline }})</p>
+<p class="caption">Wilcoxon signed-rank tests ({{ interaction }} vs {{ baseline }})</p>
 <div class="table">{{ wilcoxon | html }}</div>
-{% else %}<p>No baseline system to compare with.</p>{% endif %}
+{% else %}<p>No baseline interaction model to compare with.</p>{% endif %}
 
 <h2>Questionnaire (Likert, 0-10)</h2>
 {% if likert_distribution is not none %}
 {% if simulated_ratings %}<div class="banner">{{ simulated_ratings }}</div>{% endif %}
-<p class="caption">Distribution per item and system (columns 0-10: how many gave that rating)</p>
+<p class="caption">Distribution per item and interaction model (columns 0-10: how many gave that rating)</p>
 <div class="table">{{ likert_distribution | html }}</div>
-{% if likert_tests is not none %}<p class="caption">{{ system }} vs {{ baseline }}, per item</p>
+{% if likert_tests is not none %}<p class="caption">{{ interaction }} vs {{ baseline }}, per item</p>
 <div class="table">{{ likert_tests | html }}</div>{% endif %}
 {% else %}<p>No questionnaire table was given.</p>{% endif %}
 

@@ -32,34 +32,34 @@ def measure_label(dv: str) -> str:
     return MEASURE_LABELS.get(dv, dv)
 
 
-def sample_size(analysis: StudyAnalysis, kind: str, system: str = "", measure: str = "") -> str:
+def sample_size(analysis: StudyAnalysis, kind: str, interaction: str = "", measure: str = "") -> str:
     """The N an analysis used, per group: "N = 28 (B: 14, V: 14)"."""
-    rows = _rows(analysis.sample, kind, system, measure)
+    rows = _rows(analysis.sample, kind, interaction, measure)
     groups = ", ".join(f"{g}: {n}" for g, n in zip(rows[analysis.group], rows["n"]))
     return f"N = {int(rows['n'].sum())} ({groups})"
 
 
-def exclusions(analysis: StudyAnalysis, kind: str, system: str = "", measure: str = "") -> str:
+def exclusions(analysis: StudyAnalysis, kind: str, interaction: str = "", measure: str = "") -> str:
     """Who an analysis left out and why, or "" when nobody."""
-    rows = _rows(analysis.dropped, kind, system, measure)
+    rows = _rows(analysis.dropped, kind, interaction, measure)
     if rows.empty:
         return ""
     listed = "; ".join(f"{who} ({why})" for who, why in zip(rows[analysis.subject], rows["reason"]))
     return f"{len(rows)} excluded: {listed}"
 
 
-def anova_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
-    """The Results paragraph of one system's mixed ANOVA of ``dv``: N and who was excluded, the
+def anova_paragraph(analysis: StudyAnalysis, interaction: str, dv: str) -> str:
+    """The Results paragraph of one interaction's mixed ANOVA of ``dv``: N and who was excluded, the
     effects, post hoc tests, simple effects after a significant interaction and, for counts, the
     count model."""
     a = analysis
-    anova = a.table("anova", system, dv).set_index("source")
-    chosen = a.table("corrections", system, dv).set_index("source")
-    cells = a.table("cells", system, dv)
+    anova = a.table("anova", interaction, dv).set_index("source")
+    chosen = a.table("corrections", interaction, dv).set_index("source")
+    cells = a.table("cells", interaction, dv)
     n_levels, n_groups = cells[a.within].nunique(), cells[a.group].nunique()
-    left_out = exclusions(a, "ANOVA", system, dv)
+    left_out = exclusions(a, "ANOVA", interaction, dv)
     text = [
-        f"{measure_label(dv).capitalize()} with {a.label(system)}: {sample_size(a, 'ANOVA', system, dv)}"
+        f"{measure_label(dv).capitalize()} with {a.label(interaction)}: {sample_size(a, 'ANOVA', interaction, dv)}"
         + (f"; {left_out}." if left_out else ".")
     ]
     if np.isclose(cells["value"].std(), 0):
@@ -68,12 +68,12 @@ def anova_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
             f"Every participant's {measure_label(dv)} is {value}: the measure does not vary, so there is nothing "
             "to test (the ANOVA table reports F = 0 and p = 1 for each effect, as R does)."
         )
-        return " ".join(text + _count_sentences(a, system, dv))
-    interaction = f"{a.group}:{a.within}"
+        return " ".join(text + _count_sentences(a, interaction, dv))
+    group_by_within = f"{a.group}:{a.within}"
     names = {a.group: f"main effect of {a.group}", a.within: f"main effect of {a.within}",
-             interaction: f"{a.group} \u00d7 {a.within} interaction"}  # fmt: skip
+             group_by_within: f"{a.group} \u00d7 {a.within} interaction"}  # fmt: skip
     effects = []
-    for source in (a.group, a.within, interaction):
+    for source in (a.group, a.within, group_by_within):
         row, choice = anova.loc[source], chosen.loc[source]
         wording = "a significant" if choice["p"] < a.alpha else "no significant"
         effect = (
@@ -90,34 +90,36 @@ def anova_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
     )
     significant = {source: chosen.loc[source, "p"] < a.alpha for source in chosen.index}
     text.extend(
-        _posthoc_sentences(a, system, dv, significant[a.within], significant[a.group] or significant[interaction])
+        _posthoc_sentences(a, interaction, dv, significant[a.within],
+                           significant[a.group] or significant[group_by_within])
     )
-    if interaction_significant(a, system, dv):
-        text.extend(_simple_effect_sentences(a, system, dv))
-    return " ".join(text + _count_sentences(a, system, dv))
+    if interaction_significant(a, interaction, dv):
+        text.extend(_simple_effect_sentences(a, interaction, dv))
+    return " ".join(text + _count_sentences(a, interaction, dv))
 
 
-def assumptions_paragraph(analysis: StudyAnalysis, system: str, dv: str) -> str:
-    """The assumption checks of one system's ANOVA of ``dv`` in words, each with what follows from it."""
-    return " ".join(_assumption_sentences(analysis, system, dv))
+def assumptions_paragraph(analysis: StudyAnalysis, interaction: str, dv: str) -> str:
+    """The assumption checks of one interaction's ANOVA of ``dv`` in words, each with what follows from it."""
+    return " ".join(_assumption_sentences(analysis, interaction, dv))
 
 
-def interaction_significant(analysis: StudyAnalysis, system: str, dv: str) -> bool:
+def interaction_significant(analysis: StudyAnalysis, interaction: str, dv: str) -> bool:
     """Whether the interaction's p (as read: corrected where sphericity is violated) is below alpha."""
-    chosen = analysis.table("corrections", system, dv)
+    chosen = analysis.table("corrections", interaction, dv)
     return bool(chosen["p"].iloc[2] < analysis.alpha)
 
 
 def comparison_paragraph(analysis: StudyAnalysis, dv: str) -> str:
-    """System vs baseline on ``dv`` (the paper's Table 1) in words."""
+    """Interaction model vs baseline on ``dv`` (the paper's Table 1) in words."""
     a = analysis
     row = a.comparison.set_index("measure").loc[dv]
-    left_out = exclusions(a, "pairs", a.system, dv)
-    versus = f"{a.label(a.system)} vs {a.label(a.baseline)}"
-    lead = f"{measure_label(dv).capitalize()}, {versus}: {sample_size(a, 'pairs', a.system, dv)} pairs"
+    left_out = exclusions(a, "pairs", a.interaction, dv)
+    versus = f"{a.label(a.interaction)} vs {a.label(a.baseline)}"
+    lead = f"{measure_label(dv).capitalize()}, {versus}: {sample_size(a, 'pairs', a.interaction, dv)} pairs"
     text = [lead + (f"; {left_out}." if left_out else ".")]
     text.append(
-        f"M = {number(row['mean_system'])} (SD = {number(row['sd_system'])}) vs M = {number(row['mean_baseline'])} "
+        f"M = {number(row['mean_interaction'])} (SD = {number(row['sd_interaction'])}) vs "
+        f"M = {number(row['mean_baseline'])} "
         f"(SD = {number(row['sd_baseline'])}); difference M = {number(row['mean_diff'])}, 95 % CI "
         f"{interval(row['diff_ci_low'], row['diff_ci_high'])}, {t_test(row['T'], row['dof'], row['p_t'])}, "
         f"d_z = {number(row['d_z'])}, 95 % CI {interval(row['d_z_ci_low'], row['d_z_ci_high'])}; Wilcoxon "
@@ -137,22 +139,22 @@ def likert_paragraph(analysis: StudyAnalysis) -> str:
     a = analysis
     tests = a.likert_tests
     parts = [
-        f"{row['item']} (n = {int(row['n'])}): Mdn = {number(row['median_system'], 1)} vs "
+        f"{row['item']} (n = {int(row['n'])}): Mdn = {number(row['median_interaction'], 1)} vs "
         f"{number(row['median_baseline'], 1)}, V = {number(row['V'], 1)}, p {p_value(row['p_bonf'])}, "
         f"r_rb = {bounded(row['rbc'])}, 95 % CI {interval(row['rbc_ci_low'], row['rbc_ci_high'], bounded)}"
         for _, row in tests.iterrows()
     ]
     return (
-        f"Ratings of {a.label(a.system)} vs {a.label(a.baseline)} (Wilcoxon signed-rank tests on participants who "
+        f"Ratings of {a.label(a.interaction)} vs {a.label(a.baseline)} (Wilcoxon signed-rank tests on participants who "
         f"rated both; p Bonferroni-corrected over {len(tests)} items): " + "; ".join(parts) + "."
     )
 
 
-def anova_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def anova_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """The ANOVA table with readable headers; df and p are those of the test read (Greenhouse-Geisser
     corrected where sphericity is violated, as in the Results paragraph)."""
-    table = analysis.table("anova", system, dv)
-    chosen = analysis.table("corrections", system, dv)
+    table = analysis.table("anova", interaction, dv)
+    chosen = analysis.table("corrections", interaction, dv)
     return pd.DataFrame(
         {
             "Effect": _sources(table["source"]),
@@ -171,10 +173,10 @@ def anova_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
     )
 
 
-def sphericity_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def sphericity_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """Mauchly's test, both epsilons with their corrected p, and the correction used, per within effect."""
-    table = analysis.table("anova", system, dv).iloc[1:]
-    chosen = analysis.table("corrections", system, dv).iloc[1:]
+    table = analysis.table("anova", interaction, dv).iloc[1:]
+    chosen = analysis.table("corrections", interaction, dv).iloc[1:]
     return pd.DataFrame(
         {
             "Effect": _sources(table["source"]),
@@ -213,9 +215,9 @@ def contrasts_table(analysis: StudyAnalysis, table: pd.DataFrame) -> pd.DataFram
     )
 
 
-def simple_effects_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def simple_effects_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """The effect of the within factor in each group."""
-    table = analysis.table("simple_effects", system, dv)
+    table = analysis.table("simple_effects", interaction, dv)
     return pd.DataFrame(
         {
             analysis.group.capitalize(): table["at"],
@@ -228,9 +230,9 @@ def simple_effects_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.Da
     )
 
 
-def assumptions_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def assumptions_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """Each assumption check and what follows from it."""
-    table = analysis.table("assumptions", system, dv)
+    table = analysis.table("assumptions", interaction, dv)
     names = {"Levene": "Levene (median)", "Box's M": f"Box's M ({CHI2})", "Shapiro-Wilk of residuals": "Shapiro-Wilk W"}
     return pd.DataFrame(
         {
@@ -247,9 +249,9 @@ def assumptions_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataF
     )
 
 
-def count_model_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def count_model_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """The count model's Wald tests."""
-    table = analysis.table("count_model", system, dv)
+    table = analysis.table("count_model", interaction, dv)
     return pd.DataFrame(
         {
             "Term": _sources(table["term"]),
@@ -260,10 +262,10 @@ def count_model_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataF
     )
 
 
-def cell_means_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFrame:
+def cell_means_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """Mean, SD, SE and n per group and level (share of zeros for counts)."""
     a = analysis
-    table = a.table("cell_means", system, dv)
+    table = a.table("cell_means", interaction, dv)
     shown = pd.DataFrame(
         {
             a.group.capitalize(): table[a.group],
@@ -280,12 +282,12 @@ def cell_means_table(analysis: StudyAnalysis, system: str, dv: str) -> pd.DataFr
 
 
 def table1(analysis: StudyAnalysis) -> pd.DataFrame:
-    """The paper's Table 1 with its n: M (SD) of each measure for the system and the baseline."""
+    """The paper's Table 1 with its n: M (SD) of each measure for the interaction model under test and the baseline."""
     a = analysis
     comparison = a.comparison.set_index("measure")
     rows = []
-    for who, prefix in ((a.system, "system"), (a.baseline, "baseline")):
-        row = {"System": a.label(who)}
+    for who, prefix in ((a.interaction, "interaction"), (a.baseline, "baseline")):
+        row = {"Interaction model": a.label(who)}
         for dv, values in comparison.iterrows():
             row[f"{measure_label(dv)}, n"] = str(int(values["n"]))
             row[f"{measure_label(dv)}, M (SD)"] = (
@@ -329,12 +331,12 @@ def wilcoxon_table(analysis: StudyAnalysis) -> pd.DataFrame:
 
 
 def likert_distribution_table(analysis: StudyAnalysis) -> pd.DataFrame:
-    """Median, quartiles, mean and the count of each rating, per item and system."""
+    """Median, quartiles, mean and the count of each rating, per item and interaction model."""
     table = analysis.likert_summary
     shown = pd.DataFrame(
         {
             "Item": table.iloc[:, 0],
-            "System": table.iloc[:, 1].map(analysis.label),
+            "Interaction model": table.iloc[:, 1].map(analysis.label),
             "n": table["n"].astype(int),
             "Mdn": table["median"].map(lambda v: number(v, 1)),
             "Q1-Q3": [f"{number(lo, 1)}-{number(hi, 1)}" for lo, hi in zip(table["q1"], table["q3"])],
@@ -353,7 +355,7 @@ def likert_analyse_batch(analysis: StudyAnalysis) -> pd.DataFrame:
         {
             "Item": table["item"],
             "n": table["n"].astype(int),
-            f"Mdn {analysis.label(analysis.system)}": table["median_system"].map(lambda v: number(v, 1)),
+            f"Mdn {analysis.label(analysis.interaction)}": table["median_interaction"].map(lambda v: number(v, 1)),
             f"Mdn {analysis.label(analysis.baseline)}": table["median_baseline"].map(lambda v: number(v, 1)),
             "V": table["V"].map(lambda v: number(v, 1)),
             "z": table["z"].map(number),
@@ -368,21 +370,22 @@ def likert_analyse_batch(analysis: StudyAnalysis) -> pd.DataFrame:
 def sample_table(analysis: StudyAnalysis) -> pd.DataFrame:
     """The participants each analysis used, per group (the effective N), beside those in the data."""
     a = analysis
-    keys = a.sample[["analysis", "system", "measure"]].drop_duplicates()
+    keys = a.sample[["analysis", "interaction", "measure"]].drop_duplicates()
     names = {
         "data": "in the data",
         "ANOVA": "mixed ANOVA",
-        "pairs": "system vs baseline",
+        "pairs": "interaction model vs baseline",
         "Likert": "questionnaire item",
     }
     rows = []
-    for kind, system, measure in keys.itertuples(index=False):
+    for kind, interaction, measure in keys.itertuples(index=False):
         what = names[kind] if kind != "Likert" else f"{names[kind]} {measure}"
         if kind in ("ANOVA", "pairs"):
             what += f", {measure_label(measure)}"
         if kind == "ANOVA":
-            what += f", {a.label(system)}"
-        rows.append({"Analysis": what, "N (per group)": sample_size(a, kind, system, measure).removeprefix("N = ")})
+            what += f", {a.label(interaction)}"
+        rows.append({"Analysis": what,
+                     "N (per group)": sample_size(a, kind, interaction, measure).removeprefix("N = ")})
     return pd.DataFrame(rows)
 
 
@@ -391,20 +394,20 @@ def dropped_table(analysis: StudyAnalysis) -> pd.DataFrame:
     a = analysis
     table = a.dropped
     what = []
-    for kind, system, measure in table[["analysis", "system", "measure"]].itertuples(index=False):
-        label = a.label(system) if system else ""
+    for kind, interaction, measure in table[["analysis", "interaction", "measure"]].itertuples(index=False):
+        label = a.label(interaction) if interaction else ""
         names = {
             "all": "all analyses",
             "ANOVA": f"mixed ANOVA, {measure_label(measure)}, {label}",
-            "pairs": f"system vs baseline, {measure_label(measure)}",
+            "pairs": f"interaction model vs baseline, {measure_label(measure)}",
             "Likert": "questionnaire",
         }
         what.append(names[kind])
     return pd.DataFrame({"Analysis": what, a.subject.capitalize(): table[a.subject], "Reason": table["reason"]})
 
 
-def _posthoc_sentences(a: StudyAnalysis, system: str, dv: str, levels: bool, groups: bool) -> list[str]:
-    table = a.table("posthoc", system, dv)
+def _posthoc_sentences(a: StudyAnalysis, interaction: str, dv: str, levels: bool, groups: bool) -> list[str]:
+    table = a.table("posthoc", interaction, dv)
     sentences = []
     pairs = table[table["factor"] == a.within]
     if levels and len(pairs):
@@ -421,13 +424,13 @@ def _posthoc_sentences(a: StudyAnalysis, system: str, dv: str, levels: bool, gro
     return sentences
 
 
-def _simple_effect_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
-    effects = a.table("simple_effects", system, dv)
+def _simple_effect_sentences(a: StudyAnalysis, interaction: str, dv: str) -> list[str]:
+    effects = a.table("simple_effects", interaction, dv)
     tests = "; ".join(
         f"{a.group} {row['at']}, {f_test(row['F'], row['df1'], row['df2'], row['p_bonf'])}"
         for _, row in effects.iterrows()
     )
-    pairs = a.table("simple_pairs", system, dv)
+    pairs = a.table("simple_pairs", interaction, dv)
     listed = "; ".join(f"in {row['at']}, {_contrast(row)}" for _, row in pairs.iterrows())
     return [
         (
@@ -439,8 +442,8 @@ def _simple_effect_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str
     ]
 
 
-def _assumption_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
-    checks = a.table("assumptions", system, dv)
+def _assumption_sentences(a: StudyAnalysis, interaction: str, dv: str) -> list[str]:
+    checks = a.table("assumptions", interaction, dv)
     levene = checks[checks["check"] == "Levene"]
     tested = levene.dropna(subset=["p"])
     parts = []
@@ -473,10 +476,10 @@ def _assumption_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
     return parts
 
 
-def _count_sentences(a: StudyAnalysis, system: str, dv: str) -> list[str]:
+def _count_sentences(a: StudyAnalysis, interaction: str, dv: str) -> list[str]:
     if dv not in a.counts:
         return []
-    table = a.table("count_model", system, dv)
+    table = a.table("count_model", interaction, dv)
     if table.empty:
         return []
     first = table.iloc[0]
@@ -515,5 +518,5 @@ def _sources(sources: pd.Series) -> list[str]:
     return [source.replace(":", " \u00d7 ") for source in sources]
 
 
-def _rows(table: pd.DataFrame, kind: str, system: str, measure: str) -> pd.DataFrame:
-    return table[(table["analysis"] == kind) & (table["system"] == system) & (table["measure"] == measure)]
+def _rows(table: pd.DataFrame, kind: str, interaction: str, measure: str) -> pd.DataFrame:
+    return table[(table["analysis"] == kind) & (table["interaction"] == interaction) & (table["measure"] == measure)]

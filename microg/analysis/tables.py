@@ -22,8 +22,8 @@ value near float64's limit (1e308) is a logging error, and its square overflows 
 the sums of squares."""
 TEXT_COLUMNS = tuple(column.name for column in (*TRIALS, *QUESTIONNAIRE) if column.dtype == "string")
 FLAG_COLUMNS = ("completed", "simulated", "withdrawn")
-COLUMN_OPTIONS = ("subject", "group", "within", "system_column", "dv", "counts", "completed", "stage", "label", "item",
-                  "rating")  # fmt: skip
+COLUMN_OPTIONS = ("subject", "group", "within", "interaction_column", "dv", "counts", "completed", "phase", "label",
+                  "item", "rating")  # fmt: skip
 """The column names :func:`microg.analysis.analyse_study` takes; ``dv`` and ``counts`` are lists."""
 
 
@@ -132,7 +132,7 @@ def read_trials(path: str | Path, **columns) -> pd.DataFrame:
     path : str or Path
         A CSV or Parquet file (:func:`read_table`).
     **columns
-        Column names and rules passed to :func:`check_trials` (subject, group, within, system, dv,
+        Column names and rules passed to :func:`check_trials` (subject, group, within, interaction, dv,
         counts, completed, label).
 
     Returns
@@ -145,7 +145,7 @@ def read_trials(path: str | Path, **columns) -> pd.DataFrame:
     >>> import tempfile, pathlib
     >>> from microg.analysis import read_trials
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "trials.csv"
-    >>> _ = path.write_text("participant,group,system,object,time_s,attempts\\n"
+    >>> _ = path.write_text("participant,group,interaction,object,time_s,attempts\\n"
     ...                     "P1,V,s,cube,inf,0\\nP2,B,s,ball,3.0,1\\n")
     >>> read_trials(path)
     Traceback (most recent call last):
@@ -153,7 +153,8 @@ def read_trials(path: str | Path, **columns) -> pd.DataFrame:
     microg.analysis.tables.AnalysisInputError: ...trials.csv: column 'time_s' value inf is not finite (data row 1, ...)
     """
     text = [columns.get(key, default) for key, default in
-            (("subject", "participant"), ("group", "group"), ("within", "object"), ("system", "system"))]  # fmt: skip
+            (("subject", "participant"), ("group", "group"), ("within", "object"),
+             ("interaction", "interaction"))]  # fmt: skip
     return check_trials(read_table(path, text=text), source=str(path), **columns)
 
 
@@ -165,7 +166,7 @@ def read_questionnaire(path: str | Path, **columns) -> pd.DataFrame:
     path : str or Path
         A CSV or Parquet file (:func:`read_table`).
     **columns
-        Column names passed to :func:`check_questionnaire` (subject, group, system, item, rating,
+        Column names passed to :func:`check_questionnaire` (subject, group, interaction, item, rating,
         label).
 
     Returns
@@ -178,12 +179,12 @@ def read_questionnaire(path: str | Path, **columns) -> pd.DataFrame:
     >>> import tempfile, pathlib
     >>> from microg.analysis import read_questionnaire
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "answers.csv"
-    >>> _ = path.write_text("participant,system,item,rating\\nP1,s,ease,7\\n")
+    >>> _ = path.write_text("participant,interaction,item,rating\\nP1,s,ease,7\\n")
     >>> read_questionnaire(path)["rating"].tolist()
     [7]
     """
     text = [columns.get(key, default) for key, default in
-            (("subject", "participant"), ("system", "system"), ("item", "item"))]  # fmt: skip
+            (("subject", "participant"), ("interaction", "interaction"), ("item", "item"))]  # fmt: skip
     return check_questionnaire(read_table(path, text=text), source=str(path), **columns)
 
 
@@ -194,23 +195,23 @@ def check_trials(
     subject: str = "participant",
     group: str = "group",
     within: str = "object",
-    system: str = "system",
+    interaction: str = "interaction",
     dv: Sequence[str] = ("time_s", "attempts"),
     counts: Sequence[str] = ("attempts",),
     completed: str = "completed",
-    label: str = "system_label",
+    label: str = "interaction_label",
 ) -> pd.DataFrame:
     """Check a trials table and return a copy with numeric measures, text labels and boolean flags.
 
     Parameters
     ----------
     trials : pandas.DataFrame
-        One row per task: ``subject``, ``group``, ``system``, ``within`` and the ``dv`` columns;
-        optionally ``completed``, ``simulated``, ``withdrawn`` (True/False), ``stage`` and ``label``.
+        One row per task: ``subject``, ``group``, ``interaction``, ``within`` and the ``dv`` columns;
+        optionally ``completed``, ``simulated``, ``withdrawn`` (True/False), ``phase`` and ``label``.
     source : str
         How the error messages name the table (its file).
-    subject, group, within, system : str
-        Columns of the participant id, the between factor, the within factor and the system.
+    subject, group, within, interaction : str
+        Columns of the participant id, the between factor, the within factor and the interaction model.
     dv : sequence of str
         The measures. Each must be empty or a finite number, 0 or more and at most
         ``LARGEST_VALUE``.
@@ -220,7 +221,7 @@ def check_trials(
         Flag of finished tasks; a finished task must have a value of every measure that is not a
         count (an unfinished task has no completion time).
     label : str
-        Optional column of each system's label for readers; one label per system.
+        Optional column of each interaction model's label for readers; one label per interaction model.
 
     Returns
     -------
@@ -233,7 +234,7 @@ def check_trials(
         Naming the source, column, value and data row (1 = the first row after the header): a
         missing column, no rows, an empty label, a measure that is not a number, not finite, negative
         or absurdly large, a fractional count, a finished task without a measure, a participant in two
-        groups, a system with two labels, fewer than two groups or fewer than two ``within`` levels.
+        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels.
 
     Examples
     --------
@@ -241,17 +242,17 @@ def check_trials(
     >>> from microg.analysis import check_trials
     >>> trials = pd.DataFrame({"pid": ["a", "b"], "cond": ["x", "y"], "tool": "s", "shape": "cube",
     ...                        "rt": [1.5, 1e308]})
-    >>> check_trials(trials, subject="pid", group="cond", system="tool", within="shape", dv=["rt"], counts=[])
+    >>> check_trials(trials, subject="pid", group="cond", interaction="tool", within="shape", dv=["rt"], counts=[])
     Traceback (most recent call last):
     ...
     microg.analysis.tables.AnalysisInputError: trials table: column 'rt' value 1e+308 is larger than 1e+12 ...
     """
     trials = trials.reset_index(drop=True)
-    _require_columns(trials, [subject, group, system, within, *dv], source)
+    _require_columns(trials, [subject, group, interaction, within, *dv], source)
     if trials.empty:
         raise AnalysisInputError(f"{source}: no trials (the table has a header but no rows)")
     out = trials.copy()
-    for column in (subject, group, system, within):
+    for column in (subject, group, interaction, within):
         out[column] = _labels(trials, column, source, subject)
     for measure in dv:
         out[measure] = _measure(trials, measure, source, subject, whole=measure in counts)
@@ -264,7 +265,7 @@ def check_trials(
             _require(out, completed, untimed, source, f"is True but {measure} is empty", subject)
     if label in trials.columns:
         out[label] = _labels(trials, label, source, subject)
-        _check_one_each(out, system, label, source)
+        _check_one_each(out, interaction, label, source)
     _check_one_each(out, subject, group, source)
     _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
     _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
@@ -277,21 +278,21 @@ def check_questionnaire(
     *,
     subject: str = "participant",
     group: str = "group",
-    system: str = "system",
+    interaction: str = "interaction",
     item: str = "item",
     rating: str = "rating",
-    label: str = "system_label",
+    label: str = "interaction_label",
 ) -> pd.DataFrame:
     """Check a questionnaire table and return a copy with integer ratings in 0-10.
 
     Parameters
     ----------
     answers : pandas.DataFrame
-        One row per participant, system and item: ``subject``, ``system``, ``item``, ``rating``;
+        One row per participant, interaction model and item: ``subject``, ``interaction``, ``item``, ``rating``;
         optionally ``group``, ``label``, ``simulated`` and ``withdrawn``.
     source : str
         How the error messages name the table (its file).
-    subject, group, system, item, rating, label : str
+    subject, group, interaction, item, rating, label : str
         The column names.
 
     Returns
@@ -303,25 +304,25 @@ def check_questionnaire(
     ------
     AnalysisInputError
         For a missing column, no rows, an empty label, a rating that is not an integer in 0-10, an
-        item rated twice by one participant for one system, a participant in two groups or a
-        system with two labels.
+        item rated twice by one participant for one interaction model, a participant in two groups or
+        an interaction with two labels.
 
     Examples
     --------
     >>> import pandas as pd
     >>> from microg.analysis import check_questionnaire
-    >>> answers = pd.DataFrame({"participant": ["P1"], "system": ["s"], "item": ["ease"], "rating": [11]})
+    >>> answers = pd.DataFrame({"participant": ["P1"], "interaction": ["s"], "item": ["ease"], "rating": [11]})
     >>> check_questionnaire(answers)
     Traceback (most recent call last):
     ...
     microg.analysis.tables.AnalysisInputError: questionnaire table: column 'rating' value 11 is not an integer ...
     """
     answers = answers.reset_index(drop=True)
-    _require_columns(answers, [subject, system, item, rating], source)
+    _require_columns(answers, [subject, interaction, item, rating], source)
     if answers.empty:
         raise AnalysisInputError(f"{source}: no ratings (the table has a header but no rows)")
     out = answers.copy()
-    for column in (subject, system, item):
+    for column in (subject, interaction, item):
         out[column] = _labels(answers, column, source, subject)
     values = _numbers(answers, rating, source, subject)
     _require(out, rating, values.isna(), source, "is empty", subject)
@@ -332,16 +333,16 @@ def check_questionnaire(
     for flag in FLAG_COLUMNS:
         if flag in answers.columns:
             out[flag] = _flags(answers, flag, source, subject)
-    for column, key in ((group, subject), (label, system)):
+    for column, key in ((group, subject), (label, interaction)):
         if column in answers.columns:
             out[column] = _labels(answers, column, source, subject)
             _check_one_each(out, key, column, source)
-    repeated = out.duplicated([subject, system, item], keep="first")
+    repeated = out.duplicated([subject, interaction, item], keep="first")
     if repeated.any():
         row = out[repeated].iloc[0]
         raise AnalysisInputError(
-            f"{source}: {subject} {row[subject]!r} rated {item} {row[item]!r} for {system} "
-            f"{row[system]!r} more than once (data row {int(row.name) + 1})"
+            f"{source}: {subject} {row[subject]!r} rated {item} {row[item]!r} for {interaction} "
+            f"{row[interaction]!r} more than once (data row {int(row.name) + 1})"
         )
     return out
 
@@ -374,19 +375,19 @@ def withdrawn(table: pd.DataFrame | None, subject: str = "participant") -> set[s
     return set(table.loc[table["withdrawn"], subject])
 
 
-def exclude_stages(trials: pd.DataFrame, stages: Sequence[str], stage: str = "stage") -> pd.DataFrame:
-    """Trials outside the named stages (e.g. training, which only one group does); case-insensitive.
+def exclude_phases(trials: pd.DataFrame, phases: Sequence[str], phase: str = "phase") -> pd.DataFrame:
+    """Trials outside the named phases (e.g. training, which only one group does); case-insensitive.
 
     Examples
     --------
     >>> import pandas as pd
-    >>> from microg.analysis.tables import exclude_stages
-    >>> exclude_stages(pd.DataFrame({"stage": ["training", "stage1"]}), ["Training"])["stage"].tolist()
+    >>> from microg.analysis.tables import exclude_phases
+    >>> exclude_phases(pd.DataFrame({"phase": ["training", "stage1"]}), ["Training"])["phase"].tolist()
     ['stage1']
     """
-    if stage not in trials.columns or not stages:
+    if phase not in trials.columns or not phases:
         return trials
-    named = trials[stage].astype(str).str.lower().isin([s.lower() for s in stages])
+    named = trials[phase].astype(str).str.lower().isin([p.lower() for p in phases])
     return trials[~named]
 
 
@@ -395,11 +396,11 @@ def participant_cells(
     dv: str,
     subject: str = "participant",
     group: str = "group",
-    system: str = "system",
+    interaction: str = "interaction",
     within: str = "object",
     completed: str | None = None,
 ) -> pd.DataFrame:
-    """One value per participant, group, system and ``within`` level: the mean over that cell's trials.
+    """One value per participant, group, interaction model and ``within`` level: the mean over that cell's trials.
 
     Parameters
     ----------
@@ -407,7 +408,7 @@ def participant_cells(
         Checked trials (:func:`check_trials`).
     dv : str
         The measure.
-    subject, group, system, within : str
+    subject, group, interaction, within : str
         The columns that identify a cell.
     completed : str, optional
         A flag column: only tasks flagged True count. Give it for a measure of finished tasks
@@ -417,21 +418,21 @@ def participant_cells(
     Returns
     -------
     pandas.DataFrame
-        Columns ``subject, group, system, within, dv``; rows without a value are left out.
+        Columns ``subject, group, interaction, within, dv``; rows without a value are left out.
 
     Examples
     --------
     >>> import pandas as pd
     >>> from microg.analysis import participant_cells
-    >>> trials = pd.DataFrame({"participant": "P1", "group": "V", "system": "s", "object": "cube",
+    >>> trials = pd.DataFrame({"participant": "P1", "group": "V", "interaction": "s", "object": "cube",
     ...                        "completed": [True, False, True], "time_s": [10.0, None, 20.0]})
     >>> participant_cells(trials, "time_s", completed="completed")
-      participant group system object  time_s
-    0          P1     V      s   cube    15.0
+      participant group interaction object  time_s
+    0          P1     V           s   cube    15.0
     """
     rows = trials if completed is None else trials[trials[completed].astype(bool)]
     rows = rows[rows[dv].notna()]
-    keys = [subject, group, system, within]
+    keys = [subject, group, interaction, within]
     return rows.groupby(keys, observed=True, sort=True)[dv].mean().reset_index()
 
 

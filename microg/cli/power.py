@@ -37,10 +37,10 @@ def _sizes(text: str) -> tuple[int, ...]:
 
 @click.command("power")
 @click.option("--protocol", default="paper", show_default=True, help="Protocol name or file: the design's groups, "
-              "objects and systems.")  # fmt: skip
-@click.option("--within", type=click.Choice(["object", "system"]), default="object", show_default=True,
-              help="The within factor: the objects, or the systems of the stages (stage 1 vs stage 2; a "
-                   "participant's value per system is the mean over objects).")  # fmt: skip
+              "objects and interaction models.")  # fmt: skip
+@click.option("--within", type=click.Choice(["object", "interaction"]), default="object", show_default=True,
+              help="The within factor: the objects, or the interaction models of the phases (stage1 vs stage2; "
+                   "a participant's value per interaction model is the mean over objects).")  # fmt: skip
 @click.option("--effects", "effects_file", type=click.Path(dir_okay=False, path_type=Path),
               help="TOML file of cell means per group and level, with sd + correlation or a covariance per group.")
 @click.option("--pilot", type=click.Path(exists=True, path_type=Path),
@@ -69,13 +69,13 @@ def _sizes(text: str) -> tuple[int, ...]:
               help="Monte Carlo: data sets per Dask task.")
 @click.option("--measure", type=click.Choice(["time_s", "attempts"]), default="time_s", show_default=True,
               help="--pilot and --simulated: the measure.")
-@click.option("--system", default=None, help="--pilot and --simulated: the system whose tasks are read (with "
-              "--within object) [default: the first stage's].")  # fmt: skip
+@click.option("--interaction", default=None, help="--pilot and --simulated: the interaction model whose tasks are read "
+              "(with --within object) [default: the first phase's].")  # fmt: skip
 @clear_errors
 @_power_errors
 def power(protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,
           method: str | None, sims: int, sizes: str, out: Path, target: float, alpha: float, scheduler: str | None,
-          workers: int | None, seed: int, resume: bool, batch: int, measure: str, system: str | None) -> None:
+          workers: int | None, seed: int, resume: bool, batch: int, measure: str, interaction: str | None) -> None:
     """How many participants per group the design needs: power of each ANOVA term and post hoc
     contrast for each --n, from --effects, a --pilot or --simulated studies.
 
@@ -99,18 +99,18 @@ def power(protocol: str, within: str, effects_file: Path | None, pilot: Path | N
                                + (f" (not {' and '.join(given)})" if given else ""))
     rules = load_protocol(protocol_file(protocol))
     design = design_from_protocol(rules, within)
-    if system is not None and system not in design.systems:
-        raise click.BadParameter(f"{system!r} is not a system of protocol {rules.name!r} "
-                                 f"({', '.join(design.systems)})", param_hint="--system")  # fmt: skip
+    if interaction is not None and interaction not in design.interactions:
+        raise click.BadParameter(f"{interaction!r} is not an interaction model of protocol {rules.name!r} "
+                                 f"({', '.join(design.interactions)})", param_hint="--interaction")  # fmt: skip
     effects = estimate = None
     if effects_file is not None:
         effects = read_effects(effects_file, design)
     elif pilot is not None:
-        estimate = pilot_effects(pilot, design, measure, system)
+        estimate = pilot_effects(pilot, design, measure, interaction)
         effects = estimate.effects
         click.echo(estimate.describe() + "\n")
     request = PowerRequest(design, method or ("montecarlo" if simulated else "exact"), _sizes(sizes), effects,
-                           rules, alpha, target, sims, seed, measure, system)  # fmt: skip
+                           rules, alpha, target, sims, seed, measure, interaction)  # fmt: skip
     result = run_power(request, out, scheduler, workers, resume, progress=True, batch=batch)
     if estimate is not None:
         (out / "effects.toml").write_text(estimate.effects.to_toml())

@@ -17,51 +17,52 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
               help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
                    "also writes OUT/comparison.md and its CSVs, the two side by side.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output directory.")
-@click.option("--system", default=None, help="System under test (default: impulse_penetration, else the first listed).")
-@click.option("--baseline", default=None, help="Baseline system (default: soft_hand, else the next listed).")
+@click.option("--interaction", default=None,
+              help="Interaction model under test (default: impulse_penetration, else the first listed).")
+@click.option("--baseline", default=None, help="Baseline interaction model (default: soft_hand, else the next listed).")
 @click.option("--ss-type", type=click.Choice(["2", "3"]), default="3", show_default=True, help="Sums-of-squares type.")
 @click.option(
-    "--exclude-stage",
-    "excluded_stages",
+    "--exclude-phase",
+    "excluded_phases",
     multiple=True,
     default=("training",),
     show_default=True,
-    help="Leave out trials of this stage (repeatable).",
+    help="Leave out trials of this phase (repeatable).",
 )
 @click.option("--subject", default=None, help="Column of the participant id [participant].")
 @click.option("--group", default=None, help="Column of the between-participant factor [group].")
 @click.option("--within", default=None, help="Column of the within-participant factor [object].")
-@click.option("--system-column", default=None, help="Column of the system [system].")
+@click.option("--interaction-column", default=None, help="Column of the interaction model [interaction].")
 @click.option("--dv", multiple=True, help="Column of a measure (repeatable) [time_s, attempts].")
 @click.option("--count", "counts", multiple=True,
               help="A --dv that counts events, analysed also with a count model (repeatable) [attempts].")
 @click.option("--columns", "columns_file", type=FILE,
-              help="TOML file of column names (subject, group, within, system_column, dv, counts, completed, stage, "
-                   "label, item, rating); the options above win.")  # fmt: skip
+              help="TOML file of column names (subject, group, within, interaction_column, dv, counts, completed, "
+                   "phase, label, item, rating); the options above win.")  # fmt: skip
 def report(
     study: Path | None,
     trials: Path | None,
     likert: Path | None,
     compare: Path | None,
     out: Path,
-    system: str | None,
+    interaction: str | None,
     baseline: str | None,
     ss_type: str,
-    excluded_stages: tuple[str, ...],
+    excluded_phases: tuple[str, ...],
     subject: str | None,
     group: str | None,
     within: str | None,
-    system_column: str | None,
+    interaction_column: str | None,
     dv: tuple[str, ...],
     counts: tuple[str, ...],
     columns_file: Path | None,
 ) -> None:
-    """Mixed ANOVA, post hoc tests, system vs baseline, Likert analysis and figures of a study.
+    """Mixed ANOVA, post hoc tests, interaction model vs baseline, Likert analysis and figures of a study.
 
     Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert). Writes
     OUT/report.html (self-contained),
     OUT/report.md (Results and tables as Markdown) and the tables as CSV next to them. Any tidy table
-    works: name its columns with --subject, --group, --within, --system-column, --dv and --count, or
+    works: name its columns with --subject, --group, --within, --interaction-column, --dv and --count, or
     in a --columns file.
     """
     from microg.analysis import AnalysisInputError, write_report
@@ -71,7 +72,7 @@ def report(
         columns = read_columns(columns_file) if columns_file is not None else {}
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
-    given = {"subject": subject, "group": group, "within": within, "system_column": system_column,
+    given = {"subject": subject, "group": group, "within": within, "interaction_column": interaction_column,
              "dv": list(dv) or None, "counts": list(counts) or None}  # fmt: skip
     columns.update({key: value for key, value in given.items() if value is not None})
     if "dv" in columns:
@@ -95,7 +96,7 @@ def report(
     else:
         trials_table, questionnaire = trials, likert
     try:
-        path = write_report(trials_table, questionnaire, out, system, baseline, int(ss_type), excluded_stages,
+        path = write_report(trials_table, questionnaire, out, interaction, baseline, int(ss_type), excluded_phases,
                             **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""

@@ -49,9 +49,10 @@ def session() -> None:
 
 
 def _rejected_logger(store: Store, session_id: int, clock):
-    def rejected(item, stage, text, message):
-        store.log(session_id, [Event(clock.now(), "answer_rejected", {"system": stage.system, "item": item.name,
-                                                                      "answer": text, "message": message})])
+    def rejected(item, phase, text, message):
+        store.log(session_id, [Event(clock.now(), "answer_rejected", {"interaction": phase.interaction,
+                                                                      "item": item.name, "answer": text,
+                                                                      "message": message})])
     return rejected
 
 

@@ -1,10 +1,10 @@
 """The questionnaire answers of simulated participants: a rating model, labelled as simulated.
 
 A simulated participant feels nothing, so its ratings come from a model fed by what happened in
-its own tasks with each system (the study reads it back from its log: ``microg.study.questionnaire``):
+its own tasks with each interaction model (the study reads it back from its log: ``microg.study.questionnaire``):
 
 - ``drops_per_task``: attempts (the study's drops) per task;
-- ``not_completed``: share of the system's tasks not completed (timeout, aborted);
+- ``not_completed``: share of the interaction model's tasks not completed (timeout, aborted);
 - ``time_s``: mean completion time of the completed tasks;
 - ``penetration_mm``: visible penetration, how far the tracked phalanges sank into the object
   while the rendered hand rested on its surface (mean distance between tracked and rendered
@@ -44,7 +44,7 @@ PENALTIES = {
 
 @dataclass(frozen=True)
 class Experience:
-    """What one participant went through with one system (module docstring)."""
+    """What one participant went through with one interaction model (module docstring)."""
 
     tasks: int
     drops_per_task: float

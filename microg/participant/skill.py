@@ -1,6 +1,6 @@
 """Skill profiles: how fast, how accurately and how steadily a simulated participant moves.
 
-The two profiles follow the paper's groups: a *veteran* trained with the system before the test,
+The two profiles follow the paper's groups: a *veteran* trained with the interaction model before the test,
 a *beginner* did not. Where a number comes from the motor-control literature it says so; where it
 is a modelling choice it says that too. Nothing here is tuned to make an interaction model look
 good: both profiles run every model with the same numbers.
@@ -98,7 +98,7 @@ Rosenbloom 1981; the middle of that range, not fitted to anything)."""
 
 
 def practised(tasks_done: int) -> SkillProfile:
-    """The skill of someone new to the system after ``tasks_done`` tasks with it: the beginner's
+    """The skill of someone new to the interaction model after ``tasks_done`` tasks with it: the beginner's
     profile at 0, moving toward the veteran's (the trained asymptote) along the power law of practice.
 
     A study whose simulated participants all play this profile gets any difference between trained

@@ -1,5 +1,5 @@
 """The design a power analysis plans for, read from the protocol: groups between participants and
-one factor within them (the objects, or the systems of the stages), and the tests the report
+one factor within them (the objects, or the interaction models of the phases), and the tests the report
 runs on it: three ANOVA terms and three families of Bonferroni-corrected pairwise contrasts."""
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 if TYPE_CHECKING:  # a Dask worker unpickling a Design needs no protocol machinery
     from microg.study.protocol import Protocol
 
-WITHIN_FACTORS = ("object", "system")
-"""What the within factor can be: the protocol's objects, or the systems its stages compare."""
+WITHIN_FACTORS = ("object", "interaction")
+"""What the within factor can be: the protocol's objects, or the interaction models its phases compare."""
 
 
 class PowerInputError(ValueError):
@@ -45,7 +45,7 @@ class Design:
     """Groups (between) x levels of one within factor, with the names the protocol gives them.
 
     ``group_codes`` and ``level_codes`` map the codes in exported tables (V, C, ...) to names;
-    ``systems`` are the systems the protocol's stages run, the system under test first.
+    ``interactions`` are the interaction models the protocol's phases run, the one under test first.
     """
 
     protocol: str
@@ -55,7 +55,7 @@ class Design:
     levels: tuple[str, ...]
     group_codes: dict
     level_codes: dict
-    systems: tuple[str, ...]
+    interactions: tuple[str, ...]
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -125,8 +125,8 @@ class Design:
 
 
 def design_from_protocol(protocol: Protocol, within: str = "object") -> Design:
-    """The protocol's groups x its objects (``within="object"``) or x the systems its stages run
-    (``within="system"``, each participant's value being the mean over the objects).
+    """The protocol's groups x its objects (``within="object"``) or x the interaction models its phases run
+    (``within="interaction"``, each participant's value being the mean over the objects).
 
     Examples
     --------
@@ -142,9 +142,9 @@ def design_from_protocol(protocol: Protocol, within: str = "object") -> Design:
     if within == "object":
         levels = {o.code: o.name for o in protocol.objects}
     else:
-        levels = {system: system for system in protocol.systems}
+        levels = {interaction: interaction for interaction in protocol.interactions}
     if len(groups) < 2 or len(levels) < 2:
         raise PowerInputError(f"{protocol.where}: {len(groups)} group(s) and {len(levels)} {within} level(s): "
                               "a mixed design needs at least two of each")
     return Design(protocol.name, "group", tuple(groups.values()), within, tuple(levels.values()), groups, levels,
-                  protocol.systems)
+                  protocol.interactions)

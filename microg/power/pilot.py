@@ -5,8 +5,8 @@ How the estimates are made (also printed by ``microg power --pilot`` and written
 
 1. Each participant's value in a cell is the mean of the measure over the cell's tasks, as the
    report computes it: completed tasks only for a time (an unfinished task has no time), every
-   task for a count (attempts); training and withdrawn participants are left out. For the system
-   design, a participant's value per system is the mean over the objects.
+   task for a count (attempts); training and withdrawn participants are left out. For the interaction
+   design, a participant's value per interaction model is the mean over the objects.
 2. Participants without a value in every level are left out (complete cases, as the report).
 3. Means: the mean per group and level. Covariance: the pooled within-group covariance of the
    participants' values (residuals from their group's means, N - groups degrees of freedom): the
@@ -28,7 +28,7 @@ from microg.power.effects import Effects
 
 COUNTS = ("attempts",)
 """Measures that count events: every task counts, finished or not (the report's rule)."""
-EXCLUDED_STAGES = ("training",)
+EXCLUDED_PHASES = ("training",)
 SUBJECT = "participant"
 
 
@@ -61,7 +61,7 @@ class PilotEstimate:
         ])  # fmt: skip
 
 
-def design_cells(trials: pd.DataFrame, design: Design, measure: str, system: str, source: str) -> pd.DataFrame:
+def design_cells(trials: pd.DataFrame, design: Design, measure: str, interaction: str, source: str) -> pd.DataFrame:
     """Each participant's value per level of the design (steps 1-2 of the module docstring).
 
     Parameters
@@ -72,8 +72,9 @@ def design_cells(trials: pd.DataFrame, design: Design, measure: str, system: str
         The design; its codes map the table's groups and objects to names.
     measure : str
         The measure column (``time_s`` or ``attempts``).
-    system : str
-        The system whose tasks are read (``within="object"``); the system design reads every stage's.
+    interaction : str
+        The interaction model whose tasks are read (``within="object"``); the interaction design reads
+        every phase's.
     source : str
         How messages name the table.
 
@@ -91,7 +92,7 @@ def design_cells(trials: pd.DataFrame, design: Design, measure: str, system: str
     >>> from microg.power import design_from_protocol
     >>> design = design_from_protocol(load_protocol(protocol_file("paper")))
     >>> trials = pd.DataFrame({"participant": ["P1"] * 3 + ["P2"] * 3, "group": ["V"] * 3 + ["B"] * 3,
-    ...                        "system": "impulse_penetration", "object": ["C", "F", "L"] * 2,
+    ...                        "interaction": "impulse_penetration", "object": ["C", "F", "L"] * 2,
     ...                        "completed": True, "time_s": [40.0, 50, 60, 45, 55, 65], "attempts": 0})
     >>> design_cells(trials, design, "time_s", "impulse_penetration", "trials.csv").head(3)
       participant    group       object  value
@@ -100,28 +101,30 @@ def design_cells(trials: pd.DataFrame, design: Design, measure: str, system: str
     2          P1  veteran  long_cuboid   60.0
     """
     from microg.analysis import check_trials, complete_cases, participant_cells
-    from microg.analysis.tables import exclude_stages, withdrawn
+    from microg.analysis.tables import exclude_phases, withdrawn
 
     d = design
     checked = check_trials(trials, source, dv=[measure], counts=[m for m in COUNTS if m == measure])
-    checked = exclude_stages(checked, EXCLUDED_STAGES)
+    checked = exclude_phases(checked, EXCLUDED_PHASES)
     checked = checked[~checked[SUBJECT].isin(withdrawn(checked, SUBJECT))]
     checked = checked.assign(group=_names(checked, "group", d.group_codes, source, "group"),
                              object=_names(checked, "object", d.level_codes, source, "object")
                              if d.within == "object" else checked["object"])  # fmt: skip
-    if system not in set(checked["system"]):
-        raise PowerInputError(f"{source}: column 'system' has no value {system!r} "
-                              f"(values: {', '.join(sorted(set(checked['system'])))})")
+    if interaction not in set(checked["interaction"]):
+        raise PowerInputError(f"{source}: column 'interaction' has no value {interaction!r} "
+                              f"(values: {', '.join(sorted(set(checked['interaction'])))})")
     finished = "completed" if measure not in COUNTS and "completed" in checked.columns else None
     if d.within == "object":
-        rows = checked[checked["system"] == system]
+        rows = checked[checked["interaction"] == interaction]
         cells = participant_cells(rows, measure, completed=finished)
     else:
-        _names(checked, "system", d.level_codes, source, "system")  # only to refuse a system the protocol lacks
+        # only to refuse an interaction model the protocol lacks
+        _names(checked, "interaction", d.level_codes, source, "interaction")
         per_object = participant_cells(checked, measure, completed=finished)
         objects = sorted(checked["object"].unique())
-        complete = per_object.groupby([SUBJECT, "system"])["object"].transform("nunique") == len(objects)
-        cells = per_object[complete].groupby([SUBJECT, "group", "system"], observed=True)[measure].mean().reset_index()
+        complete = per_object.groupby([SUBJECT, "interaction"])["object"].transform("nunique") == len(objects)
+        cells = (per_object[complete].groupby([SUBJECT, "group", "interaction"], observed=True)[measure].mean()
+                 .reset_index())
     cells = complete_cases(cells, measure, d.within, SUBJECT, d.levels)
     cells = cells.rename(columns={measure: "value"})[[SUBJECT, "group", d.within, "value"]]
     order = {level: i for i, level in enumerate(d.levels)}
@@ -130,7 +133,7 @@ def design_cells(trials: pd.DataFrame, design: Design, measure: str, system: str
 
 
 def pilot_effects(path: str | Path, design: Design, measure: str = "time_s",
-                  system: str | None = None) -> PilotEstimate:
+                  interaction: str | None = None) -> PilotEstimate:
     """Estimate the effects from a pilot: an exported trials table (CSV or Parquet) or a study
     folder (read with ``microg.study.export.read_tables``).
 
@@ -142,9 +145,9 @@ def pilot_effects(path: str | Path, design: Design, measure: str = "time_s",
         The design to estimate for.
     measure : str
         The measure (``time_s`` or ``attempts``).
-    system : str, optional
-        The system whose tasks are read (default: the first stage's, the system under test); the
-        system design reads every system's.
+    interaction : str, optional
+        The interaction model whose tasks are read (default: the first phase's, the one under test); the
+        interaction design reads every interaction model's.
 
     Returns
     -------
@@ -161,14 +164,14 @@ def pilot_effects(path: str | Path, design: Design, measure: str = "time_s",
 
     path = Path(path)
     try:
-        text = (SUBJECT, "group", "object", "system")
+        text = (SUBJECT, "group", "object", "interaction")
         trials = read_tables(path)[0] if path.is_dir() else read_table(path, text=text)
     except (AnalysisInputError, FileNotFoundError) as error:
         raise PowerInputError(f"--pilot {path}: {error}") from None
     d = design
-    system = system or d.systems[0]
+    interaction = interaction or d.interactions[0]
     try:
-        cells = design_cells(trials, d, measure, system, str(path))
+        cells = design_cells(trials, d, measure, interaction, str(path))
     except AnalysisInputError as error:
         raise PowerInputError(str(error)) from None
     wide = cells.pivot_table(index=[d.between, SUBJECT], columns=d.within, values="value", observed=True)
@@ -192,7 +195,8 @@ def pilot_effects(path: str | Path, design: Design, measure: str = "time_s",
     table = table.rename(columns={"size": "n", "std": "sd"})
     table = table.set_index([d.between, d.within]).loc[[(a, b) for a in d.groups for b in d.levels]].reset_index()
     sample = ", ".join(f"{group}: {c}" for group, c in zip(d.groups, counts))
-    read = f"system {system}" if d.within == "object" else "every system, averaged over objects"
+    read = (f"interaction model {interaction}" if d.within == "object"
+            else "every interaction model, averaged over objects")
     tasks = "every task, finished or not" if measure in COUNTS else "completed tasks only"
     method = (f"Estimated from the pilot {path} ({measure}, {read}; complete participants {sample}): cell means "
               f"per group and {d.within}; the pooled within-group covariance (N - {g} degrees of freedom) for every "

@@ -52,7 +52,7 @@ class PowerRequest:
     """What a run computes.
 
     ``effects`` are the expected effects (from a file or a pilot); None asks for in-silico studies
-    of ``protocol`` (``measure`` of ``system``), which are Monte Carlo by nature.
+    of ``protocol`` (``measure`` of ``interaction``), which are Monte Carlo by nature.
     """
 
     design: Design
@@ -65,7 +65,7 @@ class PowerRequest:
     sims: int = 1000
     seed: int = 1
     measure: str = "time_s"
-    system: str | None = None
+    interaction: str | None = None
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -98,7 +98,7 @@ class PowerRequest:
             "effects": None if self.effects is None else self.effects.as_dict(),
             "protocol_sha256": None if self.effects is not None else self.protocol.sha256,
             "measure": self.measure if self.effects is None else None,
-            "system": (self.system or self.design.systems[0]) if self.effects is None else None,
+            "interaction": (self.interaction or self.design.interactions[0]) if self.effects is None else None,
             "n_per_group": list(self.n_per_group),
             "alpha": self.alpha,
             "sims": self.sims if counted else None,
@@ -236,9 +236,9 @@ def _submit(client, request: PowerRequest, n: int, indices: list[int]):
         return client.submit(montecarlo_batch, request.effects, n, indices, request.seed, request.alpha, pure=False)
     from microg.power.simulated import simulated_batch
 
-    system = request.system or request.design.systems[0]
+    interaction = request.interaction or request.design.interactions[0]
     return client.submit(simulated_batch, request.protocol, request.design, n, indices, request.seed, request.alpha,
-                         request.measure, system, pure=False)  # fmt: skip
+                         request.measure, interaction, pure=False)  # fmt: skip
 
 
 def _claim(out: Path, record: dict, resume: bool) -> None:

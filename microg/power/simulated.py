@@ -58,7 +58,7 @@ def simulated_trials(protocol: Protocol, n_per_group: int, study_seed: int) -> p
         return trials_table(store)
 
 
-def study_tests(trials: pd.DataFrame, design: Design, measure: str, system: str, alpha: float) -> pd.Series:
+def study_tests(trials: pd.DataFrame, design: Design, measure: str, interaction: str, alpha: float) -> pd.Series:
     """The p the report reads for every test of ``design.tests``, from one study's trials; NaN for
     all when the report cannot analyse the study (too few complete participants)."""
     from microg.analysis import (
@@ -70,7 +70,7 @@ def study_tests(trials: pd.DataFrame, design: Design, measure: str, system: str,
 
     d = design
     try:
-        cells = design_cells(trials, d, measure, system, "simulated study")
+        cells = design_cells(trials, d, measure, interaction, "simulated study")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the report's warnings name participants left out: counted as such
             anova = sphericity_correction(mixed_anova(cells, "value", d.within, d.between, SUBJECT), alpha)
@@ -81,7 +81,7 @@ def study_tests(trials: pd.DataFrame, design: Design, measure: str, system: str,
 
 
 def simulated_batch(protocol: Protocol, design: Design, n_per_group: int, indices, seed: int, alpha: float,
-                    measure: str, system: str) -> pd.DataFrame:
+                    measure: str, interaction: str) -> pd.DataFrame:
     """Run and analyse the simulated studies ``indices`` at ``n_per_group``: one Dask task per study.
 
     Returns the rows of ``montecarlo.SIMULATION_COLUMNS``.
@@ -89,6 +89,6 @@ def simulated_batch(protocol: Protocol, design: Design, n_per_group: int, indice
     tables = []
     for index in indices:
         study_seed = int(simulation_seed(seed, n_per_group, int(index)).generate_state(1)[0])
-        p = study_tests(simulated_trials(protocol, n_per_group, study_seed), design, measure, system, alpha)
+        p = study_tests(simulated_trials(protocol, n_per_group, study_seed), design, measure, interaction, alpha)
         tables.append(pd.DataFrame({"n_per_group": n_per_group, "sim": int(index), "term": p.index, "p": p.to_numpy()}))
     return pd.concat(tables, ignore_index=True)

@@ -9,7 +9,7 @@ An interaction model is a named set of contact effects; the three models the too
   proxies with friction and no impulse at contact onset.
 - ``soft_hand``: a compliant soft-hand coupling (penalty spring and damper with regularised
   Coulomb friction, no god-object anchors, no impulses). It stands in for the paper's
-  comparison system; it is not that system.
+  comparison interaction model; it is not that model.
 """
 
 from __future__ import annotations

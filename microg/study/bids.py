@@ -1,6 +1,6 @@
 """Motion-BIDS export of the hand-tracking data: one recording per task run.
 
-Layout (the run's stage is the BIDS task, its object the acquisition, its run number the run)::
+Layout (the run's phase is the BIDS task, its object the acquisition, its run number the run)::
 
     bids/dataset_description.json, participants.tsv, participants.json
     bids/sub-P01/motion/sub-P01_task-stage1_tracksys-hand_acq-cube_run-1_motion.tsv
@@ -174,7 +174,7 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]
         counts = pd.Series([c["type"] for c in channels]).value_counts()
         sidecar = {
             "TaskName": run["phase"],
-            "TaskDescription": f"pick-and-place of the {run['object']} with the {run['system']} interaction model "
+            "TaskDescription": f"pick-and-place of the {run['object']} with the {run['interaction']} interaction model "
                                f"(run {run['run']}, {run['status']})",
             "SamplingFrequency": rate,
             "SamplingFrequencyEffective": (len(values) - 1) / duration if duration > 0 else "n/a",

@@ -89,7 +89,7 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
         for participant_id in ids:
             inputs = _inputs(store, participant_id)
             sessions.append(store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock).id)
-        total_tasks = sum(len(store.protocol.objects) * len(store.protocol.stages)
+        total_tasks = sum(len(store.protocol.objects) * len(store.protocol.phases)
                           + (len(store.protocol.training.objects) if store.protocol.training
                              and store.participant(i).group in store.protocol.training.groups else 0)
                           for i in ids)

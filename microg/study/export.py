@@ -34,17 +34,17 @@ def _status(last_status: str | None) -> str:
     return last_status if last_status in FINAL_RUN else "unfinished"
 
 
-def system_labels(store: Store) -> dict[str, str]:
-    """How the protocol names each system to the reader (its stages' labels)."""
-    return {stage.system: stage.label for stage in store.protocol.stages}
+def interaction_labels(store: Store) -> dict[str, str]:
+    """How the protocol names each interaction model to the reader (its phases' labels)."""
+    return {phase.interaction: phase.label for phase in store.protocol.phases}
 
 
 def trials_table(store: Store) -> pd.DataFrame:
     """One row per planned task of every session (the module docstring lists the columns)."""
-    labels = system_labels(store)
+    labels = interaction_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.gender, p.age, p.handedness, p.mr_experience,
-               p.status AS participant_status, s.id AS session, s.simulated, t.task_index, t.phase, t.system,
+               p.status AS participant_status, s.id AS session, s.simulated, t.task_index, t.phase, t.interaction,
                t.object, t.object_code, t.order_position,
                r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
                (SELECT COUNT(*) FROM task_runs c WHERE c.session_id = t.session_id AND c.task_index = t.task_index) AS runs
@@ -57,7 +57,8 @@ def trials_table(store: Store) -> pd.DataFrame:
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "gender": r["gender"],
         "age": r["age"], "handedness": r["handedness"], "mr_experience": bool(r["mr_experience"]),
-        "stage": r["phase"], "system": r["system"], "system_label": labels.get(r["system"], r["system"]),
+        "phase": r["phase"], "interaction": r["interaction"],
+        "interaction_label": labels.get(r["interaction"], r["interaction"]),
         "object": r["object_code"], "object_name": r["object"],
         "order_position": r["order_position"], "completed": r["status"] == "completed",
         "time_s": r["time_s"] if r["status"] == "completed" else None,
@@ -72,15 +73,16 @@ def trials_table(store: Store) -> pd.DataFrame:
 
 def questionnaire_table(store: Store) -> pd.DataFrame:
     """One row per answer (the module docstring lists the columns)."""
-    labels = system_labels(store)
+    labels = interaction_labels(store)
     rows = store.db.execute("""
-        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, a.system, a.item,
+        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, a.interaction, a.item,
                a.rating, a.source
         FROM answers a JOIN sessions s ON s.id = a.session_id JOIN participants p ON p.id = s.participant_id
-        ORDER BY p.number, a.system, a.item""").fetchall()
+        ORDER BY p.number, a.interaction, a.item""").fetchall()
     table = pd.DataFrame([{
-        "study": store.name, "participant": r["participant"], "group": r["group_code"], "system": r["system"],
-        "system_label": labels.get(r["system"], r["system"]), "item": r["item"], "rating": r["rating"], "source": r["source"],
+        "study": store.name, "participant": r["participant"], "group": r["group_code"], "interaction": r["interaction"],
+        "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"], "rating": r["rating"],
+        "source": r["source"],
         "simulated": bool(r["simulated"]) or r["source"] == "model",
         "withdrawn": r["participant_status"] == "withdrawn",
     } for r in rows], columns=QUESTIONNAIRE_COLUMNS)
@@ -101,7 +103,7 @@ def run_list(store: Store) -> list[dict]:
     """Every task run with frames, with what names it: participant, phase, object, run number."""
     rows = store.db.execute("""
         SELECT r.id AS run_id, r.run, r.status, r.source, s.participant_id AS participant, s.id AS session,
-               s.simulated, s.input, t.task_index, t.phase, t.system, t.object
+               s.simulated, s.input, t.task_index, t.phase, t.interaction, t.object
         FROM task_runs r JOIN tasks t ON t.session_id = r.session_id AND t.task_index = r.task_index
         JOIN sessions s ON s.id = r.session_id
         WHERE EXISTS (SELECT 1 FROM frames f WHERE f.run_id = r.id) ORDER BY r.id""").fetchall()
@@ -114,7 +116,8 @@ def frames_tables(store: Store, runs: list[dict] | None = None) -> Iterator[pd.D
         table = run_frames(store, run["run_id"])
         keys = {"study": store.name, "participant": run["participant"], "session": run["session"],
                 "run_id": run["run_id"], "task_index": run["task_index"], "run": run["run"],
-                "run_status": run["status"], "phase": run["phase"], "system": run["system"], "object": run["object"]}
+                "run_status": run["status"], "phase": run["phase"], "interaction": run["interaction"],
+                "object": run["object"]}
         yield pd.concat([pd.DataFrame({k: [v] * len(table) for k, v in keys.items()}), table], axis=1)
 
 

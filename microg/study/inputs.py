@@ -84,7 +84,7 @@ class LiveInputs:
 
 class SimulatedInputs:
     """A simulated participant (``microg.participant``) plays each task. Profile ``practice``
-    starts every participant new to the system and lets each task done (training included) improve
+    starts every participant new to the interaction model and lets each task done (training included) improve
     the skill by the power law of practice; ``veteran`` and ``beginner`` are fixed skills."""
 
     clock = "simulation"

@@ -1,4 +1,4 @@
-"""The questionnaire answers of simulated participants: what each went through with each system,
+"""The questionnaire answers of simulated participants: what each went through with each interaction model,
 read back from the study's log, rated by the participant's rating model
 (``microg.participant.ratings``). The answers are stored with ``source = model``."""
 
@@ -10,7 +10,7 @@ from microg.participant.ratings import Experience, RatingModel
 from microg.sim.hand import BONES_PER_HAND, SIDES
 
 from . import framelog
-from .protocol import Item, Questionnaire, Stage
+from .protocol import Item, Questionnaire, TaskPhase
 from .store import FINAL_RUN, Store
 
 
@@ -33,15 +33,15 @@ def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
     return penetration, shake
 
 
-def experience(store: Store, session_id: int, system: str) -> Experience:
-    """Measures of the session's finished task runs with ``system`` (the last run of each task)."""
+def experience(store: Store, session_id: int, interaction: str) -> Experience:
+    """Measures of the session's finished task runs with ``interaction`` (the last run of each task)."""
     rows = store.db.execute("""
         SELECT r.id, r.status, r.time_s, r.attempts FROM task_runs r JOIN tasks t
             ON t.session_id = r.session_id AND t.task_index = r.task_index
-        WHERE r.session_id = ? AND t.system = ? AND r.status IN (%s)
+        WHERE r.session_id = ? AND t.interaction = ? AND r.status IN (%s)
           AND r.run = (SELECT MAX(run) FROM task_runs m WHERE m.session_id = r.session_id
                                                            AND m.task_index = r.task_index)
-        """ % ",".join("?" * len(FINAL_RUN)), (session_id, system, *FINAL_RUN)).fetchall()
+        """ % ",".join("?" * len(FINAL_RUN)), (session_id, interaction, *FINAL_RUN)).fetchall()
     rows = [r for r in rows if r["status"] != "skipped"]
     if not rows:
         return Experience(0, 0.0, 1.0, float("nan"), float("nan"), float("nan"))
@@ -71,7 +71,8 @@ class ModelRater:
         self._model = RatingModel(seed)
         self._lived: dict[str, Experience] = {}
 
-    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
-        if stage.system not in self._lived:
-            self._lived[stage.system] = experience(self.store, self.session_id, stage.system)
-        return self._model.rate(item.name, self._lived[stage.system], (questionnaire.scale_min, questionnaire.scale_max))
+    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
+        if phase.interaction not in self._lived:
+            self._lived[phase.interaction] = experience(self.store, self.session_id, phase.interaction)
+        return self._model.rate(item.name, self._lived[phase.interaction],
+                                (questionnaire.scale_min, questionnaire.scale_max))

@@ -1,18 +1,18 @@
 """Protocol files: what a study is, read from TOML and validated once, here.
 
 A protocol declares the groups and their balancing, the objects and the order scheme, the
-pick-and-place task and its rules, the stages and the interaction model each one runs, the
+pick-and-place task and its rules, the phases and the interaction model each one runs, the
 training, the questionnaire and the timeline. ``protocols/paper.toml`` is the paper's study
 (section 4.3) and documents every key. A file may start from another one with
 ``extends = "other.toml"``: its tables are merged key by key over the other's, and lists
-(``groups``, ``stages``, ``timeline``, ...) replace the other's lists whole.
+(``groups``, ``phases``, ``timeline``, ...) replace the other's lists whole.
 
 Every error names the file, the key and the value::
 
     protocols/mine.toml: task.hold_s = -3: must be a positive number (seconds)
 
 Each section of the file has its own reader below (``_read_scene``, ``_read_groups``, ...); the
-checks that span sections (every object in every stage's world, object codes, the timeline's
+checks that span sections (every object in every phase's world, object codes, the timeline's
 minutes) run once all sections are read. What only simulated participants need (skill profiles,
 questionnaire items the rating model rates) is reported by ``Protocol.simulation_problems``:
 ``microg study init`` warns about it, and a simulated session refuses to start.
@@ -86,18 +86,21 @@ class Viewpoint:
 
 
 @dataclass(frozen=True)
-class Stage:
+class TaskPhase:
+    """One of the protocol's ``[[phases]]``: a block of tasks the study compares (the paper's stage 1
+    and stage 2). Its name is also a phase of the timeline (``Phase``)."""
+
     name: str
-    system: str
-    """The interaction model the stage runs (``microg.sim.INTERACTION_MODELS``)."""
+    interaction: str
+    """The interaction model the phase's tasks run (``microg.sim.INTERACTION_MODELS``)."""
     label: str
-    """How the system is named to the participant (the questionnaire asks about it by this)."""
+    """How the interaction model is named to the participant (the questionnaire asks about it by this)."""
 
 
 @dataclass(frozen=True)
 class Training:
     groups: tuple[str, ...]
-    system: str
+    interaction: str
     objects: tuple[StudyObject, ...]
 
 
@@ -159,7 +162,7 @@ class Protocol:
     order: str
     task: TaskRules
     training: Training | None
-    stages: tuple[Stage, ...]
+    phases: tuple[TaskPhase, ...]
     questionnaire: Questionnaire | None
     timeline: tuple[Phase, ...]
     frame_batch: int
@@ -184,13 +187,13 @@ class Protocol:
             y = self.table_height + float(np.abs(rot[1]) @ self.object(name).spec.half_extents)
         return (x, y, z), self.task.start_orientation
 
-    def scene(self, name: str, system: str) -> Scene:
-        """The physics scene of a task with object ``name`` under ``system``: the object alone at its
+    def scene(self, name: str, interaction: str) -> Scene:
+        """The physics scene of a task with object ``name`` under ``interaction``: the object alone at its
         start pose (on the table, if there is one), the protocol's gravity and scene options."""
         position, orientation = self.start_pose(name)
         placed = PlacedObject(self.object(name).spec, position, orientation)
         table = None if self.table_height is None else TableParameters(height=self.table_height)
-        return compose_scene([placed], system, self.gravity, table=table, **self.scene_options)
+        return compose_scene([placed], interaction, self.gravity, table=table, **self.scene_options)
 
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
@@ -219,8 +222,9 @@ class Protocol:
         return tuple(p for p in self.timeline if p.groups is None or group in p.groups)
 
     @property
-    def systems(self) -> tuple[str, ...]:
-        return tuple(dict.fromkeys(s.system for s in self.stages))
+    def interactions(self) -> tuple[str, ...]:
+        """The interaction models the phases compare, in the phases' order."""
+        return tuple(dict.fromkeys(p.interaction for p in self.phases))
 
     @property
     def tracking_rate(self) -> float:
@@ -550,26 +554,39 @@ def _inside(point, task: TaskRules) -> bool:
     return all(lo <= p <= hi for lo, p, hi in zip(task.workspace_min, point, task.workspace_max))
 
 
-def _read_stages(top: _Reader) -> tuple[Stage, ...]:
-    """``[[stages]]``: each stage's name, the system it runs and how the participant hears it named;
-    a study compares different systems, so no two stages run the same one."""
-    stages = []
-    for s in top.tables("stages"):
-        system = s.text("system", choices=tuple(INTERACTION_MODELS))
-        stages.append(Stage(name=s.label("name", "it names files in exports"), system=system, label=s.text("label")))
-        s.done()
-    top.unique("stages", [s.name for s in stages], "stage name")
-    for i, stage in enumerate(stages):
-        earlier = next((j for j in range(i) if stages[j].system == stage.system), None)
+def _renamed(reader: _Reader, old: str, message: str) -> None:
+    """Refuse a key an older protocol used: the message names the file and what the key became."""
+    if old in reader.data:
+        raise ProtocolError(f"{reader.where}: {message}")
+
+
+def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
+    """``[[phases]]``: each phase's name, the interaction model it runs and how the participant
+    hears it named; a study compares different interaction models, so no two phases run the same one."""
+    _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
+                            "but `system` is now `interaction`)")
+    phases = []
+    for p in top.tables("phases"):
+        _renamed(p, "system", f"{p.prefix}system is now {p.prefix}interaction (the interaction model the phase "
+                              "runs)")
+        interaction = p.text("interaction", choices=tuple(INTERACTION_MODELS))
+        phases.append(TaskPhase(name=p.label("name", "it names files in exports"), interaction=interaction,
+                                label=p.text("label")))
+        p.done()
+    top.unique("phases", [p.name for p in phases], "phase name")
+    for i, phase in enumerate(phases):
+        earlier = next((j for j in range(i) if phases[j].interaction == phase.interaction), None)
         if earlier is not None:
-            raise top.fail(f"stages[{i}].system", stage.system, f"stages[{earlier}] runs this system already; "
-                           "a study compares different systems (answers and tables are kept per system)")
-    top.unique("stages", [s.label for s in stages], "label")
-    return tuple(stages)
+            raise top.fail(f"phases[{i}].interaction", phase.interaction, f"phases[{earlier}] runs this interaction "
+                           "model already; a study compares different interaction models (answers and tables are "
+                           "kept per interaction model)")
+    top.unique("phases", [p.label for p in phases], "label")
+    return tuple(phases)
 
 
 def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files: dict) -> Training | None:
-    """``[training]``: who trains (the groups marked ``training = true``), with what system and objects."""
+    """``[training]``: who trains (the groups marked ``training = true``), with what interaction model and
+    objects."""
     tr = top.table("training", None)
     if tr is None:
         return None
@@ -580,7 +597,9 @@ def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files
             raise tr.fail("groups", list(training_groups), f"names group {code!r}; groups are {codes}")
     names = tr.strings("objects")
     tr.unique("objects", list(names), "object")
-    training = Training(groups=training_groups, system=tr.text("system", choices=tuple(INTERACTION_MODELS)),
+    _renamed(tr, "system", "training.system is now training.interaction (the interaction model training runs)")
+    training = Training(groups=training_groups,
+                        interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
                         objects=tuple(_study_object(tr, f"objects[{i}]", n, sources, files)
                                       for i, n in enumerate(names)))
     tr.done()
@@ -592,7 +611,7 @@ def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files
 
 
 def _read_questionnaire(top: _Reader) -> Questionnaire | None:
-    """``[questionnaire]``: the scale and the items, each asked once per system."""
+    """``[questionnaire]``: the scale and the items, each asked once per interaction model."""
     q = top.table("questionnaire", None)
     if q is None:
         return None
@@ -610,13 +629,13 @@ def _read_questionnaire(top: _Reader) -> Questionnaire | None:
     return Questionnaire(scale_min, scale_max, tuple(items))
 
 
-def _read_timeline(top: _Reader, groups: tuple[Group, ...], stages: tuple[Stage, ...], training: Training | None,
-                   questionnaire: Questionnaire | None) -> tuple[Phase, ...]:
-    """``[[timeline]]``: the phases in order; every stage, the training and the questionnaire
-    exactly once, the questionnaire after the stages it asks about."""
+def _read_timeline(top: _Reader, groups: tuple[Group, ...], phases: tuple[TaskPhase, ...],
+                   training: Training | None, questionnaire: Questionnaire | None) -> tuple[Phase, ...]:
+    """``[[timeline]]``: the phases in order; every one of ``[[phases]]``, the training and the
+    questionnaire exactly once, the questionnaire after the phases it asks about."""
     codes = [g.code for g in groups]
-    stage_names = tuple(s.name for s in stages)
-    required = (("training",) if training else ()) + stage_names + (("questionnaire",) if questionnaire else ())
+    phase_names = tuple(p.name for p in phases)
+    required = (("training",) if training else ()) + phase_names + (("questionnaire",) if questionnaire else ())
     timeline = []
     for p in top.tables("timeline"):
         name = p.text("phase", choices=PHASES_INFO + required)
@@ -631,8 +650,8 @@ def _read_timeline(top: _Reader, groups: tuple[Group, ...], stages: tuple[Stage,
     for name in required:
         if seen.count(name) != 1:
             raise top.fail("timeline", seen, f"must list phase {name!r} exactly once")
-    if questionnaire and seen.index("questionnaire") < max(seen.index(s) for s in stage_names):
-        raise top.fail("timeline", seen, "puts the questionnaire before a stage it asks about")
+    if questionnaire and seen.index("questionnaire") < max(seen.index(s) for s in phase_names):
+        raise top.fail("timeline", seen, "puts the questionnaire before a phase it asks about")
     return tuple(timeline)
 
 
@@ -665,10 +684,10 @@ def _check_timeline_fits(top: _Reader, protocol: Protocol) -> None:
     total = sum(p.minutes for p in protocol.timeline)
     if total > protocol.duration_minutes + 1e-9:
         raise top.fail("duration_minutes", protocol.duration_minutes, f"the timeline's phases take {total:g} minutes")
-    stage_names = [s.name for s in protocol.stages]
+    task_phases = [p.name for p in protocol.phases]
     for phase in protocol.timeline:
         count = len(protocol.training.objects) if phase.name == "training" else \
-            len(protocol.objects) if phase.name in stage_names else 0
+            len(protocol.objects) if phase.name in task_phases else 0
         if count * protocol.task.timeout_s > phase.minutes * 60 + 1e-9:
             raise ProtocolError(
                 f"{top.where}: timeline phase {phase.name!r} has minutes = {phase.minutes:g}, but its {count} "
@@ -692,18 +711,18 @@ def _check_objects(top: _Reader, protocol: Protocol) -> None:
 
 def _check_worlds(top: _Reader, protocol: Protocol) -> None:
     """Every task's world as the sessions will build it: the physics accepts each scene (each
-    stage's system with each object), the object waits inside the workspace (on the table, if
+    phase's interaction model with each object), the object waits inside the workspace (on the table, if
     there is one: else every task would end in a respawn loop and time out), and every place can
     hold the object's centre above the table top."""
-    tasks = [(s.system, o.name) for s in protocol.stages for o in protocol.objects]
+    tasks = [(p.interaction, o.name) for p in protocol.phases for o in protocol.objects]
     if protocol.training:
-        tasks += [(protocol.training.system, o.name) for o in protocol.training.objects]
+        tasks += [(protocol.training.interaction, o.name) for o in protocol.training.objects]
     rules = protocol.task
-    for system, name in dict.fromkeys(tasks):
+    for interaction, name in dict.fromkeys(tasks):
         try:
-            protocol.scene(name, system).validate("scene")
+            protocol.scene(name, interaction).validate("scene")
         except SceneError as error:
-            raise ProtocolError(f"{top.where}: {error} (in the world of {system} with the {name})") from None
+            raise ProtocolError(f"{top.where}: {error} (in the world of {interaction} with the {name})") from None
         if protocol.table_height is None:
             continue
         start, _ = protocol.start_pose(name)
@@ -734,10 +753,10 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     groups = _read_groups(top, people, total)
     objects, order = _read_objects(top, sources, files)
     task = _read_task(top)
-    stages = _read_stages(top)
+    phases = _read_phases(top)
     training = _read_training(top, groups, sources, files)
     questionnaire = _read_questionnaire(top)
-    timeline = _read_timeline(top, groups, stages, training, questionnaire)
+    timeline = _read_timeline(top, groups, phases, training, questionnaire)
     logging = top.table("logging", {})
     frame_batch = logging.integer("frame_batch", 64)
     logging.done()
@@ -749,7 +768,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
                         gravity=gravity, table_height=table_height, scene_options=options,
                         filter_window=filter_window, total_participants=total, balance=balance, age_range=age_range,
-                        groups=groups, objects=objects, order=order, task=task, training=training, stages=stages,
+                        groups=groups, objects=objects, order=order, task=task, training=training, phases=phases,
                         questionnaire=questionnaire, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
                         resolved=resolved, dataset=dataset)
     _check_timeline_fits(top, protocol)

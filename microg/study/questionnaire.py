@@ -1,4 +1,4 @@
-"""The questionnaire: each item for each system, on the protocol's scale (the paper: 0-10).
+"""The questionnaire: each item for each interaction model, on the protocol's scale (the paper: 0-10).
 
 ``TerminalRater`` asks in the terminal with the paper's question text and anchors, and asks again
 on anything that is not a whole number on the scale. Simulated participants answer through the
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Callable, Protocol as Interface
 
-from .protocol import Item, Questionnaire, Stage
+from .protocol import Item, Questionnaire, TaskPhase
 
 
 class RatingError(ValueError):
@@ -20,7 +20,7 @@ class Rater(Interface):
     source: str
     """``participant`` (a person answered) or ``model`` (a simulated participant's rating model)."""
 
-    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int: ...
+    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int: ...
 
 
 def parse_rating(text: str, low: int, high: int) -> int:
@@ -37,9 +37,9 @@ def parse_rating(text: str, low: int, high: int) -> int:
     return value
 
 
-def question_text(item: Item, stage: Stage, questionnaire: Questionnaire) -> str:
+def question_text(item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> str:
     q = questionnaire
-    return (f"{stage.label}: {item.question}\n"
+    return (f"{phase.label}: {item.question}\n"
             f"  ({q.scale_min}: {item.low}, {q.scale_max}: {item.high})")
 
 
@@ -49,11 +49,11 @@ class TerminalRater:
     source = "participant"
 
     def __init__(self, read: Callable[[str], str] = input, write: Callable[[str], None] = print,
-                 on_rejected: Callable[[Item, Stage, str, str], None] | None = None):
+                 on_rejected: Callable[[Item, TaskPhase, str, str], None] | None = None):
         self.read, self.write, self.on_rejected = read, write, on_rejected
 
-    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
-        self.write(question_text(item, stage, questionnaire))
+    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
+        self.write(question_text(item, phase, questionnaire))
         while True:
             text = self.read(f"Rating ({questionnaire.scale_min}-{questionnaire.scale_max}): ")
             try:
@@ -61,4 +61,4 @@ class TerminalRater:
             except RatingError as error:
                 self.write(f"  {error}")
                 if self.on_rejected:
-                    self.on_rejected(item, stage, text, str(error))
+                    self.on_rejected(item, phase, text, str(error))

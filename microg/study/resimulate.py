@@ -90,7 +90,7 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, inte
     store.add_participant(Participant(person.id, person.gender, person.age, person.handedness,
                                       person.mr_experience), like=record)
     spec = f"{INPUT}:{original.dir.resolve()}#session={session.id}"
-    new = store.create_session(participant_id, spec, session.simulated, "simulation", system=interaction)
+    new = store.create_session(participant_id, spec, session.simulated, "simulation", interaction=interaction)
     store.lock_session(new.id)
     clock = SimulationClock()
     store.log(new.id, [Event(0.0, "session_start", {"input": spec, "microg_version": __version__,

@@ -53,7 +53,7 @@ CREATE TABLE tasks (
     session_id INTEGER NOT NULL REFERENCES sessions(id),
     task_index INTEGER NOT NULL,
     phase TEXT NOT NULL,
-    system TEXT NOT NULL,
+    interaction TEXT NOT NULL,
     object TEXT NOT NULL,
     object_code TEXT NOT NULL,
     order_position INTEGER NOT NULL,
@@ -90,13 +90,13 @@ CREATE TABLE events (
 CREATE INDEX events_by_session ON events(session_id, run_id);
 CREATE TABLE answers (
     session_id INTEGER NOT NULL REFERENCES sessions(id),
-    system TEXT NOT NULL,
+    interaction TEXT NOT NULL,
     item TEXT NOT NULL,
     rating INTEGER NOT NULL,
     source TEXT NOT NULL CHECK (source IN ('participant', 'model')),
     t REAL NOT NULL,
     wall TEXT NOT NULL,
-    PRIMARY KEY (session_id, system, item)
+    PRIMARY KEY (session_id, interaction, item)
 );
 CREATE TABLE frames (
     run_id INTEGER NOT NULL REFERENCES task_runs(id),

@@ -1,14 +1,14 @@
 """The session runner: a state machine over the protocol's timeline and each task's stages.
 
 ``run_session`` walks the participant's timeline (orientation, instructions, training for the
-groups that train, the stages, the questionnaire) and carries on from wherever the session stands:
+groups that train, the phases of tasks, the questionnaire) and carries on from wherever the session stands:
 phases already ended, tasks already finished and questions already answered are not repeated, so
 the same call starts a session and resumes it. ``resume_session`` first marks runs cut off by a
 crash as interrupted (their frames stay), then runs the session on: an interrupted task runs
 again from its start.
 
 Each task gets its own world holding only the task's object at its start pose, under the
-protocol's gravity and the stage's interaction model; with a ``table_height`` the object stands
+protocol's gravity and the phase's interaction model; with a ``table_height`` the object stands
 on a table (the physics' ``table`` effect) and falls back onto it when dropped. Frames come from
 the task's hand source; each one steps the physics, then the task's state machine
 (``microg.task.stages``); an object that leaves the workspace while not held (drifting away in
@@ -122,9 +122,9 @@ class TaskResult:
 
 
 def task_world(protocol: Protocol, task: PlannedTask) -> World:
-    """The task's object alone at its start pose (on the table, if there is one), under the stage's
+    """The task's object alone at its start pose (on the table, if there is one), under the phase's
     interaction model."""
-    return make_world(protocol.scene(task.object, task.system))
+    return make_world(protocol.scene(task.object, task.interaction))
 
 
 def guarded(source, scene: Scene):
@@ -204,7 +204,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
         raise ValueError(f"session {session_id} is {session.status}; only a running session can go on")
     participant = store.participant(session.participant_id)
     tasks = store.tasks(session_id)
-    stages = {s.name: s for s in protocol.stages}
+    task_phases = {p.name for p in protocol.phases}
     started_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_start"}
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
@@ -220,7 +220,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
                     markers("phase_start", {"phase": phase.name})
             if phase.name == "questionnaire":
                 _questionnaire(store, session_id, rater, clock, protocol)
-            elif phase.name == "training" or phase.name in stages:
+            elif phase.name == "training" or phase.name in task_phases:
                 for task in tasks:
                     if task.phase == phase.name and task.index not in finished:
                         _run_planned(store, session, task, inputs, clock, operator, markers, bar, on_moment)
@@ -240,7 +240,7 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
                  markers: Markers | None, bar, on_moment: Callable[[Moment], None] | None) -> TaskResult:
     protocol = store.protocol
     seed = derived_seed(session.seed, task.index)
-    label = f"{task.phase} {task.object_code} ({task.system})"
+    label = f"{task.phase} {task.object_code} ({task.interaction})"
     if not operator.ready(task):
         run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
         store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator")
@@ -252,7 +252,8 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
                      world.model.scene)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     if markers:
-        markers("task_start", {"task": task.index, "phase": task.phase, "system": task.system, "object": task.object})
+        markers("task_start", {"task": task.index, "phase": task.phase, "interaction": task.interaction,
+                               "object": task.object})
     started = time.monotonic()
 
     frames = 0
@@ -277,11 +278,11 @@ def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Cl
         store.log(session_id, [Event(clock.now(), "questionnaire_skipped", {"reason": "no rater for this session"})])
         return
     answered = store.answers(session_id)
-    for stage in protocol.stages:
+    for phase in protocol.phases:
         for item in questionnaire.items:
-            if (stage.system, item.name) not in answered:
-                rating = rater.rate(item, stage, questionnaire)
-                store.save_answer(session_id, stage.system, item.name, rating, rater.source, clock.now())
+            if (phase.interaction, item.name) not in answered:
+                rating = rater.rate(item, phase, questionnaire)
+                store.save_answer(session_id, phase.interaction, item.name, rating, rater.source, clock.now())
 
 
 def resume_session(store: Store, session_id: int, inputs: Inputs, **options) -> str:

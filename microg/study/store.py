@@ -48,7 +48,7 @@ from .assignment import Enrolled, Participant, ParticipantError, assign_group, a
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
 RUN_STATUSES = FINAL_RUN + ("running", "interrupted")
 OUTCOMES = ("completed", "timeout")
@@ -139,8 +139,8 @@ class ParticipantRecord:
 class PlannedTask:
     index: int
     phase: str
-    """``training`` or a stage name."""
-    system: str
+    """``training`` or the name of one of the protocol's ``phases``."""
+    interaction: str
     object: str
     object_code: str
     order_position: int
@@ -187,17 +187,18 @@ def derived_seed(*parts: int) -> int:
 
 def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...]) -> list[PlannedTask]:
     """The tasks a participant of ``group`` runs, in order: training (if the group trains), then each
-    stage with the participant's object order."""
+    phase of the protocol's ``phases`` with the participant's object order."""
     tasks: list[PlannedTask] = []
     for phase in protocol.phases_for(group):
         if phase.name == "training":
-            names, system = [o.name for o in protocol.training.objects], protocol.training.system
-        elif phase.name in [s.name for s in protocol.stages]:
-            names, system = list(object_order), next(s.system for s in protocol.stages if s.name == phase.name)
+            names, interaction = [o.name for o in protocol.training.objects], protocol.training.interaction
+        elif phase.name in [p.name for p in protocol.phases]:
+            names = list(object_order)
+            interaction = next(p.interaction for p in protocol.phases if p.name == phase.name)
         else:
             continue
         for position, name in enumerate(names, start=1):
-            tasks.append(PlannedTask(len(tasks), phase.name, system, name, protocol.object(name).code, position))
+            tasks.append(PlannedTask(len(tasks), phase.name, interaction, name, protocol.object(name).code, position))
     return tasks
 
 
@@ -379,9 +380,9 @@ class Store:
     # ------------------------------------------------------------ sessions
 
     def create_session(self, participant_id: str, input_spec: str, simulated: bool, clock: str,
-                       system: str | None = None) -> SessionRecord:
-        """A new session for an active participant who has none, with its task plan; ``system``: every
-        task runs this interaction model instead of its block's (a re-simulation)."""
+                       interaction: str | None = None) -> SessionRecord:
+        """A new session for an active participant who has none, with its task plan; ``interaction``: every
+        task runs this interaction model instead of its phase's (a re-simulation)."""
         record = self.participant(participant_id)
         if record.status != "active":
             raise StoreError(f"participant {participant_id} is withdrawn; a withdrawn participant runs no session")
@@ -401,7 +402,7 @@ class Store:
                  __version__, sys.version.split()[0], platform.platform(), utc_now()))
             session_id = cursor.lastrowid
             db.executemany("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)",
-                           [(session_id, t.index, t.phase, system or t.system, t.object, t.object_code,
+                           [(session_id, t.index, t.phase, interaction or t.interaction, t.object, t.object_code,
                              t.order_position) for t in plan_tasks(self.protocol, record.group, record.object_order)])
         return self.session(session_id)
 
@@ -422,7 +423,7 @@ class Store:
 
     def tasks(self, session_id: int) -> list[PlannedTask]:
         rows = self.db.execute("SELECT * FROM tasks WHERE session_id = ? ORDER BY task_index", (session_id,))
-        return [PlannedTask(r["task_index"], r["phase"], r["system"], r["object"], r["object_code"],
+        return [PlannedTask(r["task_index"], r["phase"], r["interaction"], r["object"], r["object_code"],
                             r["order_position"]) for r in rows]
 
     def runs(self, session_id: int) -> list[RunRecord]:
@@ -439,8 +440,8 @@ class Store:
         return [Event(r["t"], r["kind"], json.loads(r["data"])) for r in rows]
 
     def answers(self, session_id: int) -> dict[tuple[str, str], int]:
-        rows = self.db.execute("SELECT system, item, rating FROM answers WHERE session_id = ?", (session_id,))
-        return {(r["system"], r["item"]): r["rating"] for r in rows}
+        rows = self.db.execute("SELECT interaction, item, rating FROM answers WHERE session_id = ?", (session_id,))
+        return {(r["interaction"], r["item"]): r["rating"] for r in rows}
 
     def last_time(self, session_id: int) -> float:
         """The latest session-clock time logged, so a resumed clock carries on from there."""
@@ -471,7 +472,8 @@ class Store:
                 "VALUES (?, ?, ?, 'running', ?, ?, ?, ?)",
                 (session_id, task.index, number, source, seed, t, utc_now())).lastrowid
             self._insert_events(db, session_id, run_id, [Event(t, "task_start", {
-                "task": task.index, "run": number, "phase": task.phase, "system": task.system, "object": task.object})])
+                "task": task.index, "run": number, "phase": task.phase, "interaction": task.interaction,
+                "object": task.object})])
         return run_id
 
     def add_frames(self, run_id: int, first: int, frames: list[np.ndarray]) -> None:
@@ -514,12 +516,12 @@ class Store:
                          "(found on resume)")
         return open_runs
 
-    def save_answer(self, session_id: int, system: str, item: str, rating: int, source: str, t: float) -> None:
+    def save_answer(self, session_id: int, interaction: str, item: str, rating: int, source: str, t: float) -> None:
         with self.transaction() as db:
             db.execute("INSERT INTO answers VALUES (?, ?, ?, ?, ?, ?, ?)",
-                       (session_id, system, item, rating, source, t, utc_now()))
+                       (session_id, interaction, item, rating, source, t, utc_now()))
             self._insert_events(db, session_id, None, [Event(t, "answer", {
-                "system": system, "item": item, "rating": rating, "source": source})])
+                "interaction": interaction, "item": item, "rating": rating, "source": source})])
 
     def _end_session(self, db: sqlite3.Connection, session_id: int, status: str, t: float, reason: str | None,
                      counts: dict[str, int] | None = None) -> None:

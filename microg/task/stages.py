@@ -73,7 +73,7 @@ class TaskState:
 @dataclass(frozen=True)
 class TaskDisplay:
     """What the participant sees of the task besides the scene: the place marks and their timer, as
-    the paper's system shows them ("the mark is highlighted and the timer is triggered").
+    the paper's toolkit shows them ("the mark is highlighted and the timer is triggered").
 
     ``stage`` is one of manipulation, maintenance, release, completed, timeout; ``place`` is the
     index of the current place (the number of places, once all are done); ``lit`` whether it is

@@ -39,7 +39,7 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from microg.sim import rendered_phalanges
-from microg.study.protocol import Item, Phase, Protocol, Questionnaire, Stage, Viewpoint
+from microg.study.protocol import Item, Phase, Protocol, Questionnaire, TaskPhase, Viewpoint
 from microg.study.questionnaire import RatingError, parse_rating
 from microg.study.store import PlannedTask
 from microg.task import Moment
@@ -199,10 +199,10 @@ class ParticipantDisplay:
         self._frame_version += 1
         self._notify()
 
-    def ask(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> None:
+    def ask(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> None:
         """Show one questionnaire item (its answers come from ``next_answer``)."""
         self.deliver_events()
-        self._publish("question", {"kind": "question", "item": item.name, "label": stage.label,
+        self._publish("question", {"kind": "question", "item": item.name, "label": phase.label,
                                    "question": item.question, "low": item.low, "high": item.high,
                                    "min": questionnaire.scale_min, "max": questionnaire.scale_max})
 
@@ -240,7 +240,7 @@ class ParticipantDisplay:
                            "stream_hands": self.hands is not None})
 
     def _label(self, task: PlannedTask) -> str:
-        label = next((s.label for s in self.protocol.stages if s.name == task.phase), task.phase)
+        label = next((p.label for p in self.protocol.phases if p.name == task.phase), task.phase)
         return f"{label}: {task.object.replace('_', ' ')} ({task.order_position} of " \
                f"{sum(1 for o in (self.protocol.objects if task.phase != 'training' else self.protocol.training.objects))})"
 
@@ -430,8 +430,8 @@ class DisplayRater:
     def __init__(self, display: ParticipantDisplay, on_rejected=None):
         self.display, self.on_rejected = display, on_rejected
 
-    def rate(self, item: Item, stage: Stage, questionnaire: Questionnaire) -> int:
-        self.display.ask(item, stage, questionnaire)
+    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
+        self.display.ask(item, phase, questionnaire)
         while True:
             text = self.display.next_answer()
             try:
@@ -439,7 +439,7 @@ class DisplayRater:
             except RatingError as error:
                 self.display.answer_rejected(str(error))
                 if self.on_rejected:
-                    self.on_rejected(item, stage, text, str(error))
+                    self.on_rejected(item, phase, text, str(error))
                 continue
             self.display.answer_accepted()
             return rating

@@ -140,7 +140,7 @@ def _title(track: Track) -> str:
     run = track.run
     result = f"{run.time_s:.1f} s" if run.status == "completed" else run.status
     return (f"{run.participant}, task {run.task_index}: {run.phase}, {run.object} ({run.object_code}), "
-            f"{run.system}: {result}, {run.attempts if run.attempts is not None else 0} attempts")
+            f"{run.interaction}: {result}, {run.attempts if run.attempts is not None else 0} attempts")
 
 
 def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[Moment], out: Path,

@@ -387,7 +387,7 @@ class View:
         lines = hud_lines(scene, self.layout.hold_s, len(self.layout.places))
         return "\n\n".join([
             f"**{run.participant}** · session {run.session_id} ({self.session.status}) · *{mode}*",
-            f"task {run.task_index}: {run.phase}, {run.object} ({run.object_code}), {run.system} · {result}",
+            f"task {run.task_index}: {run.phase}, {run.object} ({run.object_code}), {run.interaction} · {result}",
             f"### {lines[0]}", *lines[1:]])
 
     def describe(self) -> str:

@@ -66,7 +66,7 @@ class RunInfo:
     task_index: int
     run: int
     phase: str
-    system: str
+    interaction: str
     object: str
     object_code: str
     status: str
@@ -77,7 +77,7 @@ class RunInfo:
     def title(self) -> str:
         """The task and run, e.g. ``task 2: stage1 long_cuboid (impulse_penetration)``."""
         return (f"task {self.task_index}" + (f" run {self.run}" if self.run > 1 else "")
-                + f": {self.phase} {self.object} ({self.system})")
+                + f": {self.phase} {self.object} ({self.interaction})")
 
     @property
     def label(self) -> str:
@@ -88,7 +88,7 @@ class RunInfo:
 def session_runs(store: Store, session_id: int) -> list[RunInfo]:
     """The session's task runs that have frames or are still running, in the order they ran."""
     rows = store.db.execute("""
-        SELECT r.id, r.session_id, s.participant_id, r.task_index, r.run, t.phase, t.system, t.object,
+        SELECT r.id, r.session_id, s.participant_id, r.task_index, r.run, t.phase, t.interaction, t.object,
                t.object_code, r.status, r.time_s, r.attempts
         FROM task_runs r JOIN tasks t ON t.session_id = r.session_id AND t.task_index = r.task_index
         JOIN sessions s ON s.id = r.session_id

@@ -36,13 +36,13 @@ def assert_same_numbers(ours: pd.DataFrame, theirs: pd.DataFrame, keys: list[str
                                    rtol=RTOL, atol=ATOL, err_msg=column)  # fmt: skip
 
 
-SYSTEMS_NUMBERS = ["n", "mean_system", "sd_system", "mean_baseline", "sd_baseline", "mean_diff", "T", "dof",
-                   "p_t", "cohen_d", "V", "p_wilcoxon", "rbc", "p_shapiro", "diff_ci_low", "diff_ci_high", "d_z",
-                   "d_z_ci_low", "d_z_ci_high", "rbc_ci_low", "rbc_ci_high", "n_nonzero"]  # fmt: skip
+INTERACTIONS_NUMBERS = ["n", "mean_interaction", "sd_interaction", "mean_baseline", "sd_baseline", "mean_diff", "T",
+                        "dof", "p_t", "cohen_d", "V", "p_wilcoxon", "rbc", "p_shapiro", "diff_ci_low", "diff_ci_high",
+                        "d_z", "d_z_ci_low", "d_z_ci_high", "rbc_ci_low", "rbc_ci_high", "n_nonzero"]  # fmt: skip
 LIKERT_NUMBERS = ["n", "V", "p_unc", "z", "r", "rbc", "p_bonf", "rbc_ci_low", "rbc_ci_high"]
-SYSTEMS = ("impulse_penetration", "soft_hand")
+INTERACTIONS = ("impulse_penetration", "soft_hand")
 MEASURES = {"time_s": "time", "attempts": "attempts"}  # measure -> our file's name for it
-TIDY = {  # our tidy CSV -> keys, numbers; R writes one file per measure and system
+TIDY = {  # our tidy CSV -> keys, numbers; R writes one file per measure and interaction
     "simple_effects": (["effect", "at"], R_SIMPLE_NUMBERS),
     "simple_pairs": (["factor", "at", "A", "B"], R_POSTHOC_NUMBERS),
     "assumptions": (["check", "at"], R_ASSUMPTION_NUMBERS),
@@ -52,40 +52,40 @@ TIDY = {  # our tidy CSV -> keys, numbers; R writes one file per measure and sys
 
 def assert_study_matches(ours: Path, theirs: Path) -> None:
     """Every table ``microg report`` wrote into ``ours`` equals R's (reference.R "study" mode) in ``theirs``."""
-    for system in SYSTEMS:
-        suffix = "" if system == SYSTEMS[0] else f"_{system}"
+    for interaction in INTERACTIONS:
+        suffix = "" if interaction == INTERACTIONS[0] else f"_{interaction}"
         for dv, short in MEASURES.items():
             assert_same_numbers(
                 pd.read_csv(ours / f"anova_{short}{suffix}.csv"),
-                pd.read_csv(theirs / f"anova_{dv}_{system}.csv"),
+                pd.read_csv(theirs / f"anova_{dv}_{interaction}.csv"),
                 ["source"],
                 R_ANOVA_NUMBERS,
             )
             assert_same_numbers(pd.read_csv(ours / f"posthoc_{short}{suffix}.csv"),
-                                pd.read_csv(theirs / f"posthoc_{dv}_{system}.csv"), ["factor", "at", "A", "B"],
+                                pd.read_csv(theirs / f"posthoc_{dv}_{interaction}.csv"), ["factor", "at", "A", "B"],
                                 R_POSTHOC_NUMBERS)  # fmt: skip
             for name, (keys, numbers) in TIDY.items():
                 table = pd.read_csv(ours / f"{name}.csv", dtype={"at": str})
-                part = table[(table["system"] == system) & (table["measure"] == dv)]
-                assert_same_numbers(part, pd.read_csv(theirs / f"{name}_{dv}_{system}.csv", dtype={"at": str}), keys,
-                                    numbers)  # fmt: skip
+                part = table[(table["interaction"] == interaction) & (table["measure"] == dv)]
+                expected = pd.read_csv(theirs / f"{name}_{dv}_{interaction}.csv", dtype={"at": str})
+                assert_same_numbers(part, expected, keys, numbers)
         counts = pd.read_csv(ours / "count_model.csv")
-        expected = pd.read_csv(theirs / f"count_model_attempts_{system}.csv")
-        assert_same_numbers(counts[counts["system"] == system], expected, ["term"], R_COUNT_NUMBERS)
-    systems = pd.read_csv(ours / "systems.csv")
-    expected = pd.read_csv(theirs / "systems.csv")
-    assert_same_numbers(systems, expected, ["measure", "system", "baseline"], SYSTEMS_NUMBERS)
+        expected = pd.read_csv(theirs / f"count_model_attempts_{interaction}.csv")
+        assert_same_numbers(counts[counts["interaction"] == interaction], expected, ["term"], R_COUNT_NUMBERS)
+    interactions = pd.read_csv(ours / "interactions.csv")
+    expected = pd.read_csv(theirs / "interactions.csv")
+    assert_same_numbers(interactions, expected, ["measure", "interaction", "baseline"], INTERACTIONS_NUMBERS)
     # effectsize's own d_z interval (its optimiser stops near 1e-7 relative) and, where no paired
     # difference is zero (effectsize ranks zeros its own way), its rank-biserial correlation and interval
-    merged = systems.merge(expected, on="measure", suffixes=("", "_r"))
+    merged = interactions.merge(expected, on="measure", suffixes=("", "_r"))
     for column in ("d_z_ci_low", "d_z_ci_high", "rbc", "rbc_ci_low", "rbc_ci_high"):
         known = merged[f"{column}_effectsize"].notna()
         np.testing.assert_allclose(merged.loc[known, column], merged.loc[known, f"{column}_effectsize"], rtol=1e-5,
                                    err_msg=column)  # fmt: skip
     likert = pd.read_csv(ours / "likert.csv")
     numbers = ["n", "median", "q1", "q3", "mean", *[f"count_{score}" for score in range(11)]]
-    assert_same_numbers(likert, pd.read_csv(theirs / "likert_summary.csv"), ["item", "system"], numbers)
+    assert_same_numbers(likert, pd.read_csv(theirs / "likert_summary.csv"), ["item", "interaction"], numbers)
     tests = likert.drop_duplicates("item").drop(columns="n").rename(columns={"n_pairs": "n"})
-    assert (tests["test_system"] == SYSTEMS[0]).all() and (tests["test_baseline"] == SYSTEMS[1]).all()
+    assert (tests["test_interaction"] == INTERACTIONS[0]).all() and (tests["test_baseline"] == INTERACTIONS[1]).all()
     assert_same_numbers(tests[["item", *LIKERT_NUMBERS]], pd.read_csv(theirs / "likert_tests.csv"), ["item"],
                         LIKERT_NUMBERS)  # fmt: skip

@@ -6,15 +6,15 @@ import numpy as np
 import pandas as pd
 
 OBJECTS = ("cube", "flat_cuboid", "long_cuboid")
-SYSTEMS = ("impulse_penetration", "soft_hand")
+INTERACTIONS = ("impulse_penetration", "soft_hand")
 ITEMS = ("naturalness", "efficiency")
 
 
 def make_study(
     seed: int, n_veteran: int = 7, n_beginner: int = 9, unfinished: int = 2
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(trials, questionnaire) of a two-stage study: V trains first (training rows included),
-    ``unfinished`` random stage tasks time out (completed False, empty time).
+    """(trials, questionnaire) of a two-phase study: V trains first (training rows included),
+    ``unfinished`` random tasks outside training time out (completed False, empty time).
 
     Times have a participant effect, object effects and correlated object deviations so that the
     pooled within-group covariance is not spherical; values are rounded to what a log would hold.
@@ -28,34 +28,34 @@ def make_study(
     for who, group in zip(ids, groups):
         skill = rng.normal(0, 8)
         shared = rng.normal(0, 6)
-        for stage, system, slow in (("stage1", SYSTEMS[0], 1.0), ("stage2", SYSTEMS[1], 1.8)):
+        for phase, interaction, slow in (("stage1", INTERACTIONS[0], 1.0), ("stage2", INTERACTIONS[1], 1.8)):
             order = list(rng.permutation(OBJECTS))
             for position, name in enumerate(order):
                 novice = 10.0 if group == "B" else 0.0
                 tilt = shared if name == "long_cuboid" else -0.3 * shared
                 time = slow * (object_time[name] + novice + skill + tilt) + rng.normal(0, 7)
                 attempts = int(rng.poisson(0.6 * slow + (0.5 if group == "B" else 0.0)))
-                rows.append(_trial(who, group, stage, system, name, position, max(time, 5.0), attempts))
+                rows.append(_trial(who, group, phase, interaction, name, position, max(time, 5.0), attempts))
         if group == "V":
-            rows.append(_trial(who, group, "training", SYSTEMS[0], "cube", 0, 300.0, 9))
+            rows.append(_trial(who, group, "training", INTERACTIONS[0], "cube", 0, 300.0, 9))
     trials = pd.DataFrame(rows)
-    staged = np.flatnonzero(trials["stage"] != "training")
+    staged = np.flatnonzero(trials["phase"] != "training")
     for index in rng.choice(staged, size=unfinished, replace=False):
         trials.loc[index, ["completed", "time_s"]] = [False, np.nan]
     answers = []
     for who, group in zip(ids, groups):
         liking = rng.normal(0, 1)
-        for system, centre in zip(SYSTEMS, (7.0, 4.5)):
+        for interaction, centre in zip(INTERACTIONS, (7.0, 4.5)):
             for item in ITEMS:
                 rating = int(np.clip(np.round(centre + liking + rng.normal(0, 1.5)), 0, 10))
                 answers.append(
-                    {"participant": who, "group": group, "system": system, "item": item,
+                    {"participant": who, "group": group, "interaction": interaction, "item": item,
                      "rating": rating, "simulated": False}
                 )  # fmt: skip
     return trials, pd.DataFrame(answers)
 
 
-def _trial(who, group, stage, system, name, position, time, attempts) -> dict:
+def _trial(who, group, phase, interaction, name, position, time, attempts) -> dict:
     return {
         "study": "fixture",
         "participant": who,
@@ -64,8 +64,8 @@ def _trial(who, group, stage, system, name, position, time, attempts) -> dict:
         "age": 24,
         "handedness": "right",
         "mr_experience": True,
-        "stage": stage,
-        "system": system,
+        "phase": phase,
+        "interaction": interaction,
         "object": name,
         "order_position": position,
         "completed": True,

@@ -50,7 +50,7 @@ def test_the_analysis_reads_the_schema_names():
     trial_names = set(schema.TRIAL_COLUMNS)
     defaults = {name: p.default for name, p in inspect.signature(analyse_study).parameters.items()
                 if isinstance(p.default, str)}  # fmt: skip
-    for role in ("subject", "group", "within", "system_column", "completed", "stage", "label"):
+    for role in ("subject", "group", "within", "interaction_column", "completed", "phase", "label"):
         assert defaults[role] in trial_names, role
     assert {defaults["item"], defaults["rating"], defaults["label"]} <= set(schema.QUESTIONNAIRE_COLUMNS)
     measures = inspect.signature(check_trials).parameters["dv"].default

@@ -15,12 +15,13 @@ from tests.analysis.r_compare import (
 )
 
 
-@pytest.mark.parametrize("system", ["impulse_penetration", "soft_hand"])
-def test_wald_tests_match_geepack(system):
+@pytest.mark.parametrize("interaction", ["impulse_penetration", "soft_hand"])
+def test_wald_tests_match_geepack(interaction):
     trials = pd.read_csv(TRIALS_CSV)
-    tasks = trials[(trials["stage"] != "training") & (trials["system"] == system)]
+    tasks = trials[(trials["phase"] != "training") & (trials["interaction"] == interaction)]
     table = count_model(tasks, "attempts", "object", "group", "participant")
-    assert_same_numbers(table, pd.read_csv(STUDY / f"count_model_attempts_{system}.csv"), ["term"], R_COUNT_NUMBERS)
+    expected = pd.read_csv(STUDY / f"count_model_attempts_{interaction}.csv")
+    assert_same_numbers(table, expected, ["term"], R_COUNT_NUMBERS)
     assert (table["model"] == "main effects and interaction").all()
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from microg.analysis.report import write_report
-from tests.analysis.r_compare import SYSTEMS, assert_study_matches
+from tests.analysis.r_compare import INTERACTIONS, assert_study_matches
 from tests.analysis.study_data import make_study
 
 REFERENCE = Path(__file__).parent / "r" / "reference.R"
@@ -39,7 +39,7 @@ def test_whole_analysis_matches_r(tmp_path, seed, n_veteran, n_beginner, unfinis
     r_out = tmp_path / "r"
     r_out.mkdir()
     command = ["Rscript", str(REFERENCE), "study", str(tmp_path / "trials.csv"), str(tmp_path / "answers.csv"),
-               *SYSTEMS, str(r_out)]  # fmt: skip
+               *INTERACTIONS, str(r_out)]  # fmt: skip
     subprocess.run(command, check=True, capture_output=True, timeout=300)
     write_report(tmp_path / "trials.csv", tmp_path / "answers.csv", tmp_path / "ours")
     assert_study_matches(tmp_path / "ours", r_out)

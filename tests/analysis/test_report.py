@@ -23,7 +23,7 @@ from microg.analysis import (
     POSTHOC_COLUMNS,
     AnalysisInputError,
     analyse_study,
-    choose_systems,
+    choose_interactions,
 )
 from microg.analysis.report import render_html, write_report
 from microg.cli import main
@@ -50,9 +50,9 @@ def report_dir(tmp_path_factory) -> Path:
 def dropped_report(tmp_path_factory) -> Path:
     """A study of 12 V and 12 B where two V and one B participants miss a cell of each measure."""
     trials, answers = make_study(seed=7, n_veteran=12, n_beginner=12, unfinished=0)
-    missing = trials[(trials["stage"] == "stage1") & (trials["object"] == "cube")].drop_duplicates("participant")
+    missing = trials[(trials["phase"] == "stage1") & (trials["object"] == "cube")].drop_duplicates("participant")
     who = [*missing[missing["group"] == "V"]["participant"][:2], *missing[missing["group"] == "B"]["participant"][:1]]
-    holes = trials["participant"].isin(who) & (trials["stage"] == "stage1") & (trials["object"] == "cube")
+    holes = trials["participant"].isin(who) & (trials["phase"] == "stage1") & (trials["object"] == "cube")
     out = tmp_path_factory.mktemp("dropped")
     write_report(trials[~holes], answers, out)
     return out
@@ -60,7 +60,7 @@ def dropped_report(tmp_path_factory) -> Path:
 
 def test_every_table_matches_r(report_dir):
     """ANOVA (with ges, Huynh-Feldt, CI of partial eta squared), post hoc with CIs, simple effects and
-    their pairs, assumption checks, cell means, count models, system vs baseline with CIs, Likert."""
+    their pairs, assumption checks, cell means, count models, interaction vs baseline with CIs, Likert."""
     assert_study_matches(report_dir, STUDY)
 
 
@@ -80,8 +80,9 @@ def test_the_existing_columns_stay_first(report_dir, name):
 def test_report_is_one_self_contained_page_in_reading_order(report_dir):
     html = (report_dir / "report.html").read_text(encoding="utf-8")
     assert not re.search(r"""(src|href)=["'](?!data:)""", html), "the page must not load anything"
-    assert html.count("data:image/png;base64,") == 5  # 2 measures x 2 systems + ratings
-    order = ["Summary", "Results", "Methods", "Mixed ANOVA", "System vs baseline", "Questionnaire", "Figures"]
+    assert html.count("data:image/png;base64,") == 5  # 2 measures x 2 interactions + ratings
+    order = ["Summary", "Results", "Methods", "Mixed ANOVA", "Interaction model vs baseline", "Questionnaire",
+             "Figures"]
     positions = [html.index(f"<h2>{heading}") for heading in order]
     assert positions == sorted(positions)
     assert "CLAP" not in html
@@ -116,7 +117,7 @@ def test_markdown_holds_the_results_and_tables(report_dir):
     paragraph = re.search(r"Completion time \(s\) with soft_hand: N = 15 \(B: 8, V: 7\).*", markdown).group(0)
     assert paragraph.replace("'", "&#39;").replace("<", "&lt;") in html
     assert "| Effect         | SS" in markdown and "| group × object |" in markdown
-    assert "### System vs baseline (Table 1)" in markdown and "| System" in markdown
+    assert "### Interaction model vs baseline (Table 1)" in markdown and "| Interaction model" in markdown
 
 
 def test_report_lists_dropped_participants_and_warnings(report_dir):
@@ -132,26 +133,26 @@ def test_report_lists_dropped_participants_and_warnings(report_dir):
 
 
 def test_every_n_is_the_n_analysed(dropped_report):
-    """24 participants in the data; those of the system under test analyse 21 (V: 10, B: 11), the
+    """24 participants in the data; those of the interaction under test analyse 21 (V: 10, B: 11), the
     baseline's all 24: every N the report states is the N of its analysis, beside who was excluded
     and why, and the data's 24 appears only where it is labelled as such."""
     sample = pd.read_csv(dropped_report / "sample.csv", keep_default_na=False)
     assert sample.query("analysis == 'data'")["n"].sum() == 24
-    analysed = sample[sample["analysis"].isin(["ANOVA", "pairs"]) & (sample["system"] == "impulse_penetration")]
+    analysed = sample[sample["analysis"].isin(["ANOVA", "pairs"]) & (sample["interaction"] == "impulse_penetration")]
     assert (analysed.groupby(["analysis", "measure"])["n"].sum() == 21).all()
     html = (dropped_report / "report.html").read_text(encoding="utf-8")
     markdown = (dropped_report / "report.md").read_text(encoding="utf-8")
     for text in (html, markdown):
         paragraphs = re.findall(r"(?:Completion time \(s\)|Attempts \(drops\))[^.]*?: (N = .*?)[;.] ", text)
-        system_under_test = [p for p in re.findall(r"with impulse_penetration: (N = [^;.]*)", text)]
+        under_test = [p for p in re.findall(r"with impulse_penetration: (N = [^;.]*)", text)]
         baseline = re.findall(r"with soft_hand: (N = [^;.]*)", text)
         pairs = re.findall(r"vs soft_hand: (N = [^;.]*) pairs", text)
-        assert len(paragraphs) == 6 and len(system_under_test) == 2 and len(baseline) == 2 and len(pairs) == 2
-        assert set(system_under_test) | set(pairs) == {"N = 21 (B: 11, V: 10)"}
+        assert len(paragraphs) == 6 and len(under_test) == 2 and len(baseline) == 2 and len(pairs) == 2
+        assert set(under_test) | set(pairs) == {"N = 21 (B: 11, V: 10)"}
         assert set(baseline) == {"N = 24 (B: 12, V: 12)"}
         assert text.count("3 excluded") == 4 and "no time_s for object cube" in text
         assert re.search(r"in the data\s*(</td>\s*<td>|\|\s*)24 \(B: 12, V: 12\)", text)
-    table1 = html[html.index("<h2>System vs baseline") : html.index("<h2>Questionnaire")]
+    table1 = html[html.index("<h2>Interaction model vs baseline") : html.index("<h2>Questionnaire")]
     assert table1.count("<td>21</td>") == 2 * 2 + 2  # Table 1 (n per measure, both rows) and the t-tests
     legends = (dropped_report / "figures" / "bars_time_impulse_penetration.svg").read_text()
     assert "n = 10" in legends and "n = 11" in legends
@@ -160,24 +161,24 @@ def test_every_n_is_the_n_analysed(dropped_report):
 def test_labels_replace_codes_wherever_a_reader_sees_a_condition(tmp_path):
     trials, answers = pd.read_csv(TRIALS_CSV), pd.read_csv(ANSWERS_CSV)
     labels = {"impulse_penetration": "System 1", "soft_hand": "System 2"}
-    out = write_report(trials.assign(system_label=trials["system"].map(labels)),
-                       answers.assign(system_label=answers["system"].map(labels)), tmp_path)  # fmt: skip
+    out = write_report(trials.assign(interaction_label=trials["interaction"].map(labels)),
+                       answers.assign(interaction_label=answers["interaction"].map(labels)), tmp_path)  # fmt: skip
     html = out.read_text(encoding="utf-8")
     reader = re.sub(r"figures/\S+", "", html[html.index("<h2>Results") :])  # file names keep the codes
     assert "impulse_penetration" not in reader and "soft_hand" not in reader
     assert "Completion time (s) with System 1: N = 15" in reader and "System 1 vs System 2" in reader
     summary = html[: html.index("<h2>Results")]
-    assert "System 1 (system under test): impulse_penetration" in summary
-    assert set(pd.read_csv(tmp_path / "systems.csv")["system"]) == {"impulse_penetration"}
-    assert pd.read_csv(tmp_path / "conditions.csv").set_index("system")["label"].to_dict() == labels
+    assert "System 1 (interaction model under test): impulse_penetration" in summary
+    assert set(pd.read_csv(tmp_path / "interactions.csv")["interaction"]) == {"impulse_penetration"}
+    assert pd.read_csv(tmp_path / "conditions.csv").set_index("interaction")["label"].to_dict() == labels
     assert "System 1" in (tmp_path / "report.md").read_text(encoding="utf-8")
 
 
 def test_a_measure_without_variation_is_reported_not_a_traceback(tmp_path):
-    """Nobody dropped anything with the system under test: F = 0 and p = 1 in the tables, and the
+    """Nobody dropped anything with the interaction under test: F = 0 and p = 1 in the tables, and the
     Results say there is nothing to test; the count model says it has nothing to model."""
     trials = pd.read_csv(TRIALS_CSV)
-    trials.loc[trials["system"] == "impulse_penetration", "attempts"] = 0
+    trials.loc[trials["interaction"] == "impulse_penetration", "attempts"] = 0
     trials.to_csv(tmp_path / "trials.csv", index=False)
     result = CliRunner().invoke(
         main, ["report", "--trials", str(tmp_path / "trials.csv"), "--out", str(tmp_path / "r")]
@@ -210,13 +211,13 @@ def test_simulated_ratings_are_announced_in_the_likert_section():
     assert "Simulated data:" not in html  # no simulated trials
 
 
-def test_system_choice():
-    assert choose_systems(["soft_hand", "impulse_penetration"], None, None) == ("impulse_penetration", "soft_hand")
-    assert choose_systems(["a", "b", "c"], None, None) == ("a", "b")
-    assert choose_systems(["a", "b", "c"], "c", None) == ("c", "a")
-    assert choose_systems(["penetration_only"], None, None) == ("penetration_only", None)
-    with pytest.raises(AnalysisInputError, match=r"column 'system' has no value 'clap'"):
-        choose_systems(["a", "b"], None, "clap")
+def test_interaction_choice():
+    assert choose_interactions(["soft_hand", "impulse_penetration"], None, None) == ("impulse_penetration", "soft_hand")
+    assert choose_interactions(["a", "b", "c"], None, None) == ("a", "b")
+    assert choose_interactions(["a", "b", "c"], "c", None) == ("c", "a")
+    assert choose_interactions(["penetration_only"], None, None) == ("penetration_only", None)
+    with pytest.raises(AnalysisInputError, match=r"column 'interaction' has no value 'clap'"):
+        choose_interactions(["a", "b"], None, "clap")
 
 
 def test_withdrawn_participants_are_left_out_and_listed():
@@ -233,7 +234,7 @@ def test_withdrawn_participants_are_left_out_and_listed():
 
 def test_far_from_normal_paired_differences_are_warned_about():
     trials = pd.read_csv(TRIALS_CSV)
-    slow = (trials["participant"] == trials["participant"].iloc[0]) & (trials["system"] == "soft_hand")
+    slow = (trials["participant"] == trials["participant"].iloc[0]) & (trials["interaction"] == "soft_hand")
     trials.loc[slow, "time_s"] *= 8  # one participant far slower with the baseline
     analysis = analyse_study(trials)
     p_shapiro = analysis.comparison.set_index("measure").loc["time_s", "p_shapiro"]
@@ -241,11 +242,12 @@ def test_far_from_normal_paired_differences_are_warned_about():
     assert any("time_s (impulse_penetration - soft_hand) are far from normal" in w for w in analysis.warnings)
 
 
-def test_a_system_without_a_within_design_is_reported_not_fatal():
+def test_an_interaction_without_a_within_design_is_reported_not_fatal():
     trials = pd.read_csv(TRIALS_CSV)
-    extra = trials[(trials["system"] == "soft_hand") & (trials["object"] == "cube")].assign(system="penetration_only")
+    extra = trials[(trials["interaction"] == "soft_hand") & (trials["object"] == "cube")]
+    extra = extra.assign(interaction="penetration_only")
     analysis = analyse_study(pd.concat([trials, extra]))
-    assert analysis.systems == ("impulse_penetration", "soft_hand", "penetration_only")
+    assert analysis.interactions == ("impulse_penetration", "soft_hand", "penetration_only")
     assert ("penetration_only", "time_s") not in analysis.analysed()
     assert any(w.startswith("No time_s ANOVA for penetration_only") and "1 level(s) of column 'object'" in w
                for w in analysis.warnings)  # fmt: skip

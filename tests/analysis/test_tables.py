@@ -19,7 +19,7 @@ from microg.analysis import (
     read_questionnaire,
     read_trials,
 )
-from microg.analysis.tables import exclude_stages
+from microg.analysis.tables import exclude_phases
 from microg.cli import main
 from tests.analysis.study_data import make_study
 
@@ -115,7 +115,7 @@ def test_parquet_and_csv_read_the_same(tmp_path, study):
     study[0].to_parquet(tmp_path / "trials.parquet")
     from_parquet = read_trials(tmp_path / "trials.parquet")
     from_csv = read_trials(_write(tmp_path, study[0], "trials.csv"))
-    columns = ["participant", "group", "system", "object", "time_s", "attempts", "completed"]
+    columns = ["participant", "group", "interaction", "object", "time_s", "attempts", "completed"]
     pd.testing.assert_frame_equal(from_parquet[columns], from_csv[columns], check_dtype=False)
 
 
@@ -133,7 +133,7 @@ def test_cells_use_completed_times_and_all_attempts():
         {
             "participant": ["p1"] * 3,
             "group": ["V"] * 3,
-            "system": ["s"] * 3,
+            "interaction": ["s"] * 3,
             "object": ["cube"] * 3,
             "completed": [True, False, True],
             "time_s": [10.0, np.nan, 20.0],
@@ -163,10 +163,10 @@ def test_complete_cases_lists_who_was_dropped_and_why():
 
 def test_training_trials_are_left_out(study):
     trials = study[0]
-    assert (trials["stage"] == "training").any()
-    kept = exclude_stages(trials, ["training"])
-    assert not (kept["stage"] == "training").any()
-    assert len(kept) == int((trials["stage"] != "training").sum())
+    assert (trials["phase"] == "training").any()
+    kept = exclude_phases(trials, ["training"])
+    assert not (kept["phase"] == "training").any()
+    assert len(kept) == int((trials["phase"] != "training").sum())
 
 
 @pytest.mark.parametrize("value, what", [(np.inf, "inf is not finite"), (-np.inf, "-inf is not finite"),
@@ -210,11 +210,11 @@ def test_wrong_types_are_refused(tmp_path, study):
         read_trials(not_a_table)
 
 
-def test_a_system_with_two_labels_is_refused(study):
-    trials = study[0].assign(system_label=np.where(study[0]["system"] == "soft_hand", "System 2", "System 1"))
-    trials.loc[3, "system_label"] = "System 3"
+def test_an_interaction_with_two_labels_is_refused(study):
+    trials = study[0].assign(interaction_label=np.where(study[0]["interaction"] == "soft_hand", "System 2", "System 1"))
+    trials.loc[3, "interaction_label"] = "System 3"
     with pytest.raises(
-        AnalysisInputError, match=r"system '.*' has 'System \d' and 'System 3' in column 'system_label'"
+        AnalysisInputError, match=r"interaction '.*' has 'System \d' and 'System 3' in column 'interaction_label'"
     ):
         analyse_study(trials)
 
@@ -226,11 +226,11 @@ def test_any_tidy_table_works_with_its_own_column_names(study):
         "participant": "pid",
         "group": "cohort",
         "object": "shape",
-        "system": "tool",
+        "interaction": "tool",
         "time_s": "duration",
         "attempts": "errors",
         "completed": "done",
-        "stage": "phase",
+        "phase": "block",
         "item": "question",
         "rating": "score",
     }
@@ -240,11 +240,11 @@ def test_any_tidy_table_works_with_its_own_column_names(study):
         subject="pid",
         group="cohort",
         within="shape",
-        system_column="tool",
+        interaction_column="tool",
         dv=["duration", "errors"],
         counts=["errors"],
         completed="done",
-        stage="phase",
+        phase="block",
         item="question",
         rating="score",
     )
@@ -276,7 +276,7 @@ def test_cli_takes_column_names_as_options_and_from_a_file(tmp_path, study):
     result = CliRunner().invoke(main, ["report", "--trials", str(path), "--columns", str(mapping), "--out",
                                        str(tmp_path / "b")])  # fmt: skip
     assert result.exit_code == 0, result.output
-    for name in ("anova_rt.csv", "anova_errors_soft_hand.csv", "count_model.csv", "systems.csv"):
+    for name in ("anova_rt.csv", "anova_errors_soft_hand.csv", "count_model.csv", "interactions.csv"):
         pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "a" / name), pd.read_csv(tmp_path / "b" / name))
     assert set(pd.read_csv(tmp_path / "a" / "count_model.csv")["measure"]) == {"errors"}
     plain = analyse_study(study[0])

@@ -49,7 +49,7 @@ def test_any_typed_answer_is_a_rating_on_the_scale_or_a_clear_error(text, low, s
         assert low <= rating <= low + span
 
 
-TRIALS = ["participant", "group", "system", "object", "time_s", "attempts", "completed", "stage"]
+TRIALS = ["participant", "group", "interaction", "object", "time_s", "attempts", "completed", "phase"]
 cells = st.one_of(st.sampled_from(["", "P1", "V", "B", "cube", "nan", "inf", "-1", "0", "3.5", "true", "x,y", '"']),
                   st.text(max_size=5), st.floats().map(repr), st.integers(-5, 5).map(str))
 

@@ -47,23 +47,23 @@ def test_exact_run_writes_table_curve_and_summary(effects_file, design, tmp_path
     assert "sphericity assumed" in result.output
 
 
-def test_the_system_comparison_as_the_within_factor(tmp_path):
+def test_the_interaction_comparison_as_the_within_factor(tmp_path):
     path = tmp_path / "effects.toml"
     means = {"veteran": {"impulse_penetration": 20.0, "soft_hand": 35.0},
              "beginner": {"impulse_penetration": 22.0, "soft_hand": 40.0}}  # fmt: skip
     path.write_text(effects_text(means, 12.0, 0.3))
     out = tmp_path / "out"
-    result = CliRunner().invoke(main, ["power", "--within", "system", "--effects", str(path), "--n", "5",
+    result = CliRunner().invoke(main, ["power", "--within", "interaction", "--effects", str(path), "--n", "5",
                                        "--out", str(out)])  # fmt: skip
     assert result.exit_code == 0, result.output
     table = pd.read_csv(out / "power.csv").set_index("term")["power"]
     closed = compound_symmetry_power(np.array([[20.0, 35.0], [22.0, 40.0]]), 12.0, 0.3, 5, 0.05)
-    assert table["system"] == pytest.approx(closed["within"], abs=1e-6)
-    assert table["group:system"] == pytest.approx(closed["interaction"], abs=1e-6)
+    assert table["interaction"] == pytest.approx(closed["within"], abs=1e-6)
+    assert table["group:interaction"] == pytest.approx(closed["interaction"], abs=1e-6)
     assert "impulse_penetration - soft_hand | veteran" in table.index
 
 
-def test_an_object_name_of_the_other_factor_is_refused_for_the_system_design(effects_file, tmp_path):
-    result = CliRunner().invoke(main, ["power", "--within", "system", "--effects", str(effects_file),
+def test_an_object_name_of_the_other_factor_is_refused_for_the_interaction_design(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--within", "interaction", "--effects", str(effects_file),
                                        "--out", str(tmp_path)])  # fmt: skip
-    assert result.exit_code == 1 and "means.veteran.cube = 45.0: no system 'cube'" in result.output
+    assert result.exit_code == 1 and "means.veteran.cube = 45.0: no interaction 'cube'" in result.output

@@ -15,8 +15,8 @@ CODES = {"C": "cube", "F": "flat_cuboid", "L": "long_cuboid"}
 
 
 def pilot_trials(seed: int = 2) -> tuple[pd.DataFrame, dict]:
-    """An exported trials table: 6 veterans and 7 beginners, one stage-1 task per object each, plus
-    rows the estimate must ignore (training, stage 2, a withdrawn participant) and a participant
+    """An exported trials table: 6 veterans and 7 beginners, one stage1 task per object each, plus
+    rows the estimate must ignore (training, stage2, a withdrawn participant) and a participant
     whose cube task was not completed (left out of time, kept for attempts). Returns the table and
     each group's intended (participants x objects) times."""
     rng = np.random.default_rng(seed)
@@ -39,7 +39,7 @@ def pilot_trials(seed: int = 2) -> tuple[pd.DataFrame, dict]:
         rows.append(("P90", "B", "stage1", "impulse_penetration", code, True, 5000.0, 0, True))
     for code, time_s in zip(CODES, (np.nan, 60.0, 70.0)):  # cube not completed: no time
         rows.append(("P91", "V", "stage1", "impulse_penetration", code, code != "C", time_s, 3, False))
-    columns = ["participant", "group", "stage", "system", "object", "completed", "time_s", "attempts", "withdrawn"]
+    columns = ["participant", "group", "phase", "interaction", "object", "completed", "time_s", "attempts", "withdrawn"]
     return pd.DataFrame(rows, columns=columns), {g: np.array(v) for g, v in intended.items()}
 
 
@@ -68,23 +68,23 @@ def test_attempts_count_every_task(tmp_path, design):
     trials.to_csv(path, index=False)
     estimate = pilot_effects(path, design, measure="attempts")
     assert list(estimate.cells["n"]) == [7, 7, 7, 7, 7, 7]  # P91 counts: its drops count, finished or not
-    counted = trials[(trials["stage"] == "stage1") & ~trials["withdrawn"]]
+    counted = trials[(trials["phase"] == "stage1") & ~trials["withdrawn"]]
     means = counted.groupby(["group", "object"])["attempts"].mean()
     assert np.allclose(estimate.effects.means, [[means[g, c] for c in CODES] for g in "VB"], atol=1e-12)
 
 
-def test_the_system_design_reads_each_participants_mean_over_objects(tmp_path):
+def test_the_interaction_design_reads_each_participants_mean_over_objects(tmp_path):
     from microg.paths import protocol_file
     from microg.power import design_from_protocol
     from microg.study.protocol import load_protocol
 
-    design = design_from_protocol(load_protocol(protocol_file("paper")), within="system")
+    design = design_from_protocol(load_protocol(protocol_file("paper")), within="interaction")
     trials, _ = pilot_trials()
     path = tmp_path / "trials.csv"
     trials.to_csv(path, index=False)
     estimate = pilot_effects(path, design)
-    both = trials[trials["stage"].isin(["stage1", "stage2"]) & ~trials["participant"].isin(["P90", "P91"])]
-    wide = both.groupby(["group", "participant", "system"])["time_s"].mean().unstack("system")
+    both = trials[trials["phase"].isin(["stage1", "stage2"]) & ~trials["participant"].isin(["P90", "P91"])]
+    wide = both.groupby(["group", "participant", "interaction"])["time_s"].mean().unstack("interaction")
     wide = wide[["impulse_penetration", "soft_hand"]]
     groups = {g: wide.loc[g].to_numpy() for g in "VB"}
     pooled = sum((len(v) - 1) * np.cov(v, rowvar=False) for v in groups.values()) / (len(wide) - 2)
@@ -97,7 +97,7 @@ def test_the_cli_shows_the_estimates_and_writes_an_effects_file_that_reads_back(
     export = tmp_path / "export"
     export.mkdir()
     trials.to_csv(export / "trials.csv", index=False)
-    pd.DataFrame(columns=["participant", "group", "system", "item", "rating"]).to_csv(export / "questionnaire.csv",
+    pd.DataFrame(columns=["participant", "group", "interaction", "item", "rating"]).to_csv(export / "questionnaire.csv",
                                                                                         index=False)  # fmt: skip
     out = tmp_path / "out"
     result = CliRunner().invoke(main, ["power", "--pilot", str(export), "--n", "10,20", "--out", str(out)])

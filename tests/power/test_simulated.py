@@ -41,7 +41,7 @@ def test_simulated_studies_on_a_local_cluster(tmp_path):
     assert trials["simulated"].all() and trials["participant"].nunique() == 4
     names = {o.code: o.name for o in protocol.objects}
     groups = {g.code: g.name for g in protocol.groups}
-    stage1 = trials[(trials["stage"] == "stage1") & trials["completed"]]
+    stage1 = trials[(trials["phase"] == "stage1") & trials["completed"]]
     cells = pd.DataFrame({"participant": stage1["participant"], "group": stage1["group"].map(groups),
                           "object": stage1["object"].map(names), "value": stage1["time_s"].astype(float)})  # fmt: skip
     with warnings.catch_warnings():

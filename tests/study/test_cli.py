@@ -45,8 +45,8 @@ def test_a_researcher_creates_a_study_runs_a_replayed_session_and_exports_it(tmp
     assert result.exit_code == 0, result.output
     assert "'abc' is not a whole number" in result.output and "11 is off the scale" in result.output
     trials, questionnaire = read_tables(study)
-    stages = trials[trials.stage != "training"]
-    assert stages.completed.all() and not trials.simulated.any()
+    tasks = trials[trials.phase != "training"]
+    assert tasks.completed.all() and not trials.simulated.any()
     assert sorted(questionnaire.rating) == [5, 6, 7, 8] and (questionnaire.source == "participant").all()
     with open_study(study) as store:
         rejected = [e.data["answer"] for e in store.events(store.session_of("P01").id) if e.kind == "answer_rejected"]

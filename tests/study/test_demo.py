@@ -14,7 +14,7 @@ from .conftest import PROTOCOLS
 
 pytestmark = pytest.mark.slow
 
-REPORT_TABLES = ("anova_time.csv", "anova_attempts.csv", "posthoc_time.csv", "posthoc_attempts.csv", "systems.csv",
+REPORT_TABLES = ("anova_time.csv", "anova_attempts.csv", "posthoc_time.csv", "posthoc_attempts.csv", "interactions.csv",
                  "likert.csv")
 
 
@@ -53,26 +53,26 @@ def test_every_report_table_and_section_is_there(demo):
 def test_tables_agree_with_the_store(demo):
     out, _ = demo
     db = sqlite3.connect(out / "a" / "study" / "study.db")
-    runs = pd.read_sql("""SELECT r.session_id, r.task_index, r.status, r.time_s, r.attempts, t.system, t.phase,
+    runs = pd.read_sql("""SELECT r.session_id, r.task_index, r.status, r.time_s, r.attempts, t.interaction, t.phase,
                                  t.object_code AS object, s.participant_id AS participant
                           FROM task_runs r JOIN tasks t ON t.session_id = r.session_id AND t.task_index = r.task_index
                           JOIN sessions s ON s.id = r.session_id""", db)
     trials = pd.read_csv(out / "a" / "tables" / "trials.csv")
     assert len(trials) == len(runs) and set(trials.participant) == set(runs.participant)
     # Table 1 recomputed from the store: each participant's mean over the three objects (those with
-    # all three in both systems: completed tasks for time, every task with a count for attempts),
+    # all three in both interactions: completed tasks for time, every task with a count for attempts),
     # then the mean over participants
     tested = runs[runs.phase != "training"]
     usable = {"time_s": tested[tested.status == "completed"], "attempts": tested[tested.attempts.notna()]}
-    table = pd.read_csv(out / "a" / "report" / "systems.csv").set_index("measure")
+    table = pd.read_csv(out / "a" / "report" / "interactions.csv").set_index("measure")
     assert "attempts" in table.index
     for measure, row in table.iterrows():
         rows = usable[measure]
-        complete = (rows.groupby(["participant", "system"]).object.nunique().unstack() == 3).all(axis=1)
+        complete = (rows.groupby(["participant", "interaction"]).object.nunique().unstack() == 3).all(axis=1)
         paired = rows[rows.participant.isin(complete[complete].index)]
-        means = paired.groupby(["system", "participant"])[measure].mean().groupby("system").mean()
-        assert (row["system"], row["baseline"], row["n"]) == ("impulse_penetration", "soft_hand", complete.sum())
-        assert row["mean_system"] == pytest.approx(means["impulse_penetration"], rel=1e-9, abs=1e-12)
+        means = paired.groupby(["interaction", "participant"])[measure].mean().groupby("interaction").mean()
+        assert (row["interaction"], row["baseline"], row["n"]) == ("impulse_penetration", "soft_hand", complete.sum())
+        assert row["mean_interaction"] == pytest.approx(means["impulse_penetration"], rel=1e-9, abs=1e-12)
         assert row["mean_baseline"] == pytest.approx(means["soft_hand"], rel=1e-9, abs=1e-12)
     answers = pd.read_sql("SELECT * FROM answers", db)
     questionnaire = pd.read_csv(out / "a" / "tables" / "questionnaire.csv")

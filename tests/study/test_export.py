@@ -17,9 +17,9 @@ from microg.study.store import create_study
 
 from .conftest import PROTOCOLS, answers, scripted_inputs
 
-SPEC_TRIALS = ["study", "participant", "group", "gender", "age", "handedness", "mr_experience", "stage", "system",
+SPEC_TRIALS = ["study", "participant", "group", "gender", "age", "handedness", "mr_experience", "phase", "interaction",
                "object", "order_position", "completed", "time_s", "attempts", "started_at", "ended_at"]
-SPEC_QUESTIONNAIRE = ["participant", "group", "system", "item", "rating"]
+SPEC_QUESTIONNAIRE = ["participant", "group", "interaction", "item", "rating"]
 
 
 @pytest.fixture(scope="module")
@@ -39,15 +39,15 @@ def test_the_trials_table_has_the_tidy_schema(study):
     trials, questionnaire = read_tables(store.dir)
     assert trials.columns[:len(SPEC_TRIALS)].tolist() == SPEC_TRIALS
     assert {"simulated", "status"} <= set(trials.columns)
-    stage_rows = trials[trials.stage != "training"]
-    assert stage_rows[["stage", "system", "object"]].values.tolist() == [
+    phase_rows = trials[trials.phase != "training"]
+    assert phase_rows[["phase", "interaction", "object"]].values.tolist() == [
         ["stage1", "impulse_penetration", "C"], ["stage2", "soft_hand", "C"]]
     assert (trials.participant == "P01").all() and (trials.group == record.group).all()
     assert trials.simulated.all() and trials.completed.all()
     assert trials.time_s.dtype == np.float64 and str(trials.attempts.dtype) == "Int64"
     assert (trials.ended_at - trials.started_at >= trials.time_s).all()
     assert set(SPEC_QUESTIONNAIRE) <= set(questionnaire.columns) and "simulated" in questionnaire.columns
-    assert len(questionnaire) == 4 and questionnaire.rating.tolist() == [6, 7, 4, 3]  # sorted by system, item
+    assert len(questionnaire) == 4 and questionnaire.rating.tolist() == [6, 7, 4, 3]  # sorted by interaction, item
 
 
 def test_csv_and_parquet_exports_read_back_as_the_same_tables(study, tmp_path):

@@ -29,8 +29,9 @@ def test_the_paper_protocol_states_the_papers_study():
     assert p.order == "latin_square"
     assert p.task.hold_s == 3.0 and len(p.task.places) == 3
     assert p.gravity == (0.0, -9.81, 0.0)
-    assert [(s.name, s.system) for s in p.stages] == [("stage1", "impulse_penetration"), ("stage2", "soft_hand")]
-    assert p.training.groups == ("V",) and p.training.system == "impulse_penetration"
+    assert [(s.name, s.interaction) for s in p.phases] == [("stage1", "impulse_penetration"), ("stage2", "soft_hand")]
+    assert p.interactions == ("impulse_penetration", "soft_hand")
+    assert p.training.groups == ("V",) and p.training.interaction == "impulse_penetration"
     q = p.questionnaire
     assert (q.scale_min, q.scale_max) == (0, 10)
     assert {i.name: (i.question, i.low, i.high) for i in q.items} == PAPER_ITEMS
@@ -68,7 +69,7 @@ BAD = [
     # (replace this, with this, the message must contain these)
     ("hold_s = 3.0", "hold_s = -3", ["task.hold_s", "-3", "positive"]),
     ("hold_s = 3.0", 'hold_s = "three"', ["task.hold_s", "'three'"]),
-    ('system = "soft_hand"', 'system = "clap"', ["stages[1].system", "'clap'", "impulse_penetration"]),
+    ('interaction = "soft_hand"', 'interaction = "clap"', ["phases[1].interaction", "'clap'", "impulse_penetration"]),
     ("size = 15\ntraining = false", "size = 14\ntraining = false", ["participants.total", "30", "add up to 29"]),
     ('order = "latin_square"', 'order = "random"', ["objects.order", "'random'", "permutation"]),
     ("place_radius = 0.04", "place_radius = 0.04\nplace_radiuss = 0.05", ["unknown key task.place_radiuss"]),
@@ -84,10 +85,10 @@ BAD = [
     ("age_range = [18, 30]", "age_range = [30, 18]", ["participants.age_range", "[30, 18]"]),
     ('name = "paper"\n', "", ["missing key name"]),
     ("hold_s = 3.0", "hold_s = 3.0 3", ["not valid TOML"]),
-    ('system = "soft_hand"', 'system = "impulse_penetration"',
-     ["stages[1].system", "'impulse_penetration'", "stages[0] runs this system already"]),
-    ('label = "System 2"', 'label = "System 1"', ["stages", "'System 1'", "appears twice"]),
-    ('name = "stage1"', 'name = "stäge1"', ["stages[0].name", "'stäge1'", "ASCII letters and digits"]),
+    ('interaction = "soft_hand"', 'interaction = "impulse_penetration"',
+     ["phases[1].interaction", "'impulse_penetration'", "phases[0] runs this interaction model already"]),
+    ('label = "System 2"', 'label = "System 1"', ["phases", "'System 1'", "appears twice"]),
+    ('name = "stage1"', 'name = "stäge1"', ["phases[0].name", "'stäge1'", "ASCII letters and digits"]),
     ('name = "efficiency"', 'name = "Naturalness"', ["questionnaire.items", "'naturalness'", "appears twice"]),
     ('code = "B"', 'code = "v"', ["groups", "['V', 'v']", "appears twice"]),
     ("table_height = 0.15", "table_height = 0.59",
@@ -97,6 +98,24 @@ BAD = [
     ("tracking_rate = 110.0", 'tracking_rate = "fast"', ["tracking_rate = 'fast'", "positive number"]),
     ("grasp_settle_s = 0.1", "grasp_settle_s = -0.1", ["task.grasp_settle_s", "-0.1", "non-negative"]),
 ]
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("[[phases]]", "[[stages]]", ["`[[stages]]` is now `[[phases]]`"]),
+    ('interaction = "soft_hand"', 'system = "soft_hand"', ["phases[1].system is now phases[1].interaction"]),
+    ('groups = ["V"]\ninteraction =', 'groups = ["V"]\nsystem =', ["training.system is now training.interaction"]),
+], ids=["stages", "phase system", "training system"])
+def test_an_older_protocol_is_told_what_its_keys_became(tmp_path, old, new, expected):
+    """Issue 12: ``[[stages]]`` became ``[[phases]]`` and ``system`` became ``interaction``; a file
+    written before says so, naming the file."""
+    path = tmp_path / "old.toml"
+    path.write_text(PAPER.read_text().replace(old, new))
+    with pytest.raises(ProtocolError) as error:
+        load_protocol(path)
+    message = str(error.value)
+    assert message.startswith(str(path)), message
+    for part in expected:
+        assert part in message, (part, message)
 
 
 @pytest.mark.parametrize("old, new, expected", BAD, ids=[b[2][0] for b in BAD])
@@ -204,7 +223,7 @@ def test_each_section_has_its_reader_and_valid_protocols_read_as_before():
     from microg.study import protocol as module
 
     readers = [name for name in dir(module) if name.startswith("_read_") and name not in ("_read_text", "_read_toml")]
-    assert {"_read_scene", "_read_participants", "_read_groups", "_read_objects", "_read_task", "_read_stages",
+    assert {"_read_scene", "_read_participants", "_read_groups", "_read_objects", "_read_task", "_read_phases",
             "_read_training", "_read_questionnaire", "_read_timeline", "_read_display", "_read_dataset"} <= set(readers)
     import inspect
     assert all(len(inspect.getsource(getattr(module, name)).splitlines()) <= 45 for name in readers)

@@ -33,10 +33,10 @@ def test_the_terminal_asks_the_papers_question_and_asks_again_until_the_answer_i
     feed = iter(["", "ten", "10.0", "11", " 8 "])
     shown, prompts, rejected = [], [], []
     rater = TerminalRater(read=lambda prompt: prompts.append(prompt) or next(feed), write=shown.append,
-                          on_rejected=lambda item, stage, text, message: rejected.append(text))
+                          on_rejected=lambda item, phase, text, message: rejected.append(text))
     item = PROTOCOL.questionnaire.items[0]
-    stage = PROTOCOL.stages[1]
-    assert rater.rate(item, stage, PROTOCOL.questionnaire) == 8
+    phase = PROTOCOL.phases[1]
+    assert rater.rate(item, phase, PROTOCOL.questionnaire) == 8
     assert shown[0] == ("System 2: How natural did the sensation of the average task completion experience feel?\n"
                         "  (0: Extremely unnatural, 10: Extremely natural)")
     assert len(prompts) == 5 and all(p == "Rating (0-10): " for p in prompts)

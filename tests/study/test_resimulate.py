@@ -11,7 +11,7 @@ from microg.study.store import open_study
 
 from .conftest import PROTOCOLS
 
-COLUMNS = ["participant", "stage", "system", "object", "status", "completed", "time_s", "attempts"]
+COLUMNS = ["participant", "phase", "interaction", "object", "status", "completed", "time_s", "attempts"]
 
 
 def run(*args):
@@ -38,7 +38,7 @@ def test_the_same_model_reproduces_the_trials_and_another_gives_a_separate_marke
     other = study / "resimulated" / "soft_hand"
     assert str(other) in output
     moved = read_tables(other)[0]
-    assert set(moved.system) == {"soft_hand"} and len(moved) == len(original)
+    assert set(moved.interaction) == {"soft_hand"} and len(moved) == len(original)
     with open_study(other, readonly=True) as store:
         assert store.name == "tiny-soft_hand" and "re-simulated: soft_hand" in store.protocol.title
         session = store.session_of("P01")

@@ -79,6 +79,27 @@ def test_another_sqlite_database_is_not_taken_for_a_study(tmp_path):
     assert result.exit_code == 1 and "a SQLite database but not a microg study" in result.output
 
 
+def test_a_study_of_an_older_schema_is_refused_naming_both_versions(make_study):
+    """Issue 12 renamed the store's columns (``tasks.system`` and ``answers.system`` became
+    ``interaction``): a study written before is refused with the versions, and is left as it was."""
+    store, _ = make_study("tiny")
+    store.close()
+    database = store.dir / "study.db"
+    with sqlite3.connect(database) as db:
+        db.execute("DROP TRIGGER study_no_update")
+        db.execute("UPDATE study SET schema_version = 3")
+    db.close()
+    before = digest(database)
+    for verb in (["study", "status"], ["export"], ["report"]):
+        result = cli(*verb, store.dir, *(["--out", store.dir.parent / "report"] if verb == ["report"] else []))
+        assert result.exit_code == 1, (verb, result.output)
+        assert "schema version 3, this microg" in result.output and f"reads {store_module.SCHEMA_VERSION}" in \
+            result.output, (verb, result.output)
+    assert digest(database) == before
+    with pytest.raises(StoreError, match="schema version 3"):
+        open_study(store.dir)
+
+
 def test_study_status_and_check_never_write_into_the_study(make_study):
     store, _ = make_study("tiny")
     store.create_session("P01", "scripted", True, "simulation")

@@ -51,7 +51,7 @@ def session_in_background(folder: Path, pace: float) -> threading.Thread:
 
 @pytest.fixture(scope="package")
 def logged_study(tmp_path_factory) -> Path:
-    """A finished session: stage 1 and stage 2 with the cube, both completed without a drop."""
+    """A finished session: the phases stage1 and stage2 with the cube, both completed without a drop."""
     folder = new_study(tmp_path_factory.mktemp("view") / "study")
     run_scripted(folder)
     return folder

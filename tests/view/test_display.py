@@ -37,7 +37,7 @@ def session_with_display(folder, display: ParticipantDisplay) -> threading.Threa
         with open_study(folder) as store:
             session = store.create_session("P01", "scripted", True, "simulation")
 
-            def rejected(item, stage, text, message):
+            def rejected(item, phase, text, message):
                 store.log(session.id, [Event(0.0, "answer_rejected", {"item": item.name, "answer": text})])
 
             run_session(store, session.id, PacedInputs(scripted_inputs(), speed=1.0), clock=SimulationClock(),

@@ -179,7 +179,7 @@ def play(driver, keys: list[dict]) -> None:
 
 
 class StageOneOnly:
-    """The researcher runs the first stage's cube only (training and stage 2 skipped)."""
+    """The researcher runs the first phase's cube only (training and stage2 skipped)."""
 
     def show(self, phase) -> None:
         pass
@@ -213,7 +213,7 @@ def session_in_background(folder, display: ParticipantDisplay, failures: list) -
                 clock = WallClock()
                 display.on_event = _event_logger(store, session.id, clock)
 
-                def rejected(item, stage, text, message):
+                def rejected(item, phase, text, message):
                     store.log(session.id, [Event(clock.now(), "answer_rejected", {"answer": text})])
 
                 try:
@@ -313,7 +313,7 @@ def test_a_headset_hand_places_the_workspace_carries_the_cube_through_the_places
     out = tmp_path / "export"
     export_study(folder, out, progress=False, say=lambda text: None)
     trials, answers = read_tables(out)
-    row = trials[(trials["participant"] == "P01") & (trials["stage"] == "stage1")]
+    row = trials[(trials["participant"] == "P01") & (trials["phase"] == "stage1")]
     assert list(row["status"]) == ["completed"] and len(answers) == 4
     with open_study(folder) as store:
         assert len(run_frames(store, cube.id)) == len(frames)

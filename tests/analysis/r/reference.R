@@ -8,10 +8,10 @@
 #     simple effects (emmeans joint_tests by BETWEEN) -> OUT_PREFIX_simple_effects.csv, their pairs
 #     -> OUT_PREFIX_simple_pairs.csv; Levene, Box's M, Shapiro-Wilk of the residuals
 #     -> OUT_PREFIX_assumptions.csv; mean, SD, SE, n per cell -> OUT_PREFIX_cell_means.csv
-#   Rscript reference.R study TRIALS.csv QUESTIONNAIRE.csv SYSTEM BASELINE OUT_DIR
+#   Rscript reference.R study TRIALS.csv QUESTIONNAIRE.csv INTERACTION BASELINE OUT_DIR
 #     the whole analysis of a study export, following the rules in docs/analysis.md:
-#     <table>_<measure>_<system>.csv for each table above, count_model_attempts_<system>.csv
-#     (geepack), systems.csv, likert_summary.csv, likert_tests.csv
+#     <table>_<measure>_<interaction>.csv for each table above, count_model_attempts_<interaction>.csv
+#     (geepack), interactions.csv, likert_summary.csv, likert_tests.csv
 # Factor levels are R's sorted levels; contrasts are "A - B" in that order.
 # Confidence intervals of partial eta squared and d_z are computed twice: by inverting R's
 # noncentral F / t with uniroot (np2_ci_low ...; exact) and by effectsize (*_effectsize; its
@@ -180,22 +180,22 @@ signed_rank <- function(x, y) {
        rbc_ci_low = ci[1], rbc_ci_high = ci[2])
 }
 
-study_reference <- function(trials_file, answers_file, system, baseline, out) {
+study_reference <- function(trials_file, answers_file, interaction, baseline, out) {
   trials <- read.csv(trials_file, stringsAsFactors = FALSE)
-  trials <- trials[tolower(trials$stage) != "training", ]
+  trials <- trials[tolower(trials$phase) != "training", ]
   # time: completed tasks only; attempts: every task with a count; one value per cell = the mean
   rows <- list(time_s = trials[trials$completed %in% c(TRUE, "True", "true"), ],
                attempts = trials[!is.na(trials$attempts), ])
   cells <- lapply(names(rows), function(dv) {
     r <- rows[[dv]]
-    aggregate(r[dv], by = r[c("participant", "group", "system", "object")], FUN = mean)
+    aggregate(r[dv], by = r[c("participant", "group", "interaction", "object")], FUN = mean)
   })
   names(cells) <- names(rows)
   objects <- sort(unique(trials$object))
-  systems <- list()
+  interactions <- list()
   for (dv in names(cells)) {
-    for (s in sort(unique(trials$system))) {
-      c1 <- cells[[dv]][cells[[dv]]$system == s, ]
+    for (s in sort(unique(trials$interaction))) {
+      c1 <- cells[[dv]][cells[[dv]]$interaction == s, ]
       res <- mixed_reference(c1, dv, "object", "group", "participant", 3)
       for (table in names(res)) {
         write.csv(res[[table]], file.path(out, paste0(table, "_", dv, "_", s, ".csv")), row.names = FALSE)
@@ -203,13 +203,13 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
       if (dv == "attempts") {
         counts <- table(c1$participant)
         complete <- names(counts)[counts == length(objects)]
-        tasks <- rows[[dv]][rows[[dv]]$system == s & rows[[dv]]$participant %in% complete, ]
+        tasks <- rows[[dv]][rows[[dv]]$interaction == s & rows[[dv]]$participant %in% complete, ]
         write.csv(count_reference(tasks, dv, "object", "group", "participant"),
                   file.path(out, paste0("count_model_", dv, "_", s, ".csv")), row.names = FALSE)
       }
     }
-    means <- lapply(c(system, baseline), function(s) {
-      c1 <- cells[[dv]][cells[[dv]]$system == s, ]
+    means <- lapply(c(interaction, baseline), function(s) {
+      c1 <- cells[[dv]][cells[[dv]]$interaction == s, ]
       counts <- table(c1$participant)
       c1 <- c1[c1$participant %in% names(counts)[counts == length(objects)], ]
       tapply(c1[[dv]], c1$participant, mean)
@@ -220,9 +220,9 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
     sr <- signed_rank(x, y)
     dz <- cohens_d(x, y, paired = TRUE, ci = 0.95)
     dz_interval <- dz_ci(unname(tt$statistic), length(ids))
-    systems[[dv]] <- data.frame(
-      measure = dv, system = system, baseline = baseline, n = length(ids),
-      mean_system = mean(x), sd_system = sd(x), mean_baseline = mean(y), sd_baseline = sd(y),
+    interactions[[dv]] <- data.frame(
+      measure = dv, interaction = interaction, baseline = baseline, n = length(ids),
+      mean_interaction = mean(x), sd_interaction = sd(x), mean_baseline = mean(y), sd_baseline = sd(y),
       mean_diff = mean(x - y), T = unname(tt$statistic), dof = unname(tt$parameter), p_t = tt$p.value,
       cohen_d = mean(x - y) / sqrt((var(x) + var(y)) / 2),
       V = sr$V, p_wilcoxon = sr$p, rbc = sr$rbc, p_shapiro = shapiro.test(x - y)$p.value,
@@ -232,30 +232,30 @@ study_reference <- function(trials_file, answers_file, system, baseline, out) {
       rbc_ci_low = sr$rbc_ci_low, rbc_ci_high = sr$rbc_ci_high, n_nonzero = sr$n_nonzero)
     if (all(x != y)) {  # effectsize ranks zero differences its own way; compare it where there are none
       rb <- rank_biserial(x, y, paired = TRUE, ci = 0.95)
-      systems[[dv]]$rbc_effectsize <- rb$r_rank_biserial
-      systems[[dv]]$rbc_ci_low_effectsize <- rb$CI_low
-      systems[[dv]]$rbc_ci_high_effectsize <- rb$CI_high
+      interactions[[dv]]$rbc_effectsize <- rb$r_rank_biserial
+      interactions[[dv]]$rbc_ci_low_effectsize <- rb$CI_low
+      interactions[[dv]]$rbc_ci_high_effectsize <- rb$CI_high
     } else {
-      systems[[dv]][c("rbc_effectsize", "rbc_ci_low_effectsize", "rbc_ci_high_effectsize")] <- NA
+      interactions[[dv]][c("rbc_effectsize", "rbc_ci_low_effectsize", "rbc_ci_high_effectsize")] <- NA
     }
   }
-  write.csv(do.call(rbind, systems), file.path(out, "systems.csv"), row.names = FALSE)
+  write.csv(do.call(rbind, interactions), file.path(out, "interactions.csv"), row.names = FALSE)
 
   answers <- read.csv(answers_file, stringsAsFactors = FALSE)
   summary_rows <- list(); test_rows <- list()
   for (item in sort(unique(answers$item))) {
-    for (s in sort(unique(answers$system))) {
-      r <- answers$rating[answers$item == item & answers$system == s]
+    for (s in sort(unique(answers$interaction))) {
+      r <- answers$rating[answers$item == item & answers$interaction == s]
       q <- quantile(r, c(0.25, 0.5, 0.75), type = 7)
       summary_rows[[length(summary_rows) + 1]] <- data.frame(
-        item = item, system = s, n = length(r), median = median(r), q1 = q[[1]], q3 = q[[3]],
+        item = item, interaction = s, n = length(r), median = median(r), q1 = q[[1]], q3 = q[[3]],
         mean = mean(r), t(sapply(0:10, function(v) sum(r == v))))
     }
     a <- answers[answers$item == item, ]
-    x <- a[a$system == system, c("participant", "rating")]
-    y <- a[a$system == baseline, c("participant", "rating")]
-    pairs <- merge(x, y, by = "participant", suffixes = c("_system", "_baseline"))
-    sr <- signed_rank(pairs$rating_system, pairs$rating_baseline)
+    x <- a[a$interaction == interaction, c("participant", "rating")]
+    y <- a[a$interaction == baseline, c("participant", "rating")]
+    pairs <- merge(x, y, by = "participant", suffixes = c("_interaction", "_baseline"))
+    sr <- signed_rank(pairs$rating_interaction, pairs$rating_baseline)
     test_rows[[item]] <- data.frame(item = item, n = nrow(pairs), V = sr$V, p_unc = sr$p,
                                     z = sr$z, r = sr$r, rbc = sr$rbc, rbc_ci_low = sr$rbc_ci_low,
                                     rbc_ci_high = sr$rbc_ci_high)
@@ -277,5 +277,5 @@ if (length(args) == 8 && args[1] == "mixed") {
   study_reference(args[2], args[3], args[4], args[5], args[6])
 } else {
   stop("usage: reference.R mixed DATA DV WITHIN BETWEEN SUBJECT SS_TYPE OUT_PREFIX | ",
-       "reference.R study TRIALS QUESTIONNAIRE SYSTEM BASELINE OUT_DIR")
+       "reference.R study TRIALS QUESTIONNAIRE INTERACTION BASELINE OUT_DIR")
 }
