@@ -26,6 +26,10 @@ import numpy as np
 
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, HandFrame
 
+FILTER_WINDOW = 3
+"""F in Eq. 1, the frames the window filter averages: the paper found 3 best. A protocol may set
+another (``scene.filter_window``)."""
+
 
 def window_weights(times: list[float], period: float) -> list[float]:
     """Eq. 1 as weights on the samples that arrived at ``times`` (newest first): the least-squares

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from microg.hands.filter import HandFilter
+from microg.hands.filter import FILTER_WINDOW, HandFilter
 from microg.paths import object_file
 from microg.sim import INTERACTION_MODELS, HandFrame, PlacedObject, TableParameters, World, compose_scene, \
     load_object, make_world
@@ -32,8 +32,6 @@ EARTH = (0.0, -9.81, 0.0)
 ZERO_G = (0.0, 0.0, 0.0)
 START = (0.0, 0.20, 0.0)
 PLACES = ((0.10, 0.22, -0.04), (0.0, 0.26, -0.10), (-0.10, 0.22, -0.04))
-FILTER_WINDOW = 3
-"""Frames in the window filter (paper, Eq. 1), as the shipped protocols set it."""
 
 
 def bench_rules(time_limit_s: float = 120.0) -> TaskRules:

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microg.hands.filter import FILTER_WINDOW
 from microg.paths import OBJECTS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
@@ -43,8 +44,6 @@ BALANCING = ("gender", "none")
 SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_integrator", "resting_tolerance",
                  "jump_distance")
 """Physics settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
-FILTER_WINDOW = 3
-"""F in Eq. 1 unless the protocol's ``scene.filter_window`` says otherwise; the paper found 3 best."""
 LABEL = re.compile(r"[A-Za-z0-9]+")
 """What a name must be when it becomes a BIDS label or a file name part (ASCII letters and digits)."""
 

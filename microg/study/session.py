@@ -27,13 +27,13 @@ from typing import Callable, Protocol as Interface
 
 from tqdm import tqdm
 
-from microg.hands.filter import HandFilter
+from microg.hands.filter import FILTER_WINDOW, HandFilter
 from microg.sim import Scene, World, make_world
 from microg.task import COMPLETED, Moment, TaskRules, TaskState, play
 
 from . import framelog
 from .inputs import Inputs, participant_plan
-from .protocol import FILTER_WINDOW, Phase, Protocol
+from .protocol import Phase, Protocol
 from .questionnaire import Rater
 from .store import Event, PlannedTask, Store, derived_seed
 

@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from microg.hands.filter import HandFilter
+from microg.hands.filter import FILTER_WINDOW, HandFilter
 from microg.participant import VETERAN, SimulatedParticipant, TaskPlan
-from microg.participant.bench import EARTH, FILTER_WINDOW, PLACES, START, ZERO_G, bench_plan, bench_rules, \
+from microg.participant.bench import EARTH, PLACES, START, ZERO_G, bench_plan, bench_rules, \
     bench_world, run_trial
 from microg.participant.noise import TrackingNoiseLevels
 from microg.sim import World, grasped, step
