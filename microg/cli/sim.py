@@ -37,7 +37,8 @@ def demo(name: str, interaction: str, gravity: float | None, object_name: str | 
     """Run one of the paper's demos (Fig. 8) with a scripted hand and print the object's motion.
 
     NAME is one of: ball-grasp (thumb and three fingers carry a floating ball), cube-grasp (thumb
-    against two fingers carry a floating cube), ball-catch (a ball thrown at the still, open hand is
+    against two fingers carry a floating cube), flat-grasp (thumb below, two fingers above carry the
+    flat cuboid), ball-catch (a ball thrown at the still, open hand is
     caught and held), pinch (thumb and index carry the long bar), lift (under Earth gravity, three
     digits lift the cube off the table and hold it), nudge (a fingertip taps a floating cube, which
     drifts and turns), pinch-carry (the default: thumb and index carry an object and let go; in

@@ -12,6 +12,8 @@ interaction at a time and its outcome can be checked against the physics:
 - ``cube-grasp``: thumb against index and middle on a floating cube, carried.
 - ``ball-catch``: a ball thrown at the still, open hand bounces off the middle fingertip, and
   thumb and index, closing behind it once it has passed between them, hold it.
+- ``flat-grasp``: the flat cuboid held across its 1.5 cm, thumb below, index and middle above
+  (with ``pinch``, the two objects of the paper's Fig. 7).
 - ``pinch``: the long bar pinched across its 2.5 cm between thumb and index, carried.
 - ``lift``: under Earth gravity, thumb, index and middle lift the cube off the table and hold it.
 - ``nudge``: a fingertip taps a floating cube above its centre and pulls back; the cube drifts
@@ -258,6 +260,16 @@ def _pinch(interaction: str) -> Demo:
                       "sideways and 5 cm up", bar, contacts, (0.10, 0.05, 0.0))
 
 
+def _flat_grasp(interaction: str) -> Demo:
+    plate = _shipped("flat_cuboid")
+    half = plate.spec.half_extents
+    contacts = {"thumb.distal": _box_contact(half, (0, -1, 0)),
+                "index.distal": _box_contact(half, (0, 1, 0), (0.015, 0, 0)),
+                "middle.distal": _box_contact(half, (0, 1, 0), (-0.015, 0, 0))}
+    return _grip_demo("flat-grasp", "the flat cuboid held across its 1.5 cm, the thumb below, index and middle "
+                      "above, carried 10 cm sideways and 5 cm up", plate, contacts, (0.10, 0.05, 0.0))
+
+
 def _lift(interaction: str) -> Demo:
     cube = _shipped("cube")
     half = cube.spec.half_extents
@@ -363,7 +375,7 @@ def _pinch_carry(interaction: str, gravity: float = 0.0, object_name: str = "cub
                 "let go", placed, path, end, moments, hold=(closed, opens), gravity=gravity, table=table, squeeze=depth)
 
 
-DEMOS: dict[str, Callable[..., Demo]] = {"ball-grasp": _ball_grasp, "cube-grasp": _cube_grasp,
+DEMOS: dict[str, Callable[..., Demo]] = {"ball-grasp": _ball_grasp, "cube-grasp": _cube_grasp, "flat-grasp": _flat_grasp,
                                          "ball-catch": _ball_catch, "pinch": _pinch, "lift": _lift, "nudge": _nudge,
                                          "pinch-carry": _pinch_carry}
 """Every demo by name, each built for an interaction model: the same script for every model, except

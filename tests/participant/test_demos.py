@@ -37,7 +37,7 @@ def angle_between(q1, q2) -> float:
     return float(np.degrees(2 * np.arccos(min(1.0, abs(float(np.dot(q1, q2)))))))
 
 
-@pytest.mark.parametrize("name", ["ball-grasp", "cube-grasp", "pinch", "lift", "pinch-carry"])
+@pytest.mark.parametrize("name", ["ball-grasp", "cube-grasp", "flat-grasp", "pinch", "lift", "pinch-carry"])
 def test_a_grasp_holds_through_its_hold_window_and_the_object_goes_where_the_hand_goes(name):
     result = paper(name)
     start, end = result.demo.hold
