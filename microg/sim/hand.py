@@ -124,19 +124,18 @@ class Hand:
                 raise ValueError(f"Hand({self.side}).{name}{list(index)} = {value[index]}: infinite")
             value.setflags(write=False)
             object.__setattr__(self, name, value)
-        with np.errstate(invalid="ignore"):
-            wide = np.argwhere(self.widths > MAX_BONE_WIDTH)
-            if len(wide):
-                d, b = (int(i) for i in wide[0])
-                raise ValueError(f"{self.side} widths[{d}, {b}] = {self.widths[d, b]:g} m: wider than any finger "
-                                 f"(at most {MAX_BONE_WIDTH:g} m)")
-            for name in ("joints", "palm_position"):
-                values = getattr(self, name)
-                far = np.argwhere(np.abs(values) > MAX_REACH)
-                if len(far):
-                    index = tuple(int(i) for i in far[0])
-                    raise ValueError(f"{self.side} {name}{list(index)} = {values[index]:g} m: farther from the "
-                                     f"tracker than {MAX_REACH:g} m")
+        wide = self.widths > MAX_BONE_WIDTH  # NaN (unknown) compares False
+        if wide.any():
+            d, b = (int(i) for i in np.argwhere(wide)[0])
+            raise ValueError(f"{self.side} widths[{d}, {b}] = {self.widths[d, b]:g} m: wider than any finger "
+                             f"(at most {MAX_BONE_WIDTH:g} m)")
+        for name in ("joints", "palm_position"):
+            values = getattr(self, name)
+            far = np.abs(values) > MAX_REACH
+            if far.any():
+                index = tuple(int(i) for i in np.argwhere(far)[0])
+                raise ValueError(f"{self.side} {name}{list(index)} = {values[index]:g} m: farther from the "
+                                 f"tracker than {MAX_REACH:g} m")
         q = self.palm_orientation
         if np.isnan(q).any() and not np.isnan(q).all():
             raise ValueError(f"{self.side} palm_orientation = {q.tolist()}: partly unknown")

@@ -7,43 +7,23 @@ A page that builds its scene over a websocket is ready when it says so and has s
 
 from __future__ import annotations
 
-import contextlib
-import importlib.util
 import io
-import shutil
 import time
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
-MISSING = ", ".join(name for name, found in (("chromium", CHROMIUM), ("chromium-driver", CHROMEDRIVER),
-                                             ("selenium", importlib.util.find_spec("selenium"))) if not found)
+from microg.bench.display import chromium as _chromium
+from microg.bench.display import missing
+
+MISSING = missing()
 """What the browser tests lack on this machine ("" when they can run)."""
-FLAGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync", "--hide-scrollbars",
-         "--disable-dev-shm-usage", "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]
 
 
-@contextlib.contextmanager
 def chromium(size: tuple[int, int] = (1200, 800)):
-    """A headless Chromium under selenium with a ``size`` viewport; closed on leaving."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in FLAGS:
-        options.add_argument(flag)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    try:
-        driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
-                               {"width": size[0], "height": size[1], "deviceScaleFactor": 1, "mobile": False})
-        yield driver
-    finally:
-        driver.quit()
+    """A headless Chromium under selenium with a ``size`` viewport (the benchmark's); closed on leaving."""
+    return _chromium(size)
 
 
 def page_text(driver) -> str:
