@@ -130,11 +130,18 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
         rater = _rater(rating, store, session_record.id, session_record.seed, clock, display)
         markers, watchers = None, []
         if lsl:
-            from microg.study.lsl import NETWORK_NOTICE, MarkerOutlet, MocapOutlet
+            from microg.study.lsl import (
+                NETWORK_NOTICE,
+                MarkerOutlet,
+                MocapOutlet,
+                session_tags,
+            )
+
             click.echo(NETWORK_NOTICE, err=True)
+            tags = session_tags(store, session_record.id)
             try:
-                markers = MarkerOutlet()
-                watchers.append(MocapOutlet(store.protocol.tracking_rate))
+                markers = MarkerOutlet(tags)
+                watchers.append(MocapOutlet(store.protocol.tracking_rate, tags))
             except ImportError as error:
                 raise click.ClickException(str(error)) from None
         operator = TerminalOperator() if kind in LIVE else Unattended()

@@ -5,7 +5,9 @@ clock, in the same XDF file: a ``Markers`` stream of the task and stage events (
 JSON string: ``{"kind": "place_lit", "place": 0, ...}``), and a ``MoCap`` stream of every frame at
 the tracking rate: the tracked and the rendered (god-object) hands and the object's pose
 (``MOCAP_CHANNELS``, metres and unit quaternions in the tracker's frame; NaN where a hand is not
-tracked). The markers line an XDF recording up with the study's log. LSL opens
+tracked). Both streams name the session they come from in their description (``session_tags``:
+``<desc><microg><participant>P01</participant>...``), and the markers line an XDF recording up with
+the study's log (``microg.study.xdf``). LSL opens
 network ports to do that (``NETWORK_NOTICE`` says which, and how to keep them on this machine).
 """
 
@@ -27,15 +29,34 @@ NETWORK_NOTICE = (
 """What ``--lsl`` says on the terminal before it opens the stream."""
 
 
+MARKERS_NAME, MOCAP_NAME = "microg", "microg-mocap"
+"""The names of the session's two streams (types ``Markers`` and ``MoCap``)."""
+
+
+def session_tags(store, session_id: int) -> dict[str, str]:
+    """What names a session in its streams' descriptions: the study, the participant, the session
+    and when it was created (a study made again reuses participant ids and session numbers)."""
+    row = store.db.execute("SELECT participant_id, created_at FROM sessions WHERE id = ?", (session_id,)).fetchone()
+    return {"study": store.name, "participant": row["participant_id"], "session": str(session_id),
+            "session_created": row["created_at"]}
+
+
+def _describe(info, tags: dict[str, str]) -> None:
+    microg = info.desc().append_child("microg")
+    for key, value in tags.items():
+        microg.append_child_value(key, value)
+
+
 class MarkerOutlet:
     """An LSL outlet of type ``Markers``; call it with an event kind and its data."""
 
-    def __init__(self, name: str = "microg", source_id: str = "microg-markers"):
+    def __init__(self, tags: dict[str, str], name: str = MARKERS_NAME, source_id: str = "microg-markers"):
         try:
             import pylsl
         except ImportError:
             raise ImportError("LSL markers need pylsl: pip install 'microg[lsl]'") from None
         info = pylsl.StreamInfo(name, "Markers", 1, pylsl.IRREGULAR_RATE, "string", source_id)
+        _describe(info, tags)
         self._outlet = pylsl.StreamOutlet(info)
 
     def __call__(self, kind: str, data: dict) -> None:
@@ -73,7 +94,7 @@ def mocap_sample(moment) -> np.ndarray:
 class MocapOutlet:
     """An LSL outlet of type ``MoCap`` at the tracking rate; call it with each frame's ``Moment``."""
 
-    def __init__(self, rate: float, name: str = "microg-mocap", source_id: str = "microg-mocap"):
+    def __init__(self, rate: float, tags: dict[str, str], name: str = MOCAP_NAME, source_id: str = "microg-mocap"):
         try:
             import pylsl
         except ImportError:
@@ -86,6 +107,7 @@ class MocapOutlet:
             channel.append_child_value("unit", unit)
             channel.append_child_value("type", kind)
         info.desc().append_child("acquisition").append_child_value("manufacturer", "microg")
+        _describe(info, tags)
         self._outlet = pylsl.StreamOutlet(info)
 
     def __call__(self, moment) -> None:

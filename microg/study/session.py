@@ -38,7 +38,9 @@ from .questionnaire import Rater
 from .store import Event, PlannedTask, Store, derived_seed
 
 Markers = Callable[[str, dict], None]
-"""Receives task and stage events as they happen (e.g. an LSL marker outlet)."""
+"""Receives task and stage events as they happen (e.g. an LSL marker outlet): called right when the
+session's clock is read for the event, before the event is committed, so that a marker's own time
+(LSL's) is the event's and not the disk's."""
 
 
 class Clock(Interface):
@@ -155,10 +157,10 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
             last_t = t
             events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in moment.events]
             if events:
-                store.log(session_id, events, run_id)
                 if markers:
                     for event in events:
                         markers(event.kind, event.data)
+                store.log(session_id, events, run_id)
             pending.append(framelog.record(moment.frame, moment.world, state, moment.observation))
             if len(pending) >= batch:
                 store.add_frames(run_id, logged, pending)
@@ -180,11 +182,12 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
         result = TaskResult("aborted", None, state.drops, frames)
         reason = f"the hand source ({source.description}) ended before the task did"
     counts = getattr(source, "counts", None)
-    store.end_run(run_id, result.status, clock.now(), time_s=result.time_s, attempts=result.attempts,
-                  reason=reason, frames=(logged, pending),
-                  events=[Event(clock.now(), "tracking_guard", counts.as_dict())] if counts is not None else [])
+    ended = clock.now()
     if markers:
         markers("task_end", {"status": result.status, "time_s": result.time_s, "attempts": result.attempts})
+    store.end_run(run_id, result.status, ended, time_s=result.time_s, attempts=result.attempts,
+                  reason=reason, frames=(logged, pending),
+                  events=[Event(ended, "tracking_guard", counts.as_dict())] if counts is not None else [])
     return result
 
 
@@ -215,9 +218,10 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
             if phase.name in ended_phases:
                 continue
             if phase.name not in started_phases:
-                store.log(session_id, [Event(clock.now(), "phase_start", {"phase": phase.name})])
+                now = clock.now()
                 if markers:
                     markers("phase_start", {"phase": phase.name})
+                store.log(session_id, [Event(now, "phase_start", {"phase": phase.name})])
             if phase.name == "questionnaire":
                 _questionnaire(store, session_id, rater, clock, protocol)
             elif phase.name == "training" or phase.name in task_phases:
@@ -228,9 +232,10 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
                         bar.update(1)
             else:
                 operator.show(phase)
-            store.log(session_id, [Event(clock.now(), "phase_end", {"phase": phase.name})])
+            now = clock.now()
             if markers:
                 markers("phase_end", {"phase": phase.name})
+            store.log(session_id, [Event(now, "phase_end", {"phase": phase.name})])
     finally:
         bar.close()
     return store.finish_session(session_id, clock.now())
@@ -250,10 +255,11 @@ def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock
     world = task_world(protocol, task)
     source = guarded(inputs.open(participant_plan(protocol, task, hand, session.participant_id), seed),
                      world.model.scene)
-    run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
+    now = clock.now()
     if markers:
         markers("task_start", {"task": task.index, "phase": task.phase, "interaction": task.interaction,
                                "object": task.object})
+    run_id = store.begin_run(session.id, task, source.description, seed, now)
     started = time.monotonic()
 
     frames = 0

@@ -101,7 +101,7 @@ def test_a_bad_manifest_is_named_with_its_key_and_value(tmp_path, entries, messa
 
 def test_the_mocap_stream_on_lsl_carries_the_logged_poses(make_study):
     pylsl = pytest.importorskip("pylsl")
-    from microg.study.lsl import MOCAP_CHANNELS, MocapOutlet
+    from microg.study.lsl import MOCAP_CHANNELS, MocapOutlet, session_tags
     from microg.study.session import SimulationClock, run_session
     from microg.study import framelog
 
@@ -109,7 +109,8 @@ def test_the_mocap_stream_on_lsl_carries_the_logged_poses(make_study):
 
     store, _ = make_study("tiny")
     session = store.create_session("P01", "scripted", True, "simulation")
-    outlet = MocapOutlet(store.protocol.tracking_rate, name="microg-test-mocap", source_id="microg-test-mocap")
+    outlet = MocapOutlet(store.protocol.tracking_rate, session_tags(store, session.id), name="microg-test-mocap",
+                         source_id="microg-test-mocap")
     inlet = pylsl.StreamInlet(pylsl.resolve_byprop("source_id", "microg-test-mocap")[0], max_buflen=600)
     info = inlet.info()
     channel = info.desc().child("channels").child("channel")

@@ -218,7 +218,7 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     pylsl = pytest.importorskip("pylsl")
     from microg.study.lsl import MarkerOutlet
 
-    outlet = MarkerOutlet(name="microg-test", source_id="microg-test-markers")
+    outlet = MarkerOutlet({}, name="microg-test", source_id="microg-test-markers")
     streams = pylsl.resolve_byprop("source_id", "microg-test-markers")  # waits until the stream is seen
     inlet = pylsl.StreamInlet(streams[0])
     inlet.open_stream()
