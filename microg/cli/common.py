@@ -11,9 +11,10 @@ from microg.study.inputs import InputError
 from microg.study.protocol import ProtocolError
 from microg.study.questionnaire import RatingError
 from microg.study.store import StoreError
+from microg.study.xdf import XdfError
 
 COMMANDS: list = []
-EXPECTED = (ProtocolError, ParticipantError, StoreError, InputError, RatingError, FileExistsError,
+EXPECTED = (ProtocolError, ParticipantError, StoreError, InputError, RatingError, XdfError, FileExistsError,
             FileNotFoundError)
 
 study_dir_argument = click.argument("study_dir", type=click.Path(file_okay=False, path_type=str))
