@@ -76,7 +76,8 @@ def test_an_xdf_of_the_session_lines_up_with_its_log(recorded):
     markers = lineup.markers
     assert markers.matched.all() and list(zip(markers.kind, markers.study_t)) == logged
     assert lineup.fit.max_residual_ms < RESIDUAL_MS, lineup.markers.residual_ms.describe()
-    assert abs(lineup.fit.slope - 1) < 1e-4  # both clocks count seconds of the same machine
+    span = markers.study_t.max() - markers.study_t.min()
+    assert abs(lineup.fit.slope - 1) < 2 * RESIDUAL_MS / 1e3 / span  # both clocks count this machine's seconds
 
     runs = store.runs(session_id)
     tasks = lineup.tasks
