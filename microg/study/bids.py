@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import re
+from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -98,18 +99,21 @@ def _tsv(table: pd.DataFrame, header: bool = True) -> str:
     return table.to_csv(sep="\t", index=False, header=header, na_rep="n/a", lineterminator="\n", float_format="%.7g")
 
 
-def _write_motion(path: Path, values: pd.DataFrame) -> Path:
+WRITERS = 2
+"""Motion files written at once: Arrow's CSV writer runs without the GIL, so two use both cores of a laptop."""
+
+
+def _write_motion(path: Path, values: dict[str, np.ndarray], bar=None) -> None:
     """A ``*_motion.tsv``: no header, ``n/a`` where a value is unknown. The channels at the
     tracker's precision (single, as the Leap Motion delivers them: 0.01 um at 1 m), the latency to
     the microsecond. Written by Arrow's CSV writer, ten times faster than formatting each value in
-    Python: the frames are most of an export."""
-    columns = {name: pa.array(np.round(column.to_numpy(), 6) if name == "latency" else
-                              column.to_numpy(dtype=np.float32), from_pandas=True)
-               for name, column in values.items()}
-    path.parent.mkdir(parents=True, exist_ok=True)
+    Python (the frames are most of an export), in ``WRITERS`` threads while the next run is read."""
+    columns = {name: pa.array(np.round(column, 6) if name == "latency" else column.astype(np.float32),
+                              from_pandas=True) for name, column in values.items()}
     pa_csv.write_csv(pa.table(columns), str(path), pa_csv.WriteOptions(
         include_header=False, delimiter="\t", quoting_style="none", null_string="n/a"))
-    return path
+    if bar is not None:
+        bar.update()
 
 
 README = """# {name}
@@ -122,6 +126,36 @@ recording's *_channels.tsv and *_motion.json. Simulated participants are marked 
 
 Protocol: {title}
 """
+
+
+def _motion_sidecar(run: dict, channels: list[dict], samples: int, duration: float, rate, instructions: str,
+                    about) -> dict:
+    """A recording's ``*_motion.json``."""
+    counts = pd.Series([c["type"] for c in channels]).value_counts()
+    return {
+        "TaskName": run["phase"],
+        "TaskDescription": f"pick-and-place of the {run['object']} with the {run['interaction']} interaction model "
+                           f"(run {run['run']}, {run['status']})",
+        "SamplingFrequency": rate,
+        "SamplingFrequencyEffective": (samples - 1) / duration if duration > 0 else "n/a",
+        "TrackingSystemName": "simulated participant" if run["simulated"] else "hand tracker",
+        "Manufacturer": "microg (simulated)" if run["simulated"] else "Ultraleap",
+        "SoftwareVersions": f"microg {__version__}; input {run['input']}",
+        "RecordingDuration": duration,
+        "MotionChannelCount": len(channels),
+        "POSChannelCount": int(counts.get("POS", 0)),
+        "ORNTChannelCount": int(counts.get("ORNT", 0)),
+        "LATENCYChannelCount": int(counts.get("LATENCY", 0)),
+        "TrackedPointsCount": len({c["tracked_point"] for c in channels if c["type"] != "LATENCY"}),
+        "SubjectArtefactDescription": "n/a",
+        "MissingValues": "n/a",
+        "Instructions": instructions,
+        "ManufacturersModelName": "microg simulated participant" if run["simulated"] else "n/a",
+        "DeviceSerialNumber": "n/a",
+        "InstitutionName": about.institution or "n/a",
+        "InstitutionAddress": about.institution_address or "n/a",
+        "InstitutionalDepartmentName": about.department or "n/a",
+    } | {f"{kind}ChannelCount": 0 for kind in ABSENT_CHANNELS}
 
 
 def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]:
@@ -162,60 +196,41 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]
         "status": {"Description": "active, or withdrawn from the study"}}, indent=2)))
 
     instructions = " ".join(" ".join(p.text.split()) for p in protocol.timeline if p.name == "instructions") or "n/a"
-    for run in run_list(store):
-        frames = framelog.frame_table(framelog.read(store.db, run["run_id"]))
-        sides = [s for s in SIDES if frames[f"{s}_palm_x"].notna().any()]
-        channels = _channels(sides, run["object"])
-        values = pd.DataFrame({c["name"]: frames[c["source"]] for c in channels})
-        values["latency"] = frames["t"] - frames["t"].iloc[0]
-        name = recording_name(run["participant"], run["phase"], run["object"], run["run"])
-        folder = out_dir / f"sub-{label(run['participant'])}" / "motion"
-        duration = float(values["latency"].iloc[-1])
-        counts = pd.Series([c["type"] for c in channels]).value_counts()
-        sidecar = {
-            "TaskName": run["phase"],
-            "TaskDescription": f"pick-and-place of the {run['object']} with the {run['interaction']} interaction model "
-                               f"(run {run['run']}, {run['status']})",
-            "SamplingFrequency": rate,
-            "SamplingFrequencyEffective": (len(values) - 1) / duration if duration > 0 else "n/a",
-            "TrackingSystemName": "simulated participant" if run["simulated"] else "hand tracker",
-            "Manufacturer": "microg (simulated)" if run["simulated"] else "Ultraleap",
-            "SoftwareVersions": f"microg {__version__}; input {run['input']}",
-            "RecordingDuration": duration,
-            "MotionChannelCount": len(channels),
-            "POSChannelCount": int(counts.get("POS", 0)),
-            "ORNTChannelCount": int(counts.get("ORNT", 0)),
-            "LATENCYChannelCount": int(counts.get("LATENCY", 0)),
-            "TrackedPointsCount": len({c["tracked_point"] for c in channels if c["type"] != "LATENCY"}),
-            "SubjectArtefactDescription": "n/a",
-            "MissingValues": "n/a",
-            "Instructions": instructions,
-            "ManufacturersModelName": "microg simulated participant" if run["simulated"] else "n/a",
-            "DeviceSerialNumber": "n/a",
-            "InstitutionName": about.institution or "n/a",
-            "InstitutionAddress": about.institution_address or "n/a",
-            "InstitutionalDepartmentName": about.department or "n/a",
-        }
-        sidecar |= {f"{kind}ChannelCount": 0 for kind in ABSENT_CHANNELS}
-        events = [e for e in store.events(run["session"], run["run_id"]) if "frame_t" in e.data]
-        t0 = float(frames["t"].iloc[0])
-        event_table = pd.DataFrame([{
-            "onset": round(e.data["frame_t"] - t0, 6), "duration": 0.0, "trial_type": e.kind,
-            "stage": e.data.get("stage", "n/a"), "place": e.data.get("place", "n/a")} for e in events],
-            columns=["onset", "duration", "trial_type", "stage", "place"])
-        written += [
-            _write_motion(folder / f"{name}_motion.tsv", values),
-            _write(folder / f"{name}_channels.tsv", _tsv(pd.DataFrame(channels).drop(columns="source"))),
-            _write(folder / f"{name}_channels.json", json.dumps({"reference_frame": {
-                "Description": "reference frame of the channel",
-                "Levels": {REFERENCE_FRAME: {"Description": REFERENCE_DESCRIPTION, "RotationRule": "right-hand"}}}},
-                indent=2)),
-            _write(folder / f"{name}_motion.json", json.dumps(sidecar, indent=2)),
-            _write(folder / f"{name}_events.tsv", _tsv(event_table)),
-            _write(folder / f"{name}_events.json", json.dumps(EVENTS_SIDECAR, indent=2)),
-        ]
-        if bar is not None:
-            bar.update()
+    with ThreadPoolExecutor(max_workers=WRITERS) as background:
+        writing: list[Future] = []
+        for run in run_list(store):
+            frames = framelog.frame_columns(framelog.read(store.db, run["run_id"]))
+            sides = [s for s in SIDES if not np.isnan(frames[f"{s}_palm_x"]).all()]
+            channels = _channels(sides, run["object"])
+            values = {c["name"]: frames[c["source"]] for c in channels}
+            t0 = float(frames["t"][0])
+            values["latency"] = frames["t"] - t0
+            name = recording_name(run["participant"], run["phase"], run["object"], run["run"])
+            folder = out_dir / f"sub-{label(run['participant'])}" / "motion"
+            duration = float(values["latency"][-1])
+            sidecar = _motion_sidecar(run, channels, len(values["latency"]), duration, rate, instructions, about)
+            events = [e for e in store.events(run["session"], run["run_id"]) if "frame_t" in e.data]
+            event_table = pd.DataFrame([{
+                "onset": round(e.data["frame_t"] - t0, 6), "duration": 0.0, "trial_type": e.kind,
+                "stage": e.data.get("stage", "n/a"), "place": e.data.get("place", "n/a")} for e in events],
+                columns=["onset", "duration", "trial_type", "stage", "place"])
+            if len(writing) == WRITERS:
+                writing.pop(0).result()
+            folder.mkdir(parents=True, exist_ok=True)
+            writing.append(background.submit(_write_motion, folder / f"{name}_motion.tsv", values, bar))
+            written += [
+                folder / f"{name}_motion.tsv",
+                _write(folder / f"{name}_channels.tsv", _tsv(pd.DataFrame(channels).drop(columns="source"))),
+                _write(folder / f"{name}_channels.json", json.dumps({"reference_frame": {
+                    "Description": "reference frame of the channel",
+                    "Levels": {REFERENCE_FRAME: {"Description": REFERENCE_DESCRIPTION, "RotationRule": "right-hand"}}}},
+                    indent=2)),
+                _write(folder / f"{name}_motion.json", json.dumps(sidecar, indent=2)),
+                _write(folder / f"{name}_events.tsv", _tsv(event_table)),
+                _write(folder / f"{name}_events.json", json.dumps(EVENTS_SIDECAR, indent=2)),
+            ]
+        for motion in writing:
+            motion.result()
     if bar is not None:
         bar.close()
     return written

@@ -14,11 +14,14 @@ from __future__ import annotations
 import errno
 import json
 import shutil
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Iterator
 
+import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
@@ -110,15 +113,16 @@ def run_list(store: Store) -> list[dict]:
     return [dict(r) for r in rows]
 
 
-def frames_tables(store: Store, runs: list[dict] | None = None) -> Iterator[pd.DataFrame]:
-    """The frames table, one task run at a time (a study's frames may not fit in memory at once)."""
+def frames_columns(store: Store, runs: list[dict] | None = None) -> Iterator[dict[str, pa.Array | np.ndarray]]:
+    """The frames table's columns, one task run at a time (a study's frames may not fit in memory
+    at once): the run's keys, then ``framelog.frame_columns``."""
     for run in run_list(store) if runs is None else runs:
-        table = run_frames(store, run["run_id"])
+        columns = framelog.frame_columns(framelog.read(store.db, run["run_id"]))
         keys = {"study": store.name, "participant": run["participant"], "session": run["session"],
                 "run_id": run["run_id"], "task_index": run["task_index"], "run": run["run"],
                 "run_status": run["status"], "phase": run["phase"], "interaction": run["interaction"],
                 "object": run["object"]}
-        yield pd.concat([pd.DataFrame({k: [v] * len(table) for k, v in keys.items()}), table], axis=1)
+        yield {**{k: pa.repeat(v, len(columns["t"])) for k, v in keys.items()}, **columns}
 
 
 def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -212,16 +216,34 @@ def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: 
 
 
 def _write_frames(store: Store, runs: list[dict], folder: Path, csv: bool, bar) -> None:
-    """frames.parquet (and frames.csv), one task run at a time: a study's frames may not fit in memory."""
+    """frames.parquet (and frames.csv), one task run at a time: a study's frames may not fit in
+    memory. A run is written in a second thread (Arrow works without the GIL) while the next is read.
+    Floats are stored byte-stream split and only names dictionary-encoded: half the time of Parquet's
+    defaults, and a third smaller."""
     writer = None
+
+    def write(table: pa.Table, first: bool) -> None:
+        nonlocal writer
+        writer = writer or pq.ParquetWriter(
+            folder / "frames.parquet", table.schema, compression="zstd",
+            use_dictionary=[f.name for f in table.schema if pa.types.is_string(f.type)],
+            use_byte_stream_split=[f.name for f in table.schema if pa.types.is_floating(f.type)])
+        writer.write_table(table)
+        if csv:
+            with open(folder / "frames.csv", "wb" if first else "ab") as out:
+                pa_csv.write_csv(table, out, pa_csv.WriteOptions(include_header=first))
+        bar.update()
+
     try:
-        for i, table in enumerate(frames_tables(store, runs)):
-            arrow = pa.Table.from_pandas(table, preserve_index=False)
-            writer = writer or pq.ParquetWriter(folder / "frames.parquet", arrow.schema, compression="zstd")
-            writer.write_table(arrow)
-            if csv:
-                table.to_csv(folder / "frames.csv", index=False, mode="w" if i == 0 else "a", header=i == 0)
-            bar.update()
+        with ThreadPoolExecutor(max_workers=1) as background:
+            writing = None
+            for i, columns in enumerate(frames_columns(store, runs)):
+                table = pa.table(columns)
+                if writing is not None:
+                    writing.result()
+                writing = background.submit(write, table, i == 0)
+            if writing is not None:
+                writing.result()
     finally:
         bar.close()
         if writer is not None:

@@ -151,9 +151,9 @@ def hand_columns(side: str) -> list[str]:
     return names
 
 
-def frame_table(frames: np.ndarray) -> pd.DataFrame:
-    """The logged frames as one flat, tidy table (``STATE_COLUMNS``, then ``hand_columns`` of each
-    side): what exports write. NaN where a hand was not tracked."""
+def frame_columns(frames: np.ndarray) -> dict[str, np.ndarray]:
+    """The logged frames as the flat table's columns (``STATE_COLUMNS``, then ``hand_columns`` of
+    each side), each a contiguous array: what exports write. NaN where a hand was not tracked."""
     n = len(frames)
     columns: dict[str, np.ndarray] = {
         "frame": np.arange(n), "t": frames["t"], "stage": np.array(STAGES, dtype=object)[frames["stage"]],
@@ -167,8 +167,13 @@ def frame_table(frames: np.ndarray) -> pd.DataFrame:
     for s, side in enumerate(SIDES):
         values = np.hstack([frames[field][:, s].reshape(n, -1) for field in
                             ("joints", "widths", "palm_position", "palm_orientation", "rendered")]).astype(np.float64)
-        columns.update(zip(hand_columns(side), values.T))
-    return pd.DataFrame(columns)
+        columns.update(zip(hand_columns(side), np.ascontiguousarray(values.T)))
+    return columns
+
+
+def frame_table(frames: np.ndarray) -> pd.DataFrame:
+    """``frame_columns`` as a DataFrame."""
+    return pd.DataFrame(frame_columns(frames))
 
 
 def touching_slots(mask) -> np.ndarray:
