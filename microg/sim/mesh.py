@@ -26,6 +26,7 @@ from __future__ import annotations
 import hashlib
 import io
 import os
+import shutil
 import sys
 import tempfile
 from contextlib import contextmanager
@@ -63,7 +64,6 @@ class ConvexPart:
 class MeshShape:
     """A mesh object's geometry in its body frame."""
 
-    file: str
     vertices: np.ndarray
     """(V, 3) the surface, for drawing."""
     faces: np.ndarray
@@ -112,7 +112,7 @@ def load_mesh(path: Path, content: bytes | None = None) -> MeshShape:
     else:
         digest = hashlib.sha256(content).hexdigest()[:32]
         pieces = [piece @ from_file[:3, :3].T + from_file[:3, 3] for piece in convex_pieces(path, digest, surface)]
-    return MeshShape(str(path), np.asarray(body.vertices), np.asarray(body.faces), describe_parts(pieces),
+    return MeshShape(np.asarray(body.vertices), np.asarray(body.faces), describe_parts(pieces),
                      float(body.volume), unit_inertia, from_file)
 
 
@@ -135,11 +135,10 @@ def convex_pieces(path: Path, digest: str, surface) -> list[np.ndarray]:
     """The vertices of each convex part of a non-convex mesh, in the file's frame: V-HACD's split,
     from the cache when a file of this content (``digest``) was split before."""
     settings = "-".join(f"{key}{value:g}" for key, value in VHACD.items())
-    cached = user_cache_dir() / "microg" / "meshes" / f"{digest}-vhacd-{settings}.obj"
+    cached = parts_cache_folder() / f"{digest}-vhacd-{settings}.obj"
     if not cached.is_file():
         import pybullet
 
-        cached.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryDirectory() as folder:
             source, log, result = (Path(folder) / name for name in ("mesh.obj", "vhacd.log", "parts.obj"))
             surface.export(source)
@@ -147,8 +146,20 @@ def convex_pieces(path: Path, digest: str, surface) -> list[np.ndarray]:
                 pybullet.vhacd(str(source), str(result), str(log), **VHACD)
             if not result.is_file():
                 raise MeshError(f"{path}: V-HACD could not split it into convex parts (see {log})")
-            os.replace(result, cached)
+            shutil.move(result, cached)
     return read_obj_objects(cached)
+
+
+def parts_cache_folder() -> Path:
+    """Where the convex parts are kept: the user's cache directory, else (not writable) the temporary one."""
+    for folder in (user_cache_dir() / "microg" / "meshes", Path(tempfile.gettempdir()) / "microg-meshes"):
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if os.access(folder, os.W_OK):
+            return folder
+    raise MeshError("no writable folder to keep convex parts in (the user's cache directory, the temporary one)")
 
 
 @contextmanager

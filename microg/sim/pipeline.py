@@ -11,6 +11,7 @@ nothing of another's.
 The effects are compile-time constants of ``advance`` (its closure): numba prunes the branches of
 the effects a scene does not name before it types the function, so their kernels are not in the
 machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
+The mesh kernels (``mesh_contact``) are compiled in the same way only for a scene with a mesh object.
 Each set of effects compiles once and is cached on disk (``microg.sim.cache``).
 
 A step in which an object would turn more than ``MAX_TURN`` is cut into as many parts as that

@@ -13,7 +13,7 @@ import trimesh
 from microg.participant.scripted import probe_hand
 from microg.sim import HandFrame, Material, ObjectSpec, PlacedObject, SceneError, load_object, rendered_phalanges, step
 from microg.sim.hand import slot
-from microg.sim.mesh import VHACD, user_cache_dir
+from microg.sim.mesh import VHACD, parts_cache_folder
 from microg.sim.rotation import quat_from_euler_deg, quat_to_matrix
 from tests.meshes import L_ARMS, L_DEPTH, L_THICKNESS, l_bracket, mesh_object, write_obj
 from tests.physics import drive, world_of
@@ -184,7 +184,7 @@ def test_a_non_convex_mesh_is_split_into_convex_parts_once_and_cached(bracket, f
     outside = max(l_distance(turn.T @ (v - shift)) for part in bracket.mesh.parts for v in part.vertices)
     assert outside < 5e-4
     assert bracket.mass == pytest.approx(2700.0 * (L_ARMS[0] + L_ARMS[1] - L_THICKNESS) * L_THICKNESS * L_DEPTH)
-    cached = list((user_cache_dir() / "microg" / "meshes").glob("*-vhacd-*.obj"))
+    cached = list(parts_cache_folder().glob("*-vhacd-*.obj"))
     assert cached and VHACD["resolution"] >= 1e6
     import pybullet
 
