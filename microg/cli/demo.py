@@ -16,7 +16,7 @@ from .common import clear_errors
 @click.option("--seed", type=click.IntRange(0), default=1, show_default=True,
               help="Seed of the study: who is enrolled with which demographics, and every session.")
 @click.option("--protocol", default="paper", show_default=True,
-              help="A shipped protocol name (paper, paper-microgravity) or a protocol file.")
+              help="A shipped protocol name (paper, paper-microgravity, mallet-microgravity) or a protocol file.")
 @click.option("--jobs", type=click.IntRange(1), default=None, help="Worker processes (default: one per core).")
 @click.option("--overwrite", is_flag=True, help="Replace what is in --out.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")

@@ -140,7 +140,7 @@ def _draw(results: dict[str, DemoResult], out: Path, hands: str, size: tuple[int
 
     demo = next(iter(results.values())).demo
     spec = demo.placed.spec
-    layout = object_layout(spec.shape, spec.size, demo.placed.position, demo.table.height if demo.table else None)
+    layout = object_layout(spec, demo.placed.position, demo.table.height if demo.table else None)
     seen = np.vstack([np.vstack([r.position, r.rendered[np.isfinite(r.rendered).all(axis=-1)]])
                       for r in results.values()])
     camera = framing_camera(seen, margin=float(np.linalg.norm(spec.half_extents)), aspect=size[0] / size[1])

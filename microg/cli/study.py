@@ -23,7 +23,7 @@ def study() -> None:
 @study.command("init")
 @study_dir_argument
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
-              help="Protocol file, or the name of a shipped protocol (paper, paper-microgravity).")
+              help="Protocol file, or the name of a shipped protocol (paper, paper-microgravity, mallet-microgravity).")
 @click.option("--seed", type=click.IntRange(min=0), default=None,
               help="Seed of every random choice in the study (default: the protocol's, else a fresh one).")
 @clear_errors

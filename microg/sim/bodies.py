@@ -3,10 +3,12 @@
 An object file is TOML (see ``protocols/objects/``)::
 
     name = "cube"
-    shape = "box"               # "box" or "sphere"
+    shape = "box"               # "box", "sphere" or "mesh"
     size = [0.06, 0.06, 0.06]   # box: full edge lengths along the body x, y, z axes (m)
     # radius = 0.035            # sphere: radius (m)
+    # mesh = "bracket.obj"      # mesh: a closed OBJ or STL file (m), relative to this file (``mesh``)
     mass = 0.151                # kg
+    # density = 2700            # kg/m^3, instead of mass (mesh only)
     # inertia = [Ixx, Iyy, Izz] # optional principal moments (kg m^2); default: solid body
     [material]
     restitution = 0.4           # e in (0, 1), Eq. 10
@@ -14,20 +16,22 @@ An object file is TOML (see ``protocols/objects/``)::
     dynamic_friction = 0.5      # phi, Eq. 20; phi <= mu
 
 The body frame is the principal frame, centred at the centre of mass, so the body inertia is
-diagonal.
+diagonal. A mesh's mass properties come from the solid it bounds (``mesh.load_mesh``).
 """
 
 from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-SHAPES = ("box", "sphere")
-BOX, SPHERE = 0, 1
+from .mesh import MeshError, MeshShape, load_mesh
+
+SHAPES = ("box", "sphere", "mesh")
+BOX, SPHERE, MESH = 0, 1, 2
 
 
 class SceneError(ValueError):
@@ -68,15 +72,20 @@ class ObjectSpec:
     name: str
     shape: str
     size: tuple[float, float, float]
-    """Box: full edge lengths; sphere: (diameter, diameter, diameter)."""
+    """Box: full edge lengths; sphere: (diameter, diameter, diameter); mesh: its extent along the
+    body axes."""
     mass: float
     material: Material = Material()
     inertia: tuple[float, float, float] | None = None
     """Principal moments (kg m^2); None means a solid body of uniform density."""
+    mesh: MeshShape | None = field(default=None, compare=False, repr=False)
+    """A mesh object's geometry (shape "mesh")."""
 
     def validate(self, where: str) -> None:
         if self.shape not in SHAPES:
             raise SceneError(f"{where}: shape = {self.shape!r}: must be one of {SHAPES}")
+        if (self.shape == "mesh") != (self.mesh is not None):
+            raise SceneError(f"{where}: shape = {self.shape!r} needs a mesh exactly when it is 'mesh'")
         _positive(where, "mass", self.mass)
         for axis, value in zip("xyz", self.size):
             _positive(where, f"size.{axis}", value)
@@ -98,6 +107,8 @@ class ObjectSpec:
         """Body-frame principal moments of inertia (kg m^2)."""
         if self.inertia is not None:
             return np.asarray(self.inertia, dtype=np.float64)
+        if self.mesh is not None:
+            return self.mass * self.mesh.unit_inertia
         if self.shape == "sphere":
             r = 0.5 * self.size[0]
             return np.full(3, 0.4 * self.mass * r * r)
@@ -112,19 +123,48 @@ def load_object(path: str | Path) -> ObjectSpec:
         data = tomllib.loads(path.read_text())
     except (OSError, tomllib.TOMLDecodeError) as error:
         raise SceneError(f"{path}: cannot read object file: {error}") from None
-    return object_from_dict(data, str(path))
+    return object_from_dict(data, str(path), path.parent)
 
 
-def object_from_dict(data: dict, where: str) -> ObjectSpec:
-    known = {"name", "code", "shape", "size", "radius", "mass", "inertia", "material", "description"}
+def _mesh_object(data: dict, where: str, folder: Path,
+                 content: bytes | None) -> tuple[MeshShape, tuple[float, float, float], float]:
+    """A mesh object's geometry, extent and mass (given, or its density times its volume)."""
+    name = data.get("mesh")
+    if not isinstance(name, str) or not name:
+        raise SceneError(f"{where}: mesh = {name!r}: must name an OBJ or STL file")
+    try:
+        mesh = load_mesh(folder / name, content)
+    except MeshError as error:
+        raise SceneError(f"{where}: mesh = {name!r}: {error}") from None
+    if ("mass" in data) == ("density" in data):
+        raise SceneError(f"{where}: a mesh object needs exactly one of 'mass' and 'density'")
+    mass = data["mass"] if "mass" in data else _positive(where, "density", data["density"]) * mesh.volume
+    extent = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
+    return mesh, tuple(float(v) for v in extent), mass
+
+
+def object_from_dict(data: dict, where: str, folder: Path = Path("."), mesh_content: bytes | None = None) -> ObjectSpec:
+    """An object from the fields of an object file; its mesh file is resolved against ``folder``,
+    or given as ``mesh_content`` (the file's bytes, kept with a study's protocol)."""
+    known = {"name", "code", "shape", "size", "radius", "mesh", "density", "mass", "inertia", "material",
+             "description"}
     unknown = set(data) - known
     if unknown:
         raise SceneError(f"{where}: unknown field {sorted(unknown)[0]!r} (known: {sorted(known)})")
-    for required in ("name", "shape", "mass"):
+    for required in ("name", "shape"):
         if required not in data:
             raise SceneError(f"{where}: missing field {required!r}")
-    shape = data["shape"]
-    if shape == "sphere":
+    shape, mesh = data["shape"], None
+    if shape != "mesh":
+        for misplaced in ("mesh", "density"):
+            if misplaced in data:
+                raise SceneError(f"{where}: {misplaced} = {data[misplaced]!r}: only for shape = 'mesh'")
+        if "mass" not in data:
+            raise SceneError(f"{where}: missing field 'mass'")
+        mass = data["mass"]
+    if shape == "mesh":
+        mesh, size, mass = _mesh_object(data, where, folder, mesh_content)
+    elif shape == "sphere":
         radius = _positive(where, "radius", data.get("radius"))
         size = (2 * radius,) * 3
     else:
@@ -139,7 +179,7 @@ def object_from_dict(data: dict, where: str) -> ObjectSpec:
     inertia = data.get("inertia")
     if inertia is not None and (not isinstance(inertia, list) or len(inertia) != 3):
         raise SceneError(f"{where}: inertia = {inertia!r}: must be three principal moments")
-    spec = ObjectSpec(name=data["name"], shape=shape, size=size, mass=data["mass"],
-                      material=Material(**material), inertia=tuple(inertia) if inertia else None)
+    spec = ObjectSpec(name=data["name"], shape=shape, size=size, mass=mass,
+                      material=Material(**material), inertia=tuple(inertia) if inertia else None, mesh=mesh)
     spec.validate(where)
     return spec

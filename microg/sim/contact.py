@@ -18,7 +18,10 @@ Sign convention (Eq. 8): n is the object's outward normal, body 1 the hand, body
 v = n . (c1_dot - c2_dot); v > 0 separating, |v| <= tolerance resting, v < 0 colliding.
 
 The kernels work on one object ``o`` of a ``State`` (``state.unpack``) with its rotation matrix
-``rot`` already computed; vectors are tuples (``vec``).
+``rot`` already computed; vectors are tuples (``vec``). ``mesh`` is the scene's mesh objects
+(``state.unpack_mesh``), or None in a scene without any: then numba prunes the branches that
+would call the mesh kernels (``mesh_contact``) before it compiles, and a box or a sphere takes
+exactly the code it took before meshes existed.
 """
 
 from __future__ import annotations
@@ -26,8 +29,9 @@ from __future__ import annotations
 import math
 
 
-from .bodies import BOX
+from .bodies import BOX, MESH
 from .hand import SLOTS
+from .mesh_contact import mesh_closest_point, mesh_over_face, mesh_project, mesh_segment_entry
 from .state import CLOCK_DRIFT
 from .vec import (add, cell, cross, dot, kernel, mat_t_vec, mat_vec, norm, quat_mul, quat_turn, quat_unit, rotation,
                   row, scale, set_cell, sub)
@@ -122,7 +126,23 @@ def normal_velocity(s, o, rot, k):
 
 
 @kernel
-def detect(p, s, o, rot, anchored):
+def surface_point(mesh, o, shape, half_size, p):
+    """``closest_surface_point`` for object o, of any shape."""
+    if mesh is not None and shape == MESH:
+        return mesh_closest_point(mesh, o, p)
+    return closest_surface_point(shape, half_size, p)
+
+
+@kernel
+def project_on_face(mesh, o, shape, half_size, point, normal):
+    """``project_to_surface`` for object o, of any shape."""
+    if mesh is not None and shape == MESH:
+        return mesh_project(mesh, o, point, normal)
+    return project_to_surface(shape, half_size, point, normal)
+
+
+@kernel
+def detect(p, s, o, rot, anchored, mesh):
     """Start, keep or end each phalanx's contact with object o at the current poses (Eqs. 2-8).
 
     A new overlap starts a contact at the closest surface point (an *onset*); an anchored contact
@@ -141,14 +161,19 @@ def detect(p, s, o, rot, anchored):
         local = mat_t_vec(rot, sub(row(hand, k), position))
         rho = radius[k]
         if ghost[k, o]:
-            ghost[k, o] = closest_surface_point(shape, half_size, local)[2] < rho
+            ghost[k, o] = surface_point(mesh, o, shape, half_size, local)[2] < rho
             continue
         if active[k, o] and anchored:
             delta = dot(sub(cell(anchor, k, o), local), cell(normal, k, o)) + rho
-            active[k, o] = delta > 0.0 and over_face(shape, half_size, local, cell(normal, k, o), rho)
+            if delta <= 0.0:
+                active[k, o] = False
+            elif mesh is not None and shape == MESH:
+                active[k, o] = mesh_over_face(mesh, o, local, cell(anchor, k, o), cell(normal, k, o), rho)
+            else:
+                active[k, o] = over_face(shape, half_size, local, cell(normal, k, o), rho)
             depth[k, o] = delta if active[k, o] else 0.0
         else:
-            point, surface_normal, distance = closest_surface_point(shape, half_size, local)
+            point, surface_normal, distance = surface_point(mesh, o, shape, half_size, local)
             overlap = distance < rho
             if overlap and fresh[k] and not active[k, o]:
                 ghost[k, o] = True
@@ -203,7 +228,7 @@ def segment_entry(shape, half_size, start, end, rho):
 
 
 @kernel
-def sweep(p, s, o, rot):
+def sweep(p, s, o, rot, mesh):
     """Continuous collision: a phalanx whose path this step entered object o from outside gets its
     contact where the path entered, on the face it crossed, whether the step ended inside the
     object or beyond it. Runs before ``detect``: for a thin plate hit fast, the closest face to the
@@ -230,11 +255,14 @@ def sweep(p, s, o, rot):
         end = mat_t_vec(rot, sub(row(s.hand_position, k), position))
         if start == end:
             continue
-        t, face_normal = segment_entry(shape, half_size, start, end, rho)
+        if mesh is not None and shape == MESH:
+            t, face_normal = mesh_segment_entry(mesh, o, start, end, rho)
+        else:
+            t, face_normal = segment_entry(shape, half_size, start, end, rho)
         if t < 0.0:
             continue
         entry = sub(add(start, scale(t, sub(end, start))), scale(rho, face_normal))
-        point, surface_normal = project_to_surface(shape, half_size, entry, face_normal)
+        point, surface_normal = project_on_face(mesh, o, shape, half_size, entry, face_normal)
         delta = rho + dot(sub(point, end), surface_normal)
         if delta <= 0.0:
             continue

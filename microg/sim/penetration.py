@@ -29,8 +29,9 @@ face and only f_n acts.
 from __future__ import annotations
 
 
-from .bodies import BOX
-from .contact import _with, point_velocity, project_to_surface
+from .bodies import BOX, MESH
+from .contact import _with, point_velocity, project_on_face
+from .mesh_contact import mesh_along_face
 from .hand import SLOTS
 from .vec import add, cell, dot, kernel, mat_t_vec, mat_vec, norm, row, scale, set_cell, sub
 from .wrench import add_point_force, add_point_matrix, outer
@@ -67,7 +68,7 @@ def along_face(shape, half_size, anchor, normal, tangential):
 
 
 @kernel
-def friction_cone(p, s, o, rot):
+def friction_cone(p, s, o, rot, mesh):
     """Eqs. 19-20: each contact with object o sticks inside the cone, or its anchor slides until
     the tangential pull is phi times the normal one."""
     position = row(s.position, o)
@@ -81,14 +82,14 @@ def friction_cone(p, s, o, rot):
         length = norm(tangential)
         if delta > 0.0 and length > mu * delta:
             moved = sub(anchor, scale((length - phi * delta) / length, tangential))
-            anchor, normal = project_to_surface(p.shape[o], row(p.half_size, o), moved, normal)
+            anchor, normal = project_on_face(mesh, o, p.shape[o], row(p.half_size, o), moved, normal)
             set_cell(s.anchor, k, o, anchor)
             set_cell(s.normal, k, o, normal)
             s.sliding[k, o] = True
 
 
 @kernel
-def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h):
+def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh):
     """Eqs. 16-18: the spring force of every contact with object o, applied at its god-object
     phalanx, with the stiffness the implicit velocity update needs."""
     gamma = p.penetration_stiffness
@@ -101,7 +102,8 @@ def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h):
         anchor, normal = cell(s.anchor, k, o), cell(s.normal, k, o)
         offset, delta, tangential = spring_offset(rot, position, hand, radius, anchor, normal)
         if not friction:
-            anchor, normal = project_to_surface(p.shape[o], row(p.half_size, o), sub(anchor, tangential), normal)
+            anchor, normal = project_on_face(mesh, o, p.shape[o], row(p.half_size, o), sub(anchor, tangential),
+                                             normal)
             set_cell(s.anchor, k, o, anchor)
             set_cell(s.normal, k, o, normal)
             offset, delta, tangential = spring_offset(rot, position, hand, radius, anchor, normal)
@@ -110,7 +112,10 @@ def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h):
             continue
         if not friction or s.sliding[k, o]:  # an anchor held at a face's edge cannot pull past the cone
             limit = p.dynamic_friction[o] * delta if friction else 0.0
-            along = along_face(p.shape[o], row(p.half_size, o), anchor, normal, tangential)
+            if mesh is not None and p.shape[o] == MESH:
+                along = mesh_along_face(mesh, o, anchor, normal, tangential)
+            else:
+                along = along_face(p.shape[o], row(p.half_size, o), anchor, normal, tangential)
             length = norm(along)
             if length > limit or along != tangential:
                 offset = add(scale(delta, normal), scale(min(1.0, limit / length) if length > 0.0 else 0.0, along))

@@ -11,6 +11,7 @@ nothing of another's.
 The effects are compile-time constants of ``advance`` (its closure): numba prunes the branches of
 the effects a scene does not name before it types the function, so their kernels are not in the
 machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
+The mesh kernels (``mesh_contact``) are compiled in the same way only for a scene with a mesh object.
 Each set of effects compiles once and is cached on disk (``microg.sim.cache``).
 
 A step in which an object would turn more than ``MAX_TURN`` is cut into as many parts as that
@@ -32,7 +33,7 @@ from .integrate import add_gravity, rotate_constant, rotate_free, update_positio
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
 from .state import (CLOCK_DRIFT, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS,
-                    unpack, unpack_params)
+                    unpack, unpack_mesh, unpack_params)
 from .table import table_contacts
 from .vec import entry, kernel, rotation
 
@@ -85,9 +86,11 @@ def end_step(s, h):
 
 
 @lru_cache(maxsize=None)
-def specialise(effects: frozenset[str]):
+def specialise(effects: frozenset[str], meshes: bool = False):
     """The compiled ``advance(params, ints, reals, flags, counts, times, present, track, points, widths)``
-    for exactly these effects (module docstring); state buffers have a leading world axis."""
+    for exactly these effects (module docstring), and for mesh objects when ``meshes``: only then
+    are the mesh kernels compiled in (the contact kernels get None for the meshes otherwise, see
+    ``contact``); state buffers have a leading world axis."""
     contacts = bool(effects & CONTACT_EFFECTS)
     swept = "continuous_collision" in effects
     anchored = "soft_hand" not in effects
@@ -102,8 +105,12 @@ def specialise(effects: frozenset[str]):
 
     @entry
     def advance(params, ints, reals, flags, counts, times, present, track, points, widths):
-        n = ints.shape[0] - 1
+        n = ints[0]
         p = unpack_params(params, ints, n)
+        if meshes:
+            mesh = unpack_mesh(params, ints, n)
+        else:
+            mesh = None
         wrench, stiffness, damping = np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6))
         for world in range(reals.shape[0]):
             s = unpack(reals[world], flags[world], counts[world], n)
@@ -119,8 +126,8 @@ def specialise(effects: frozenset[str]):
                         rot = rotation(s.orientation[o])
                         if contacts:
                             if swept:
-                                sweep(p, s, o, rot)
-                            detect(p, s, o, rot, anchored)
+                                sweep(p, s, o, rot, mesh)
+                            detect(p, s, o, rot, anchored, mesh)
                         if impulse:
                             if apply_impulses(p, s, o, rot, penetration, h):
                                 rot = rotation(s.orientation[o])
@@ -128,15 +135,15 @@ def specialise(effects: frozenset[str]):
                             if spring_onsets(p, s, o, rot, h):
                                 rot = rotation(s.orientation[o])
                         if cone:
-                            friction_cone(p, s, o, rot)
+                            friction_cone(p, s, o, rot, mesh)
                         if penetration:
-                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h)
+                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh)
                         if soft_hand:
                             soft_hand_forces(p, s, o, rot, friction, wrench, stiffness, damping, h)
                         if gravity:
                             add_gravity(p, o, wrench)
                         if table:
-                            table_contacts(p, s, o, rot, wrench, stiffness, damping, h)
+                            table_contacts(p, s, o, rot, wrench, stiffness, damping, h, mesh)
                         update_velocity(p, s, o, rot, wrench, stiffness, damping, h)
                         update_position(s, o, h)
                         if gyroscopic:

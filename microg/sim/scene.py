@@ -112,6 +112,11 @@ class Scene:
     def dt(self) -> float:
         return 1.0 / (self.tracking_rate * self.substeps)
 
+    @property
+    def has_meshes(self) -> bool:
+        """Whether an object is a mesh: only then is the step compiled with the mesh kernels."""
+        return any(placed.spec.mesh is not None for placed in self.objects)
+
     def validate(self, where: str = "scene") -> None:
         unknown = sorted(set(self.effects) - set(EFFECTS))
         if unknown:

@@ -182,14 +182,18 @@ PARAMS_PER_OBJECT = 10
 SCALARS = ("penetration_stiffness", "resting_tolerance", "dt", "jump_distance", "soft_stiffness", "soft_damping",
            "soft_slip_velocity", "table_height", "table_stiffness", "table_damping", "table_slip_velocity")
 """The model buffer's scalars after gravity, in order."""
+SCALAR_COUNT = len(SCALARS)
 
 
 def pack_params(shape, half_size, mass, inertia, restitution, static_friction, dynamic_friction, gravity,
-                scalars: dict[str, float], angular_method: int) -> tuple[np.ndarray, np.ndarray]:
-    """The model's numbers as two buffers (reals, ints) for ``unpack_params``."""
+                scalars: dict[str, float], angular_method: int, meshes=None) -> tuple[np.ndarray, np.ndarray]:
+    """The model's numbers as two buffers (reals, ints) for ``unpack_params``; ``meshes``, the
+    (reals, ints) of ``mesh.pack_meshes``, follow as the buffers' tails (``unpack_mesh``)."""
+    mesh_reals, mesh_ints = meshes if meshes is not None else ([], [])
     reals = np.concatenate([np.ravel(half_size), mass, np.ravel(inertia), restitution, static_friction,
-                            dynamic_friction, gravity, [float(scalars[name]) for name in SCALARS]]).astype(np.float64)
-    ints = np.concatenate([shape, [angular_method]]).astype(np.int64)
+                            dynamic_friction, gravity, [float(scalars[name]) for name in SCALARS],
+                            mesh_reals]).astype(np.float64)
+    ints = np.concatenate([[len(shape), angular_method], shape, mesh_ints]).astype(np.int64)
     return reals, ints
 
 
@@ -197,7 +201,7 @@ def pack_params(shape, half_size, mass, inertia, restitution, static_friction, d
 def unpack_params(reals, ints, n):
     """The model buffers as ``PARAMS`` (arrays are views; layout of ``pack_params``)."""
     p = structref.new(PARAMS)
-    p.shape = ints[:n]
+    p.shape = ints[2:2 + n]
     p.half_size = reals[:3 * n].reshape((n, 3))
     p.mass = reals[3 * n:4 * n]
     p.inertia = reals[4 * n:7 * n].reshape((n, 3))
@@ -209,5 +213,36 @@ def unpack_params(reals, ints, n):
     p.penetration_stiffness, p.resting_tolerance, p.dt, p.jump_distance = g[0], g[1], g[2], g[3]
     p.soft_stiffness, p.soft_damping, p.soft_slip_velocity = g[4], g[5], g[6]
     p.table_height, p.table_stiffness, p.table_damping, p.table_slip_velocity = g[7], g[8], g[9], g[10]
-    p.angular_method = ints[n]
+    p.angular_method = ints[1]
     return p
+
+
+MESH = StructType([(name, _array(types.int64, 2)) for name in ("object_parts", "object_corners", "part_faces",
+                                                               "face_edges")]
+                  + [(name, _array(types.float64, 2)) for name in ("planes", "edges", "corners")])
+"""The convex parts of a scene's mesh objects (``mesh.pack_meshes``): [first, stop) ranges per
+object (its parts, its corners), per part (its faces) and per face (its edges); the face planes
+(n, d), the edges (start, end, in-plane outward normal m, seam flag) and the corners."""
+
+
+@kernel
+def unpack_mesh(reals, ints, n):
+    """The tails of the model buffers as ``MESH`` (views; layout of ``mesh.pack_meshes``)."""
+    m = structref.new(MESH)
+    i = 2 + n
+    parts, faces, edges, corners = ints[i], ints[i + 1], ints[i + 2], ints[i + 3]
+    i += 4
+    m.object_parts = ints[i:i + 2 * n].reshape((n, 2))
+    i += 2 * n
+    m.object_corners = ints[i:i + 2 * n].reshape((n, 2))
+    i += 2 * n
+    m.part_faces = ints[i:i + 2 * parts].reshape((parts, 2))
+    i += 2 * parts
+    m.face_edges = ints[i:i + 2 * faces].reshape((faces, 2))
+    r = 10 * n + 3 + SCALAR_COUNT
+    m.planes = reals[r:r + 4 * faces].reshape((faces, 4))
+    r += 4 * faces
+    m.edges = reals[r:r + 10 * edges].reshape((edges, 10))
+    r += 10 * edges
+    m.corners = reals[r:r + 3 * corners].reshape((corners, 3))
+    return m

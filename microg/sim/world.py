@@ -31,6 +31,7 @@ import numpy as np
 
 from .bodies import SHAPES, SceneError
 from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
+from .mesh import pack_meshes
 from .pipeline import specialise
 from .scene import Scene
 from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, POINTS,
@@ -52,7 +53,7 @@ class Model:
     ints: np.ndarray
     shape: np.ndarray
     half_size: np.ndarray
-    """(N, 3) box half extents; a sphere's radius in every column."""
+    """(N, 3) box half extents; a sphere's radius in every column; a mesh's half extent."""
     mass: np.ndarray
     inertia: np.ndarray
     """(N, 3) principal moments in the body frame."""
@@ -140,14 +141,17 @@ def make_model(scene: Scene) -> Model:
                "table_damping": table.damping if table else 0.0,
                "table_slip_velocity": table.slip_velocity if table else 0.0}
     method = ANGULAR_METHODS[scene.angular_integrator]
+    meshes = None
+    if scene.has_meshes:
+        meshes = pack_meshes([s.mesh for s in specs])
     params, ints = pack_params(shape, half_size, mass, inertia, restitution, static_friction, dynamic_friction,
-                               gravity, scalars, method)
+                               gravity, scalars, method, meshes)
     return Model(scene=scene, names=tuple(s.name for s in specs), effects=scene.effects, params=params, ints=ints,
                  shape=shape, half_size=half_size, mass=mass, inertia=inertia, restitution=restitution,
                  static_friction=static_friction, dynamic_friction=dynamic_friction, gravity=gravity,
                  penetration_stiffness=float(scene.penetration_stiffness),
                  resting_tolerance=float(scene.resting_tolerance), angular_method=method, dt=scene.dt,
-                 advance=specialise(scene.effects))
+                 advance=specialise(scene.effects, scene.has_meshes))
 
 
 def initial_data(model: Model) -> Data:

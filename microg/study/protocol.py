@@ -20,6 +20,7 @@ questionnaire items the rating model rates) is reported by ``Protocol.simulation
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import json
 import math
@@ -179,11 +180,15 @@ class Protocol:
 
     def start_pose(self, name: str) -> tuple[tuple[float, float, float], tuple[float, float, float, float]]:
         """Where the object ``name`` waits at the start of a task: at ``task.start``, or, with a
-        table, standing on it below that point (its lowest point on the table top)."""
+        table, standing on it below that point (its lowest point on the table top: a box's corner, a
+        mesh's vertex)."""
         x, y, z = self.task.start
         if self.table_height is not None:
             rot = quat_to_matrix(np.asarray(self.task.start_orientation, dtype=float))
-            y = self.table_height + float(np.abs(rot[1]) @ self.object(name).spec.half_extents)
+            spec = self.object(name).spec
+            below = (-float((spec.mesh.vertices @ rot[1]).min()) if spec.mesh is not None
+                     else float(np.abs(rot[1]) @ spec.half_extents))
+            y = self.table_height + below
         return (x, y, z), self.task.start_orientation
 
     def scene(self, name: str, interaction: str) -> Scene:
@@ -302,11 +307,22 @@ def _object_file(name: str, protocol_dir: Path | None) -> Path | None:
     return None
 
 
+def _mesh_file(text: str, object_file: Path) -> Path | None:
+    """The mesh file a mesh object's file names, when it is there (else the object's validation
+    names what is wrong)."""
+    try:
+        name = tomllib.loads(text).get("mesh")
+    except tomllib.TOMLDecodeError:
+        return None
+    path = object_file.parent / name if isinstance(name, str) and name else None
+    return path if path is not None and path.is_file() else None
+
+
 def load_protocol(path: str | Path) -> Protocol:
     """Read and validate a protocol file (and the files it extends, and its object files)."""
     path = Path(path)
     data, sources = _resolve(path)
-    objects, files = {}, {}
+    objects, files, meshes = {}, {}, {}
     for section, key in (("objects", "names"), ("training", "objects")):
         table = data.get(section)
         names = table.get(key) if isinstance(table, dict) else None
@@ -319,7 +335,12 @@ def load_protocol(path: str | Path) -> Protocol:
                 raise ProtocolError(f"{path}: {section}.{key}[{i}] = {name!r}: no object file {name}.toml next to "
                                     f"the protocol (objects/) or shipped (shipped objects: {known})")
             objects[name], files[name] = _read_text(found, "object file"), str(found)
+            mesh = _mesh_file(objects[name], found)
+            if mesh is not None:
+                meshes[name] = base64.b64encode(mesh.read_bytes()).decode("ascii")
     resolved = dict(data, object_files=objects, sources=sources)
+    if meshes:
+        resolved["mesh_files"] = meshes
     return _build(_Reader(str(path), data), resolved, files)
 
 
@@ -327,7 +348,7 @@ def protocol_from_resolved(resolved: dict, where: str) -> Protocol:
     """The protocol a study database keeps (see ``Protocol.resolved``)."""
     if not isinstance(resolved, dict) or not isinstance(resolved.get("object_files", {}), dict):
         raise ProtocolError(f"{where}: the stored protocol is not a protocol table")
-    data = {k: v for k, v in resolved.items() if k not in ("object_files", "sources")}
+    data = {k: v for k, v in resolved.items() if k not in ("object_files", "mesh_files", "sources")}
     return _build(_Reader(where, data), resolved, {})
 
 
@@ -483,16 +504,18 @@ def _read_groups(top: _Reader, people: _Reader, total: int) -> tuple[Group, ...]
     return tuple(groups)
 
 
-def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: dict) -> StudyObject:
-    """One object from its file's text; errors name the object file (or, for a study's stored copy,
-    the database and the file's name)."""
+def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: dict, meshes: dict) -> StudyObject:
+    """One object from its file's text (and its mesh file's content, base64); errors name the object
+    file (or, for a study's stored copy, the database and the file's name)."""
     text = sources.get(name)
     if not isinstance(text, str):
         raise reader.fail(key, name, "no object file for this object in the protocol's data")
     where = files.get(name) or f"{reader.where}: object file {name}.toml (as kept with the protocol)"
+    mesh = meshes.get(name)
     try:
         data = tomllib.loads(text)
-        spec = object_from_dict(data, where)
+        spec = object_from_dict(data, where, Path(files[name]).parent if name in files else Path("."),
+                                base64.b64decode(mesh) if isinstance(mesh, str) else None)
     except tomllib.TOMLDecodeError as error:
         raise ProtocolError(f"{where}: not valid TOML: {error}") from None
     except SceneError as error:
@@ -505,12 +528,12 @@ def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: di
     return StudyObject(name=name, code=code, spec=spec, source=text)
 
 
-def _read_objects(top: _Reader, sources: dict, files: dict) -> tuple[tuple[StudyObject, ...], str]:
+def _read_objects(top: _Reader, sources: dict, files: dict, meshes: dict) -> tuple[tuple[StudyObject, ...], str]:
     """``[objects]``: the tested objects (from their object files) and the order scheme."""
     table = top.table("objects")
     names = table.strings("names")
     table.unique("names", list(names), "object")
-    objects = tuple(_study_object(table, f"names[{i}]", n, sources, files) for i, n in enumerate(names))
+    objects = tuple(_study_object(table, f"names[{i}]", n, sources, files, meshes) for i, n in enumerate(names))
     order = table.text("order", choices=ORDER_SCHEMES)
     table.done()
     return objects, order
@@ -583,7 +606,8 @@ def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
     return tuple(phases)
 
 
-def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files: dict) -> Training | None:
+def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files: dict,
+                   meshes: dict) -> Training | None:
     """``[training]``: who trains (the groups marked ``training = true``), with what interaction model and
     objects."""
     tr = top.table("training", None)
@@ -599,7 +623,7 @@ def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files
     _renamed(tr, "system", "training.system is now training.interaction (the interaction model training runs)")
     training = Training(groups=training_groups,
                         interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
-                        objects=tuple(_study_object(tr, f"objects[{i}]", n, sources, files)
+                        objects=tuple(_study_object(tr, f"objects[{i}]", n, sources, files, meshes)
                                       for i, n in enumerate(names)))
     tr.done()
     flagged = tuple(g.code for g in groups if g.training)
@@ -742,6 +766,7 @@ def _check_worlds(top: _Reader, protocol: Protocol) -> None:
 def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     """The protocol from its merged data: each section by its reader, then the checks across sections."""
     sources = resolved.get("object_files", {})
+    meshes = resolved.get("mesh_files", {})
     name = top.text("name")
     title = top.text("title", "")
     top.text("description", "")
@@ -750,10 +775,10 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     gravity, table_height, options, filter_window = _read_scene(top)
     people, total, balance, age_range = _read_participants(top)
     groups = _read_groups(top, people, total)
-    objects, order = _read_objects(top, sources, files)
+    objects, order = _read_objects(top, sources, files, meshes)
     task = _read_task(top)
     phases = _read_phases(top)
-    training = _read_training(top, groups, sources, files)
+    training = _read_training(top, groups, sources, files, meshes)
     questionnaire = _read_questionnaire(top)
     timeline = _read_timeline(top, groups, phases, training, questionnaire)
     logging = top.table("logging", {})
@@ -762,6 +787,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     viewpoint = _read_display(top)
     dataset = _read_dataset(top)
     top.raw("object_files", None)
+    top.raw("mesh_files", None)
     top.raw("sources", None)
     top.done()
     protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,

@@ -147,6 +147,8 @@ class ParticipantDisplay:
         self._publish("scene", {
             "task": task.index, "phase": task.phase, "object": task.object, "shape": layout.shape,
             "size": layout.size.tolist(), "start": layout.start.tolist(), "places": layout.places.tolist(),
+            "surface": None if layout.surface is None else {"vertices": layout.surface[0].ravel().tolist(),
+                                                            "faces": layout.surface[1].ravel().tolist()},
             "place_radius": layout.place_radius, "hold_s": layout.hold_s,
             "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),
                                                               "size": layout.table_size.tolist()},

@@ -114,7 +114,11 @@ class Renderer:
         if layout.table_height is not None:
             centre = layout.table_centre - [0.0, layout.table_size[1] / 2, 0.0]
             self._body(pb.GEOM_BOX, _rgba(PALETTE["table"]), centre, halfExtents=list(layout.table_size / 2))
-        if layout.shape == "sphere":
+        if layout.surface is not None:
+            vertices, faces = layout.surface
+            self._body(pb.GEOM_MESH, _rgba(PALETTE["object"]), scene.object_position, _xyzw(scene.object_orientation),
+                       vertices=vertices.tolist(), indices=faces.ravel().tolist())
+        elif layout.shape == "sphere":
             self._body(pb.GEOM_SPHERE, _rgba(PALETTE["object"]), scene.object_position, radius=layout.size[0] / 2)
         else:
             self._body(pb.GEOM_BOX, _rgba(PALETTE["object"]), scene.object_position,

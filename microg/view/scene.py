@@ -196,9 +196,9 @@ class TaskLayout:
     """What stays put during a task: the object's shape, the places, the table."""
 
     shape: str
-    """``box`` or ``sphere``."""
+    """``box``, ``sphere`` or ``mesh``."""
     size: np.ndarray
-    """Box: edge lengths; sphere: (diameter,) * 3 (m)."""
+    """Box: edge lengths; sphere: (diameter,) * 3; mesh: its extent along the body axes (m)."""
     start: np.ndarray
     places: np.ndarray
     """(P, 3)"""
@@ -209,6 +209,8 @@ class TaskLayout:
     """Centre of the table top (m)."""
     table_size: np.ndarray
     """Edge lengths of the table slab (m)."""
+    surface: tuple[np.ndarray, np.ndarray] | None = None
+    """A mesh object's surface in its body frame: vertices (V, 3) and triangles (F, 3)."""
 
 
 TABLE_MARGIN = 0.12
@@ -233,16 +235,22 @@ def task_layout(protocol: Protocol, object_name: str) -> TaskLayout:
     centre = np.array([0.5 * (xs.min() + xs.max()), height if height is not None else np.nan, start[2]])
     size = np.array([xs.max() - xs.min() + 2 * TABLE_MARGIN, TABLE_THICKNESS, TABLE_DEPTH])
     return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start, places,
-                      protocol.task.place_radius, protocol.task.hold_s, height, centre, size)
+                      protocol.task.place_radius, protocol.task.hold_s, height, centre, size, surface_of(spec))
 
 
-def object_layout(shape: str, size, start, table_height: float | None = None) -> TaskLayout:
+def surface_of(spec) -> tuple[np.ndarray, np.ndarray] | None:
+    """A mesh object's surface to draw (None for a box or a sphere)."""
+    return None if spec.mesh is None else (spec.mesh.vertices, spec.mesh.faces)
+
+
+def object_layout(spec, start, table_height: float | None = None) -> TaskLayout:
     """The layout of a scene without a task (a scripted demo): one object that starts at ``start``,
     no places, and a table of the task's depth and 40 cm wide under it when ``table_height`` is given."""
     start = np.asarray(start, dtype=np.float64)
     centre = np.array([start[0], table_height if table_height is not None else np.nan, start[2]])
-    return TaskLayout(shape, np.asarray(size, dtype=np.float64), start, np.empty((0, 3)), 0.0, 0.0, table_height,
-                      centre, np.array([2 * DEMO_TABLE_HALF_WIDTH, TABLE_THICKNESS, TABLE_DEPTH]))
+    return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start, np.empty((0, 3)), 0.0, 0.0,
+                      table_height, centre, np.array([2 * DEMO_TABLE_HALF_WIDTH, TABLE_THICKNESS, TABLE_DEPTH]),
+                      surface_of(spec))
 
 
 @dataclass(frozen=True)

@@ -132,7 +132,9 @@ class SceneDrawer:
                 handle.remove()
         scene = self.server.scene
         self.layout, self.places, self.fixed = layout, [], []
-        if layout.shape == "sphere":
+        if layout.surface is not None:
+            self.object = scene.add_mesh_simple("/object", *layout.surface, color=PALETTE["object"])
+        elif layout.shape == "sphere":
             self.object = scene.add_icosphere("/object", radius=float(layout.size[0] / 2), color=PALETTE["object"])
         else:
             self.object = scene.add_box("/object", color=PALETTE["object"], dimensions=tuple(layout.size))

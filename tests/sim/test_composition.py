@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from microg.sim import (INTERACTION_MODELS, Hand, HandFrame, Material, ObjectSpec, PlacedObject, Scene, SceneError,
-                        compose_scene, load_object, load_scene, make_world, step)
+                        TableParameters, compose_scene, load_object, load_scene, make_world, step)
 from microg.sim.pipeline import specialise
 from tests.physics import drive, placed, world_of
 
@@ -32,6 +32,21 @@ def compiled_kernels(world) -> set[str]:
     return {name for name in KERNELS if re.search(rf"global\({name}: CPUDispatcher", typed.getvalue())}
 
 
+MESH_KERNELS = ("mesh_closest_point", "mesh_over_face", "mesh_project", "mesh_segment_entry", "mesh_along_face",
+                "unpack_mesh")
+"""The kernels of mesh objects (``mesh_contact``, ``state.unpack_mesh``)."""
+
+
+def linked_code(world) -> str:
+    """The LLVM code of the world's compiled step with every kernel it calls, at any depth (numba
+    links each called kernel's code into its caller's), compiled afresh as ``compiled_kernels``."""
+    advance = world.model.advance
+    fresh = numba.njit(advance.py_func, error_model="numpy")
+    signature = advance.signatures[0]
+    fresh.compile(signature)
+    return fresh.inspect_llvm(signature)
+
+
 def pinch_path(t):
     x = 0.03 + 0.008 + 0.005 - min(t, 0.3) / 0.3 * 0.009
     return {"thumb.distal": (-x, 0.2, 0.0), "index.distal": (x, 0.2, 0.0)}
@@ -49,6 +64,24 @@ def test_every_named_effect_is_in_the_compiled_step():
                   pinch_path, t_end=0.1)
     assert compiled_kernels(world) == {"sweep", "detect", "apply_impulses", "friction_cone", "penetration_forces",
                                        "add_gravity", "update_velocity", "update_position", "rotate_free"}
+
+
+def test_mesh_kernels_are_in_the_compiled_step_only_when_the_scene_has_a_mesh(tmp_path):
+    import trimesh
+
+    from tests.meshes import mesh_object
+
+    box = trimesh.creation.box(extents=(0.06, 0.06, 0.06))
+    cube_mesh = PlacedObject(load_object(mesh_object(tmp_path, "cube", box.vertices, box.faces, mass=0.15)),
+                             (0.0, 0.2, 0.0))
+    effects = {"impulse", "penetration", "friction", "continuous_collision", "table"}
+    options = {"table": TableParameters(height=0.1)}
+    for objects, meshes in (([placed("cube"), placed("ball", (0.2, 0.2, 0.0))], False), ([cube_mesh], True)):
+        world = drive(world_of(objects, effects=effects, **options), pinch_path, t_end=0.05)
+        code = linked_code(world)
+        assert re.search(r"\d+detect[BE]", code) and re.search(r"\d+table_contacts[BE]", code)
+        assert {name for name in MESH_KERNELS if re.search(rf"\d+{name}[BE]", code)} == (
+            set(MESH_KERNELS) if meshes else set())
 
 
 def test_each_set_of_effects_compiles_once():

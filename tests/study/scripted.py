@@ -8,8 +8,9 @@ import time
 
 import numpy as np
 
-from microg.sim import HandFrame
 from microg.participant.scripted import probe_hand
+from microg.sim import HandFrame
+from microg.sim.rotation import quat_to_matrix
 
 RATE = 110.0
 RADIUS = 0.008
@@ -21,7 +22,7 @@ def pinch_keyframes(plan, *, squeeze=0.006, travel=0.4, dwell=None, drop_at_plac
     """(t, centre, gap) keyframes: approach and close at the start, carry to each place and dwell,
     open after the last place. ``drop_at_place=k`` opens the hand at place k for ``open_s`` and
     closes it again; ``skip_place=k`` leaves place k after half the dwell."""
-    half = float(plan.object.half_extents[0])
+    half = float(np.abs(quat_to_matrix(plan.rules.start_orientation)[0]) @ plan.object.half_extents)  # along x
     open_gap, closed = half + RADIUS + 0.02, half + RADIUS - squeeze
     dwell = plan.rules.hold_s + 0.3 if dwell is None else dwell
     start = np.asarray(plan.start)

@@ -125,3 +125,26 @@ def test_export_refuses_a_missing_study_another_format_and_overwriting(logged_st
     result = run(main, ["view", str(logged_study), "--session", "P01", "--task", "0",
                         "--out", str(taken)])
     assert result.exit_code == 1 and "exists" in result.output and taken.read_bytes() == b"a figure"
+
+
+def test_the_renderer_draws_a_mesh_object_by_its_surface():
+    # The shipped mallet seen from the front (+z), its handle along x: the object's colour covers
+    # the handle and the head, not the corners of its bounding box beside the handle.
+    from microg.paths import object_file
+    from microg.sim import load_object
+    from microg.view.scene import Camera, object_layout, world_scene
+
+    spec = load_object(object_file("mallet"))
+    start = np.array([0.0, 0.2, 0.0])
+    layout = object_layout(spec, start)
+    camera = Camera(eye=start + [0.0, 0.0, 0.4], target=start, fov_deg=40.0)
+    nothing = np.full((2, 5, 5, 3), np.nan)
+    scene = world_scene(0.0, start, (1.0, 0.0, 0.0, 0.0), nothing, np.full((2, 5, 4), np.nan),
+                        np.full((40, 3), np.nan), np.zeros(40, dtype=bool), False)
+    with Renderer(layout, camera, SIZE) as renderer:
+        image = renderer.draw(scene)
+    mask = colour_mask(image, "object")
+    handle, head = start + [-0.05, 0.0, 0.0], start + [0.045, 0.025, 0.0]  # body frame: handle at -x, head at +x
+    beside_handle = start + [-0.05, 0.025, 0.0]  # inside the bounding box, outside the mallet
+    for point, drawn in ((handle, True), (head, True), (beside_handle, False)):
+        assert (pixels_near(mask, project(point, camera, *SIZE)[0], 3) > 10) == drawn, point

@@ -12,6 +12,16 @@ function colour(rgb) {
   return new THREE.Color(rgb[0] / 255, rgb[1] / 255, rgb[2] / 255);
 }
 
+/** A mesh object's surface (flat vertex and triangle lists, body frame) as a geometry, flat-shaded. */
+function meshGeometry(surface) {
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute("position", new THREE.Float32BufferAttribute(surface.vertices, 3));
+  geometry.setIndex(surface.faces);
+  const flat = geometry.toNonIndexed();
+  flat.computeVertexNormals();
+  return flat;
+}
+
 export class Workspace {
   constructor() {
     this.root = new THREE.Group();
@@ -51,8 +61,9 @@ export class Workspace {
     this.layout = scene;
     this.palette = scene.palette;
     const material = new THREE.MeshStandardMaterial({ color: colour(this.palette.object), roughness: 0.7 });
-    const geometry = scene.shape === "sphere" ? new THREE.SphereGeometry(scene.size[0] / 2, 32, 24)
-                                              : new THREE.BoxGeometry(...scene.size);
+    const geometry = scene.surface ? meshGeometry(scene.surface)
+      : scene.shape === "sphere" ? new THREE.SphereGeometry(scene.size[0] / 2, 32, 24)
+      : new THREE.BoxGeometry(...scene.size);
     this.object = new THREE.Mesh(geometry, material);
     this.object.position.set(...scene.start);
     this.root.add(this.object);
