@@ -99,9 +99,11 @@ def load_mesh(path: Path, content: bytes | None = None) -> MeshShape:
         raise MeshError(f"{path}: has no triangles")
     if not surface.is_watertight:
         raise MeshError(f"{path}: is not closed (watertight): a solid's surface must have no holes")
-    if surface.volume < 0:
+    with np.errstate(invalid="ignore", divide="ignore"):  # trimesh divides by the volume, maybe 0
+        volume = surface.volume
+    if volume < 0:
         surface.invert()
-    if not surface.volume > 1e-15:
+    if not abs(volume) > 1e-15:
         raise MeshError(f"{path}: encloses no volume (volume = {surface.volume:.3g} m^3)")
     from_file = principal_transform(surface.center_mass, surface.moment_inertia)
     body = surface.copy()
