@@ -145,3 +145,31 @@ def test_away_from_localhost_the_page_must_present_the_one_time_token(tmp_path):
         assert refused(f"ws://127.0.0.2:{display.port}/ws", origin)
         assert refused(f"ws://127.0.0.2:{display.port}/ws?token=guess", origin)
         assert not refused(f"ws://127.0.0.2:{display.port}/ws?token={display.token}", origin)
+
+
+@needs_browser
+def test_a_mesh_object_is_drawn_from_its_own_triangles(tmp_path):
+    from microg.study.store import PlannedTask
+    from microg.view.scene import task_layout
+
+    protocol = load_protocol(PROTOCOLS / "quick-mallet.toml")
+    mallet = protocol.objects[0]
+    layout = task_layout(protocol, mallet.name)
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        driver.get(display.url)
+        wait(driver, "return document.body.innerText.includes('Waiting for the session')")
+        display.get_ready(PlannedTask(0, protocol.phases[0].name, protocol.phases[0].interaction, mallet.name,
+                                      mallet.code, 1))
+        drawn = wait(driver, "const o = window.microg.workspace.object; return o && window.microg.scene "
+                             "&& {triangles: o.geometry.attributes.position.count / 3, "
+                             "position: o.position.toArray()};")
+        picture = np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+        project = lambda point: driver.execute_script("return window.microg.project(...arguments)", *point)
+        assert drawn["triangles"] == len(layout.surface[1]) == len(mallet.spec.mesh.faces)
+        assert np.allclose(drawn["position"], layout.start)
+        # the T's ends are drawn: object pixels near each vertex the camera sees farthest apart
+        corners = layout.start + layout.surface[0]
+        pixels = np.array([project(c) for c in corners])
+        ends = corners[[np.argmin(pixels[:, 0]), np.argmax(pixels[:, 0])]]
+        for end in ends:
+            assert pixels_near(colour_mask(picture, "object"), project(end), 12) > 20
