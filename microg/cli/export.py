@@ -51,8 +51,7 @@ def _export_xdf(study_dir: str, xdf_file: Path, out: Path, formats: tuple[str, .
     for lineup in lineups:
         fit = lineup.fit
         click.echo(f"participant {lineup.participant}, session {lineup.session}: {len(fit.residuals)} of "
-                   f"{len(lineup.markers)} markers matched; LSL time = {fit.offset:.6f} s + {fit.slope:.9f} x session "
-                   f"time; max residual {fit.max_residual_ms:.3f} ms")
+                   f"{len(lineup.markers)} markers matched; {fit.describe()}; max residual {fit.max_residual_ms:.3f} ms")
         if lineup.clock != "wall":
             click.echo(f"  note: this session ran on the {lineup.clock} clock, whose times are simulated seconds; "
                        "the task runs' LSL times come from their markers, but the fit and the MoCap samples' "

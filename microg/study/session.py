@@ -297,6 +297,8 @@ def resume_session(store: Store, session_id: int, inputs: Inputs, **options) -> 
 
     clock = options["clock"]
     interrupted = store.interrupt_open_runs(session_id, clock.now())
+    if options.get("markers"):  # where the markers' clock line breaks (``microg.study.xdf``)
+        options["markers"]("session_resume", {"interrupted_runs": interrupted})
     store.log(session_id, [Event(clock.now(), "session_resume", {
         "interrupted_runs": interrupted, "input": inputs.spec, "microg_version": __version__})])
     return run_session(store, session_id, inputs, **options)

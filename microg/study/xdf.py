@@ -3,7 +3,7 @@
 The session's ``Markers`` stream says which session it comes from (``lsl.session_tags``) and carries
 the session's events in order, as the log has them. ``line_up`` matches each marker to its logged
 event, fits the line from the session's clock to the LSL clock through the pairs (offset, and a
-slope for the clocks' drift) and reports how far each marker lies from it; then it puts every task
+slope for the clocks' drift; one line per part of a resumed session) and reports how far each marker lies from it; then it puts every task
 run on the LSL clock (to cut EEG or eye-tracking epochs per task) and gives the ``MoCap`` samples the
 session's time and the run and frame they show. ``pyxdf`` reads the file (``pip install 'microg[lsl]'``).
 """
@@ -33,22 +33,64 @@ class XdfError(ValueError):
 
 @dataclass(frozen=True)
 class Fit:
-    """LSL time = ``offset`` + ``slope`` × session time, through the matched markers."""
+    """LSL time = offset + slope × session time, through the matched markers: one line per part of
+    the session. A resumed session's clock carries on from where it stopped while the LSL clock ran
+    on through the crash, so each resume (``session_resume``) starts a new part and a new line."""
 
-    offset: float
-    slope: float
+    starts: np.ndarray
+    """Session time at which each part begins (-inf for the first)."""
+    offsets: np.ndarray
+    slopes: np.ndarray
     residuals: np.ndarray
-    """Seconds each matched marker lies after the line (LSL clock)."""
+    """Seconds each matched marker lies after its part's line (LSL clock)."""
+
+    @property
+    def offset(self) -> float:
+        return float(self.offsets[0])
+
+    @property
+    def slope(self) -> float:
+        return float(self.slopes[0])
 
     def lsl(self, t):
-        return self.offset + self.slope * np.asarray(t, dtype=float)
+        t = np.asarray(t, dtype=float)
+        part = np.searchsorted(self.starts, t, side="right") - 1
+        return self.offsets[part] + self.slopes[part] * t
 
     def study(self, lsl):
-        return (np.asarray(lsl, dtype=float) - self.offset) / self.slope
+        lsl = np.asarray(lsl, dtype=float)
+        known = np.flatnonzero(np.isfinite(self.offsets))  # parts without a marker have no line
+        begins = self.offsets[known] + self.slopes[known] * self.starts[known]
+        begins[0] = -np.inf
+        part = known[np.searchsorted(begins, lsl, side="right") - 1]
+        return (lsl - self.offsets[part]) / self.slopes[part]
 
     @property
     def max_residual_ms(self) -> float:
         return float(np.max(np.abs(self.residuals)) * 1e3)
+
+    def describe(self) -> str:
+        """The lines, as the CLI prints them."""
+        return "; ".join(f"LSL time = {o:.6f} s + {k:.9f} x session time" + ("" if start == -np.inf else
+                         f" from the resume at {start:g} s") for start, o, k in zip(self.starts, self.offsets,
+                                                                                      self.slopes))
+
+
+def fit_parts(t: np.ndarray, lsl: np.ndarray, part: np.ndarray, starts: np.ndarray) -> Fit:
+    """The line of each part through its (session time, LSL time) pairs; a part with markers at one
+    time only keeps the slope of the part before (the clocks' drift does not change at a resume), a
+    part without markers (not recorded) has none: its times map to NaN."""
+    offsets, slopes = np.empty(len(starts)), np.empty(len(starts))
+    residuals = np.empty(len(t))
+    for k in range(len(starts)):
+        mine = part == k
+        if len(np.unique(t[mine])) >= 2:
+            slopes[k], offsets[k] = np.polyfit(t[mine], lsl[mine], 1)
+        else:
+            slopes[k] = slopes[k - 1] if k else 1.0
+            offsets[k] = np.mean(lsl[mine] - slopes[k] * t[mine]) if mine.any() else np.nan
+        residuals[mine] = lsl[mine] - (offsets[k] + slopes[k] * t[mine])
+    return Fit(starts, offsets, slopes, residuals)
 
 
 @dataclass(frozen=True)
@@ -136,12 +178,17 @@ def _logged_events(store: Store, session_id: int) -> list[dict]:
 
 def _match(markers: list[dict], events: list[dict]) -> list[int | None]:
     """For each marker in order, the index of its logged event (same kind, and the marker's data as
-    logged), or None. The log has more than the markers (runs skipped, resumes, the tracking guard's
-    counts, answers), so a marker is matched with the next logged event like it."""
+    logged), or None. The log has more than the markers (runs skipped, the tracking guard's counts,
+    answers), so a marker is matched with the next logged event like it, within its part of the
+    session: a marker sent as the session died was never logged, and must not take the like event
+    the resumed session logged when it did that task again."""
+    resumes = [i for i, e in enumerate(events) if e["kind"] == "session_resume"] + [len(events)]
     matched, start = [], 0
     for marker in markers:
         data = {k: v for k, v in marker.items() if k != "kind"}
-        found = next((i for i in range(start, len(events)) if events[i]["kind"] == marker.get("kind")
+        resume = marker.get("kind") == "session_resume"
+        stop = len(events) if resume else next(r for r in resumes if r >= start)
+        found = next((i for i in range(start, stop) if events[i]["kind"] == marker.get("kind")
                       and all(events[i]["data"].get(k, object()) == v for k, v in data.items())), None)
         matched.append(found)
         if found is not None:
@@ -169,15 +216,10 @@ def _line_up(store: Store, path: Path, session_id: int, stream: dict, mocap: dic
         raise XdfError(f"{path}: {len(pairs)} of the {len(sent)} markers of the Markers stream '{MARKERS_NAME}' "
                        f"({who}) match the study log's events, at {len({t for t, _, _ in pairs})} distinct times; "
                        f"fitting the clocks needs at least {MIN_MARKERS} at two or more")
-    first, last = pairs[0][2], pairs[-1][2]
-    resumed = [e for e in events[first:last] if e["kind"] == "session_resume"]
-    if resumed:
-        raise XdfError(f"{path}: the markers of {who} span a resume of the session (session_resume at t = "
-                       f"{resumed[0]['t']:g} s), after which the session's clock carries on from where it stopped; "
-                       "lining up across a resume is not supported: record each part in its own XDF file")
-    t, lsl = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
-    slope, offset = np.polyfit(t, lsl, 1)
-    fit = Fit(float(offset), float(slope), lsl - (offset + slope * t))
+    resumes = [i for i, e in enumerate(events) if e["kind"] == "session_resume"]
+    starts = np.array([-np.inf] + [events[i]["t"] for i in resumes])
+    part = np.searchsorted(resumes, [i for _, _, i in pairs], side="right")  # resumes up to each marker's event
+    fit = fit_parts(np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]), part, starts)
     keys = {"participant": session.participant_id, "session": session_id}
     residual = dict(zip((p[2] for p in pairs), fit.residuals))
     markers = pd.DataFrame([{

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 import uuid
 
 import numpy as np
@@ -20,7 +21,7 @@ from microg.study.lsl import (
     session_tags,
 )
 from microg.study.protocol import load_protocol
-from microg.study.session import WallClock, run_session
+from microg.study.session import WallClock, make_clock, resume_session, run_session
 from microg.study.store import create_study
 from microg.study.xdf import XdfError, line_up
 
@@ -150,3 +151,51 @@ def test_an_xdf_that_does_not_belong_says_why(recorded, make_study, tmp_path):
     with pytest.raises(XdfError, match=f"{few}: 1 of the 2 markers .* \\(participant P01, session 1\\) match the "
                                        "study log's events"):
         line_up(store, few)
+
+
+class Crash(Exception):
+    """Stands in for the session's process dying."""
+
+
+def test_a_session_resumed_after_a_crash_lines_up_part_by_part(tmp_path):
+    """The session's clock carries on from its last logged time at a resume, while the LSL clock ran
+    on through the crash: one line per part, each as close as the session that never stopped."""
+    from .xdf_writer import XdfRecorder
+
+    store = create_study(tmp_path / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1)
+    store.add_participant(Participant("P01", "female", 24, "right", True))
+    session = store.create_session("P01", "scripted", True, "wall")
+    ids = [f"microg-test-markers-{uuid.uuid4().hex}"]
+    outlet = MarkerOutlet(session_tags(store, session.id), source_id=ids[0])
+    recorder = XdfRecorder(tmp_path / "resumed.xdf", ids)
+    sent, crash_at = [], []
+
+    def markers(kind, data):
+        sent.append(kind)
+        outlet(kind, data)
+        if kind == "task_end" and not crash_at:  # dies as the first task ends, before its end is logged
+            crash_at.append(time.monotonic())
+            raise Crash
+
+    inputs = ScriptedInputs(lambda plan, seed: ScriptedPinch(pinch_keyframes(plan)), clock="wall")
+    with pytest.raises(Crash):
+        run_session(store, session.id, inputs, clock=WallClock(), markers=markers, progress=False)
+    while time.monotonic() - crash_at[0] < 0.5:  # the crash and the restart take real time: LSL's clock runs on
+        time.sleep(0.05)
+    resume_session(store, session.id, inputs, clock=make_clock("wall", store.last_time(session.id)),
+                   markers=markers, progress=False)
+    recorder.wait_for(ids[0], len(sent))
+    recorder.close()
+
+    lineup, = line_up(store, tmp_path / "resumed.xdf")
+    markers = lineup.markers
+    assert list(markers[~markers.matched].index) == [sent.index("task_end")]  # sent as it died, never logged
+    assert "session_resume" in set(markers[markers.matched].kind) and len(lineup.fit.starts) == 2
+    assert lineup.fit.max_residual_ms < RESIDUAL_MS, lineup.markers.residual_ms.describe()
+    assert lineup.fit.offsets[1] - lineup.fit.offsets[0] > 0.5 - RESIDUAL_MS / 1e3  # the time the crash took
+    runs = store.runs(session.id)
+    assert [r.status for r in runs][:2] == ["interrupted", "completed"]  # the first task, cut off, then again
+    started = lineup.tasks.lsl_start.to_numpy()
+    np.testing.assert_allclose(lineup.fit.study(started), [r.started_at for r in runs], atol=RESIDUAL_MS / 1e3)
+    assert (np.diff(started) > 0).all()
+    store.close()
