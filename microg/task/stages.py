@@ -120,19 +120,23 @@ def advance(state: TaskState, obs: Observation, rules: TaskRules) -> tuple[TaskS
 def _update_hold(state: TaskState, obs: Observation, rules: TaskRules, events: list[TaskEvent]) -> TaskState:
     t = obs.t
     if obs.grasped:
-        state = replace(state, loose_since=None)
+        if state.loose_since is not None:
+            state = replace(state, loose_since=None)
         if not state.held:
-            since = t if state.grasp_since is None else state.grasp_since
-            state = replace(state, grasp_since=since)
+            if state.grasp_since is None:
+                state = replace(state, grasp_since=t)
+            since = state.grasp_since
             if t - since >= rules.grasp_settle_s - _EPS:
                 state = replace(state, held=True, grasp_since=None)
                 events.append(TaskEvent(t, "hold", {"since": since}))
         return state
-    state = replace(state, grasp_since=None)
+    if state.grasp_since is not None:
+        state = replace(state, grasp_since=None)
     if not state.held:
         return state
-    since = t if state.loose_since is None else state.loose_since
-    state = replace(state, loose_since=since)
+    if state.loose_since is None:
+        state = replace(state, loose_since=t)
+    since = state.loose_since
     if t - since < rules.drop_grace_s - _EPS:
         return state
     state = replace(state, held=False)
