@@ -34,7 +34,7 @@ from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
 from .pipeline import specialise
 from .scene import Scene
 from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, POINTS,
-                    empty_buffers, layout, pack_params, view)
+                    empty_buffers, pack_params, view)
 
 ANGULAR_METHODS = {"midpoint": 0, "semi_implicit_euler": 1, "explicit_euler": 2}
 """``integrate.MIDPOINT``, ``SEMI_IMPLICIT_EULER``, ``EXPLICIT_EULER``."""
@@ -91,11 +91,13 @@ class Data:
         self.n_objects, self.reals, self.flags, self.counts = n_objects, reals, flags, counts
 
     def __getattr__(self, name: str) -> np.ndarray:
+        """The named field's view, made on first access (every world a step returns makes its own)."""
         if name.startswith("__") or name in ("n_objects", "reals", "flags", "counts"):
             raise AttributeError(name)
-        if name not in layout(self.n_objects)[0]:
-            raise AttributeError(f"Data has no field {name!r}")
-        field = view((self.reals, self.flags, self.counts), self.n_objects, name)
+        try:
+            field = view((self.reals, self.flags, self.counts), self.n_objects, name)
+        except KeyError:
+            raise AttributeError(f"Data has no field {name!r}") from None
         self.__dict__[name] = field
         return field
 
