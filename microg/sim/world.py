@@ -33,8 +33,8 @@ from .bodies import SHAPES, SceneError
 from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
 from .pipeline import specialise
 from .scene import Scene
-from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, POINTS,
-                    empty_buffers, pack_params, view)
+from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, FIELDS,
+                    POINTS, empty_buffers, pack_params, view)
 
 ANGULAR_METHODS = {"midpoint": 0, "semi_implicit_euler": 1, "explicit_euler": 2}
 """``integrate.MIDPOINT``, ``SEMI_IMPLICIT_EULER``, ``EXPLICIT_EULER``."""
@@ -91,15 +91,7 @@ class Data:
         self.n_objects, self.reals, self.flags, self.counts = n_objects, reals, flags, counts
 
     def __getattr__(self, name: str) -> np.ndarray:
-        """The named field's view, made on first access (every world a step returns makes its own)."""
-        if name.startswith("__") or name in ("n_objects", "reals", "flags", "counts"):
-            raise AttributeError(name)
-        try:
-            field = view((self.reals, self.flags, self.counts), self.n_objects, name)
-        except KeyError:
-            raise AttributeError(f"Data has no field {name!r}") from None
-        self.__dict__[name] = field
-        return field
+        raise AttributeError(f"Data has no field {name!r}")
 
     time = property(lambda self: float(self.reals[CLOCK_TIME]), doc="Simulated time (s).")
     start_time = property(lambda self: float(self.reals[CLOCK_START]), doc="Time of the first frame (s).")
@@ -110,6 +102,26 @@ class Data:
 
     def copy(self) -> Data:
         return Data(self.n_objects, self.reals.copy(), self.flags.copy(), self.counts.copy())
+
+
+class _FieldView:
+    """A field of ``Data``: its view into the buffers, made on first access and then kept in the
+    instance, which answers every later access directly (each world a step returns makes its own
+    views, a dozen a frame)."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, data: Data | None, owner: type) -> np.ndarray | _FieldView:
+        if data is None:
+            return self
+        field = view((data.reals, data.flags, data.counts), data.n_objects, self.name)
+        data.__dict__[self.name] = field
+        return field
+
+
+for _name, _, _ in FIELDS:
+    setattr(Data, _name, _FieldView(_name))
 
 
 @dataclass(frozen=True, eq=False)
