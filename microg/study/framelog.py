@@ -71,7 +71,7 @@ def record(out: np.ndarray, frame: HandFrame, world: World, state: TaskState, ob
     out["t"], out["stage"], out["place"] = t, STAGES.index(state.stage), state.place
     out["place_lit"], out["place_timer"] = state.lit_since is not None, state.place_timer(t)
     out["grasped"], out["held"] = observation.grasped, state.held
-    out["touching"] = sum(1 << int(k) for k in np.flatnonzero(observation.touching))
+    out["touching"] = int.from_bytes(np.packbits(observation.touching, bitorder="little").tobytes(), "little")
     out["position"], out["orientation"] = data.position[0], data.orientation[0]
     out["velocity"], out["angular_velocity"] = data.velocity[0], data.angular_velocity[0]
     rendered = rendered_phalanges(world).reshape(2, -1, 3)
