@@ -203,7 +203,9 @@ class HandFrames:
         """One frame per world."""
         count = len(frames)
         arrays = cls(np.empty(count), np.zeros((count, 2), dtype=np.bool_), np.zeros((count, 2), dtype=np.int64),
-                     np.full((count, 2, POINTS, 3), np.nan), np.full((count, 2, N_DIGITS, N_BONES), np.nan))
+                     np.empty((count, 2, POINTS, 3)), np.empty((count, 2, N_DIGITS, N_BONES)))
+        arrays.points.fill(np.nan)  # np.full's work without its Python (a step stacks one frame each frame)
+        arrays.widths.fill(np.nan)
         for i, frame in enumerate(frames):
             arrays.timestamp[i] = frame.timestamp
             for hand in frame.hands:
