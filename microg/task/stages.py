@@ -25,6 +25,7 @@ Rules (times are the observations' clock; a protocol's ``task`` table sets every
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -154,8 +155,8 @@ def _update_hold(state: TaskState, obs: Observation, rules: TaskRules, events: l
 
 def _update_place(state: TaskState, obs: Observation, rules: TaskRules, events: list[TaskEvent]) -> TaskState:
     t = obs.t
-    target = np.asarray(rules.places[state.place])
-    inside = float(np.linalg.norm(np.asarray(obs.position) - target)) <= rules.place_radius
+    offset = np.asarray(obs.position) - np.asarray(rules.places[state.place])
+    inside = math.sqrt(offset.dot(offset)) <= rules.place_radius  # np.linalg.norm's arithmetic, without its checks
     if not (inside and state.held):
         if state.lit_since is not None:
             events.append(TaskEvent(t, "place_dark", {"place": state.place, "lit_s": t - state.lit_since}))
