@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -159,6 +159,16 @@ class ParticipantState:
     dark_since: float | None = None
     """Since when the displayed place it holds at has been dark (s)."""
 
+    def changed(self, **changes) -> ParticipantState:
+        """This state with ``changes``: ``dataclasses.replace`` without its look at every field on
+        each call (a state has no checks to rerun), at a fifth of its cost; a frame makes a few."""
+        unknown = changes.keys() - self.__dict__.keys()
+        if unknown:
+            raise TypeError(f"ParticipantState has no field {min(unknown)!r}")
+        state = object.__new__(ParticipantState)
+        state.__dict__.update(self.__dict__, **changes)
+        return state
+
 
 @dataclass(frozen=True, eq=False)
 class Seen:
@@ -192,7 +202,7 @@ def pause(player: Player) -> float:
 
 
 def _enter(s: ParticipantState, action: str, t: float, **changes) -> ParticipantState:
-    return replace(s, action=action, since=t, **changes)
+    return s.changed(action=action, since=t, **changes)
 
 
 def _closing(s: ParticipantState, seen: Seen, limit: float = math.inf, palm: Pose | None = None) -> ParticipantState:
@@ -200,7 +210,7 @@ def _closing(s: ParticipantState, seen: Seen, limit: float = math.inf, palm: Pos
     where ``palm`` puts it (default: where it is)."""
     closure = min(s.closure + s.player.skill.closing_speed * seen.dt, limit)
     palm = s.pose if palm is None else palm
-    return replace(s, closure=closure, pose=Pose(palm.position, palm.orientation, s.grasp.template.posture(closure)))
+    return s.changed(closure=closure, pose=Pose(palm.position, palm.orientation, s.grasp.template.posture(closure)))
 
 
 def _grasp_pose(grasp: Grasp, closure: float, seen: Seen, approach: bool) -> Pose:
@@ -254,11 +264,11 @@ def _check_drop(s: ParticipantState, seen: Seen, displaced: bool) -> tuple[Parti
     """Whether the object has been out of the grasp for ``DROP_CONFIRM_S``, ``displaced`` from its
     place in the hand all along; a drop starts a retry."""
     if not displaced or seen.grasped:
-        return (s if s.released_since is None else replace(s, released_since=None)), False
+        return (s if s.released_since is None else s.changed(released_since=None)), False
     since = seen.t if s.released_since is None else s.released_since
     if seen.t - since >= DROP_CONFIRM_S:
-        return _begin_retry(replace(s, drops=s.drops + 1, released_since=None), seen.t), True
-    return replace(s, released_since=since), False
+        return _begin_retry(s.changed(drops=s.drops + 1, released_since=None), seen.t), True
+    return s.changed(released_since=since), False
 
 
 def _keep_grip(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bool]:
@@ -270,7 +280,7 @@ def _keep_grip(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bool]
     if dropped:
         return s, True
     if moved > SLIP_DISTANCE and seen.grasped:
-        s = replace(s, grip=min(s.grip + SLIP_SQUEEZE, CLOSURES[-1]), in_hand=in_hand)
+        s = s.changed(grip=min(s.grip + SLIP_SQUEEZE, CLOSURES[-1]), in_hand=in_hand)
     return s, False
 
 
@@ -346,7 +356,7 @@ def reach(s: ParticipantState, seen: Seen) -> ParticipantState:
     movement = s.movement.toward(_grasp_pose(s.grasp, s.closure, seen, approach=True))
     pose = movement.at(t)
     if movement.progress(t) < 1.0:
-        return replace(s, pose=pose, movement=movement)
+        return s.changed(pose=pose, movement=movement)
     skill = s.player.skill
     duration = movement_time(_length(s.grasp.template.approach), skill.preshape_margin,
                              skill.movement_intercept, skill.movement_slope)
@@ -360,7 +370,7 @@ def descend(s: ParticipantState, seen: Seen) -> ParticipantState:
     pose = movement.at(seen.t)
     if movement.progress(seen.t) >= 1.0 or seen.touching.any():
         return _enter(s, CLOSE, seen.t, pose=pose, movement=movement, close_origin=seen.position)
-    return replace(s, pose=pose, movement=movement)
+    return s.changed(pose=pose, movement=movement)
 
 
 def close(s: ParticipantState, seen: Seen) -> ParticipantState:
@@ -402,7 +412,7 @@ def carry(s: ParticipantState, seen: Seen) -> ParticipantState:
     if s.place == len(player.plan.rules.places):
         if seen.display is None or seen.display.stage == RELEASE:
             return _begin_open(s, seen.t)
-        return _begin_carry(replace(s, place=seen.display.place), seen, player.skill.reaction_s)
+        return _begin_carry(s.changed(place=seen.display.place), seen, player.skill.reaction_s)
     if _length(seen.position - _destination(s)) <= player.skill.place_accept * player.plan.rules.place_radius:
         rate = 1.0 + player.streams.decisions.normal(0.0, player.skill.clock_cv)
         return _enter(s, HOLD, seen.t, hold_clock=0.0, clock_rate=rate, dark_since=None)
@@ -420,17 +430,17 @@ def hold(s: ParticipantState, seen: Seen) -> ParticipantState:
         return _begin_carry(s, seen, player.skill.reaction_s)
     dark = seen.display is not None and not seen.display.lit
     if dark != (s.dark_since is not None):
-        s = replace(s, dark_since=t if dark else None)
+        s = s.changed(dark_since=t if dark else None)
     if dark and t - s.dark_since > player.skill.reaction_s:
         return _begin_carry(s, seen, player.skill.reaction_s)
     if seen.display is None:
-        s = replace(s, hold_clock=s.hold_clock + seen.dt * s.clock_rate)
+        s = s.changed(hold_clock=s.hold_clock + seen.dt * s.clock_rate)
         done = s.hold_clock >= player.plan.rules.hold_s + player.skill.hold_margin_s
     else:
         done = seen.display.place > s.place or seen.display.stage == RELEASE
     if not done:
         return s
-    s = replace(s, place=s.place + 1)
+    s = s.changed(place=s.place + 1)
     if s.place < len(player.plan.rules.places) or player.plan.release_position is not None:
         return _begin_carry(s, seen, pause(player))
     return _begin_open(s, t)
@@ -439,7 +449,7 @@ def hold(s: ParticipantState, seen: Seen) -> ParticipantState:
 def retry(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Open and back off, then reach again for the object where it is now."""
     pose = s.movement.at(seen.t)
-    s = replace(s, pose=pose)
+    s = s.changed(pose=pose)
     return _begin_reach(s, seen) if s.movement.progress(seen.t) >= 1.0 else s
 
 
@@ -447,7 +457,7 @@ def open_hand(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Open the grip, then withdraw quickly, out of the back of the hand."""
     pose = s.movement.at(seen.t)
     if s.movement.progress(seen.t) < 1.0:
-        return replace(s, pose=pose)
+        return s.changed(pose=pose)
     away = Pose(pose.position + quat_to_matrix(pose.orientation) @ RETREAT_OFFSET, pose.orientation, REST)
     return _enter(s, RETREAT, seen.t, pose=pose, movement=Movement(pose, away, seen.t, RETREAT_S))
 
@@ -456,7 +466,7 @@ def retreat(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Withdraw the open hand, then watch the object."""
     pose = s.movement.at(seen.t)
     if s.movement.progress(seen.t) < 1.0:
-        return replace(s, pose=pose)
+        return s.changed(pose=pose)
     return _enter(s, WATCH, seen.t, pose=pose)
 
 
@@ -497,7 +507,7 @@ def follow_display(s: ParticipantState, seen: Seen) -> ParticipantState | None:
     if shown.stage in FINAL:
         return _enter(s, DONE, seen.t)
     if shown.stage == MANIPULATION and s.action in HOLDING and seen.t - s.since > s.player.skill.reaction_s:
-        return _begin_retry(replace(s, drops=s.drops + 1), seen.t)
+        return _begin_retry(s.changed(drops=s.drops + 1), seen.t)
     return None
 
 

@@ -19,8 +19,9 @@ import numpy as np
 
 
 def minimum_jerk(tau: float | np.ndarray) -> float | np.ndarray:
-    """The normalised minimum-jerk position s(tau), tau clipped to [0, 1]."""
-    tau = np.clip(tau, 0.0, 1.0)
+    """The normalised minimum-jerk position s(tau), tau clipped to [0, 1] (a float without numpy:
+    a movement takes one every frame)."""
+    tau = min(max(tau, 0.0), 1.0) if isinstance(tau, float) else np.clip(tau, 0.0, 1.0)
     return tau ** 3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
 
 
@@ -36,7 +37,7 @@ def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
         q1, dot = -q1, -dot
     if dot > 0.9995:
         q = q0 + s * (q1 - q0)
-        return q / np.linalg.norm(q)
+        return q / math.sqrt(q.dot(q))  # np.linalg.norm's arithmetic, without its checks
     theta = math.acos(dot)
     return (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)
 
@@ -65,7 +66,7 @@ class Movement:
         return min(max((t - self.begin) / self.duration, 0.0), 1.0)
 
     def at(self, t: float) -> Pose:
-        s = float(minimum_jerk(self.progress(t)))
+        s = minimum_jerk(self.progress(t))
         start, end = self.start, self.end
         return Pose(start.position + s * (end.position - start.position), slerp(start.orientation, end.orientation, s),
                     start.posture + s * (end.posture - start.posture))

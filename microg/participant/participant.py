@@ -32,8 +32,6 @@ over. Without one it judges everything from the scene and its own clock.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from microg.sim.hand import BONES_PER_HAND, SIDES, SLOT_DIGIT, HandFrame
@@ -91,7 +89,7 @@ def advance(state: ParticipantState, observation: Observation) -> tuple[Particip
     dt = player.timing.interval(player.streams.timing)
     t = state.time + dt
     if t > player.time_limit_s:
-        return replace(state, time=t, action=DONE), None
+        return state.changed(time=t, action=DONE), None
     return _tracked(decide(state, perceive(player, observation, t, dt)), t, dt)
 
 
@@ -107,7 +105,7 @@ def _tracked(state: ParticipantState, t: float, dt: float) -> tuple[ParticipantS
     angles = pose.posture.copy()
     angles[:, :2] += offset[6:].reshape(5, 2)
     hand = make_hand(angles, palm, orientation, state.player.plan.hand)
-    return replace(state, time=t, tremor=tremor, noise=jitter), HandFrame(t, (hand,))
+    return state.changed(time=t, tremor=tremor, noise=jitter), HandFrame(t, (hand,))
 
 
 class SimulatedParticipant:

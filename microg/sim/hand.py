@@ -12,7 +12,6 @@ its centroid with radius ``width / 2`` (paper, section 3.3).
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass, field
 
@@ -87,6 +86,20 @@ def is_jump(points, previous, jump_distance):
     frames did not get there by moving; it is a new track (no velocity, no filter history). The
     tracking guard and the world both ask this, here (the world from compiled code)."""
     return displacement(points, previous) >= jump_distance
+
+
+@njit(cache=True)
+def _hand_displacement(palm, joints, last_palm, last_joints):
+    """``displacement`` between two hands' points (``Hand.points``), read from their palm and joint
+    arrays as they are."""
+    largest = displacement(palm.reshape((1, 3)), last_palm.reshape((1, 3)))
+    return max(largest, displacement(joints.reshape((-1, 3)), last_joints.reshape((-1, 3))))
+
+
+def hand_jumped(hand: Hand, last: Hand, jump_distance: float) -> bool:
+    """``is_jump`` between two hands, without building their ``points``: the tracking guard asks it
+    of every frame."""
+    return _hand_displacement(hand.palm_position, hand.joints, last.palm_position, last.joints) >= jump_distance
 
 
 def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
@@ -173,17 +186,17 @@ class Hand:
     def renumbered(self, track_id: int) -> Hand:
         """The same hand under another track id. It shares the (read-only, already validated) arrays,
         so renumbering costs no validation: the tracking guard does it every frame."""
-        hand = copy.copy(self)
-        object.__setattr__(hand, "track_id", track_id)
+        hand = object.__new__(Hand)
+        hand.__dict__.update(self.__dict__, track_id=track_id)
         return hand
 
     def with_joints(self, joints: np.ndarray) -> Hand:
         """The same hand with other joint positions of the same shape, e.g. filtered ones (a weighted
         mean of this track's checked joints): it costs no validation, like ``renumbered``."""
-        hand = copy.copy(self)
         joints = np.asarray(joints, dtype=np.float64)
         joints.setflags(write=False)
-        object.__setattr__(hand, "joints", joints)
+        hand = object.__new__(Hand)
+        hand.__dict__.update(self.__dict__, joints=joints)
         return hand
 
     def moved(self, offset: np.ndarray) -> Hand:
@@ -210,17 +223,23 @@ class HandFrame:
     hands: tuple[Hand, ...] = ()
 
     def __post_init__(self) -> None:
-        if not np.isfinite(self.timestamp):
+        if not math.isfinite(self.timestamp):
             raise ValueError(f"HandFrame.timestamp = {self.timestamp}: must be finite")
         object.__setattr__(self, "timestamp", float(self.timestamp))
-        object.__setattr__(self, "hands", tuple(sorted(self.hands, key=lambda h: SIDES.index(h.side))))
-        sides = [h.side for h in self.hands]
-        if len(set(sides)) != len(sides):
-            raise ValueError(f"HandFrame at t={self.timestamp}: two {sides[0]} hands in one frame")
+        hands = tuple(self.hands)
+        if len(hands) > 1:  # one hand or none is in order as it is: most frames, built every frame
+            hands = tuple(sorted(hands, key=lambda h: SIDES.index(h.side)))
+            sides = [h.side for h in hands]
+            if len(set(sides)) != len(sides):
+                raise ValueError(f"HandFrame at t={self.timestamp}: two {sides[0]} hands in one frame")
+        object.__setattr__(self, "hands", hands)
 
     def hand(self, side: str) -> Hand | None:
         """The hand on ``side``, or None when it is not tracked in this frame."""
-        return next((h for h in self.hands if h.side == side), None)
+        for hand in self.hands:
+            if hand.side == side:
+                return hand
+        return None
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, HandFrame):

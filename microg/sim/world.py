@@ -34,8 +34,8 @@ from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
 from .mesh import pack_meshes
 from .pipeline import specialise
 from .scene import Scene
-from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, POINTS,
-                    empty_buffers, layout, pack_params, view)
+from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, FIELDS,
+                    POINTS, empty_buffers, pack_params, view)
 
 ANGULAR_METHODS = {"midpoint": 0, "semi_implicit_euler": 1, "explicit_euler": 2}
 """``integrate.MIDPOINT``, ``SEMI_IMPLICIT_EULER``, ``EXPLICIT_EULER``."""
@@ -92,13 +92,7 @@ class Data:
         self.n_objects, self.reals, self.flags, self.counts = n_objects, reals, flags, counts
 
     def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("__") or name in ("n_objects", "reals", "flags", "counts"):
-            raise AttributeError(name)
-        if name not in layout(self.n_objects)[0]:
-            raise AttributeError(f"Data has no field {name!r}")
-        field = view((self.reals, self.flags, self.counts), self.n_objects, name)
-        self.__dict__[name] = field
-        return field
+        raise AttributeError(f"Data has no field {name!r}")
 
     time = property(lambda self: float(self.reals[CLOCK_TIME]), doc="Simulated time (s).")
     start_time = property(lambda self: float(self.reals[CLOCK_START]), doc="Time of the first frame (s).")
@@ -109,6 +103,26 @@ class Data:
 
     def copy(self) -> Data:
         return Data(self.n_objects, self.reals.copy(), self.flags.copy(), self.counts.copy())
+
+
+class _FieldView:
+    """A field of ``Data``: its view into the buffers, made on first access and then kept in the
+    instance, which answers every later access directly (each world a step returns makes its own
+    views, a dozen a frame)."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __get__(self, data: Data | None, owner: type) -> np.ndarray | _FieldView:
+        if data is None:
+            return self
+        field = view((data.reals, data.flags, data.counts), data.n_objects, self.name)
+        data.__dict__[self.name] = field
+        return field
+
+
+for _name, _, _ in FIELDS:
+    setattr(Data, _name, _FieldView(_name))
 
 
 @dataclass(frozen=True, eq=False)
@@ -193,7 +207,9 @@ class HandFrames:
         """One frame per world."""
         count = len(frames)
         arrays = cls(np.empty(count), np.zeros((count, 2), dtype=np.bool_), np.zeros((count, 2), dtype=np.int64),
-                     np.full((count, 2, POINTS, 3), np.nan), np.full((count, 2, N_DIGITS, N_BONES), np.nan))
+                     np.empty((count, 2, POINTS, 3)), np.empty((count, 2, N_DIGITS, N_BONES)))
+        arrays.points.fill(np.nan)  # np.full's work without its Python (a step stacks one frame each frame)
+        arrays.widths.fill(np.nan)
         for i, frame in enumerate(frames):
             arrays.timestamp[i] = frame.timestamp
             for hand in frame.hands:

@@ -61,22 +61,22 @@ def decode(blob: bytes, count: int) -> np.ndarray:
     return frames
 
 
-def record(frame: HandFrame, world: World, state: TaskState, observation: Observation) -> np.ndarray:
-    """One ``FRAME`` record: ``frame`` as the physics received it, ``world`` after it, the task
-    in ``state``, and ``observation`` (what the task judged: object 0, its contacts, the grasp)."""
-    out = np.zeros((), dtype=FRAME)
+def record(out: np.ndarray, frame: HandFrame, world: World, state: TaskState, observation: Observation) -> None:
+    """Fill ``out``, a zeroed ``FRAME`` record (a row of a batch: ``batch[i, ...]``): ``frame`` as
+    the physics received it, ``world`` after it, the task in ``state``, and ``observation`` (what
+    the task judged: object 0, its contacts, the grasp). Written in place, the batch is committed
+    as it is, not stacked from records."""
     t = frame.timestamp
     data = world.data
     out["t"], out["stage"], out["place"] = t, STAGES.index(state.stage), state.place
     out["place_lit"], out["place_timer"] = state.lit_since is not None, state.place_timer(t)
     out["grasped"], out["held"] = observation.grasped, state.held
-    out["touching"] = sum(1 << int(k) for k in np.flatnonzero(observation.touching))
+    out["touching"] = int.from_bytes(np.packbits(observation.touching, bitorder="little").tobytes(), "little")
     out["position"], out["orientation"] = data.position[0], data.orientation[0]
     out["velocity"], out["angular_velocity"] = data.velocity[0], data.angular_velocity[0]
     rendered = rendered_phalanges(world).reshape(2, -1, 3)
     for side, name in enumerate(SIDES):
         put_hand(out, side, frame.hand(name), rendered[side])
-    return out
 
 
 def put_hand(frame: np.ndarray, side: int, hand: Hand | None, rendered: np.ndarray) -> None:
@@ -99,12 +99,11 @@ TABLE = "frames"
 """``frames(run_id, first, count, t_first, t_last, data)``: one row per committed batch."""
 
 
-def insert(db: sqlite3.Connection, run_id: int, first: int, frames: list[np.ndarray]) -> None:
-    """Add a batch of records (frames ``first`` .. ``first + len(frames) - 1`` of the run)."""
-    if frames:
-        batch = np.stack(frames)
+def insert(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) -> None:
+    """Add a batch of ``FRAME`` records (frames ``first`` .. ``first + len(frames) - 1`` of the run)."""
+    if len(frames):
         db.execute(f"INSERT INTO {TABLE} (run_id, first, count, t_first, t_last, data) VALUES (?, ?, ?, ?, ?, ?)",
-                   (run_id, first, len(batch), float(batch["t"][0]), float(batch["t"][-1]), encode(batch)))
+                   (run_id, first, len(frames), float(frames["t"][0]), float(frames["t"][-1]), encode(frames)))
 
 
 def count(db: sqlite3.Connection, run_id: int) -> int:

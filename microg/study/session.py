@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Protocol as Interface
 
+import numpy as np
 from tqdm import tqdm
 
 from microg.hands.filter import FILTER_WINDOW, HandFilter
@@ -148,7 +149,8 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
-    state, pending, logged, last_t = TaskState(), [], 0, None
+    state, logged, last_t = TaskState(), 0, None
+    pending, count = np.zeros(batch, dtype=framelog.FRAME), 0
     smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
     try:
         for moment in play(world, source, rules, smooth):
@@ -161,19 +163,20 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
                     for event in events:
                         markers(event.kind, event.data)
                 store.log(session_id, events, run_id)
-            pending.append(framelog.record(moment.frame, moment.world, state, moment.observation))
-            if len(pending) >= batch:
+            framelog.record(pending[count, ...], moment.frame, moment.world, state, moment.observation)
+            count += 1
+            if count == batch:
                 store.add_frames(run_id, logged, pending)
-                logged, pending = logged + len(pending), []
+                logged, pending, count = logged + count, np.zeros(batch, dtype=framelog.FRAME), 0
             if on_moment:
                 on_moment(moment)
     except BaseException as error:
-        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops, frames=(logged, pending),
+        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops, frames=(logged, pending[:count]),
                       reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
         raise
     finally:
         source.close()
-    frames = logged + len(pending)
+    frames = logged + count
     if state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
         result = TaskResult(status, state.completion_time, state.drops, frames)
@@ -186,7 +189,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
     if markers:
         markers("task_end", {"status": result.status, "time_s": result.time_s, "attempts": result.attempts})
     store.end_run(run_id, result.status, ended, time_s=result.time_s, attempts=result.attempts,
-                  reason=reason, frames=(logged, pending),
+                  reason=reason, frames=(logged, pending[:count]),
                   events=[Event(ended, "tracking_guard", counts.as_dict())] if counts is not None else [])
     return result
 

@@ -476,14 +476,14 @@ class Store:
                 "object": task.object})])
         return run_id
 
-    def add_frames(self, run_id: int, first: int, frames: list[np.ndarray]) -> None:
-        """Commit a batch of logged frames (``framelog.record``), the run's frames ``first`` on."""
-        if frames:
+    def add_frames(self, run_id: int, first: int, frames: np.ndarray) -> None:
+        """Commit a batch of logged frames (``framelog.FRAME`` records), the run's frames ``first`` on."""
+        if len(frames):
             with self.transaction() as db:
                 framelog.insert(db, run_id, first, frames)
 
     def end_run(self, run_id: int, status: str, t: float, *, time_s: float | None = None,
-                attempts: int | None = None, reason: str | None = None, frames: tuple[int, list] = (0, []),
+                attempts: int | None = None, reason: str | None = None, frames: tuple[int, np.ndarray] = (0, ()),
                 events: list[Event] = ()) -> None:
         """Close a run: its last frames, its result and its end event in one transaction."""
         with self.transaction() as db:
@@ -491,7 +491,7 @@ class Store:
                           events=events)
 
     def _end_run(self, db: sqlite3.Connection, run_id: int, status: str, t: float, *, time_s: float | None = None,
-                 attempts: int | None = None, reason: str | None = None, frames: tuple[int, list] = (0, []),
+                 attempts: int | None = None, reason: str | None = None, frames: tuple[int, np.ndarray] = (0, ()),
                  events: list[Event] = ()) -> None:
         if status not in RUN_STATUSES or status == "running":
             raise ValueError(f"end_run(status = {status!r}): must be one of {RUN_STATUSES[:-2] + ('interrupted',)}")

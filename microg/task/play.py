@@ -9,7 +9,7 @@ last ``Observation`` (with what the task displays), gives a frame, the frame goe
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, Iterator
 
 from microg.sim import HandFrame, World, step
@@ -47,6 +47,7 @@ def play(world: World, source, rules: TaskRules,
         judged = observe(world)
         state, events = advance(state, judged, rules)
         world, put_back = respawn(world, rules, state, start)
-        display = shown(state, frame.timestamp)
-        seen = observe(world, display=display) if put_back else replace(judged, display=display)
-        yield Moment(frame, world, state, replace(judged, display=display), tuple(events + put_back))
+        judged = Observation(judged.t, judged.grasped, judged.position, judged.orientation, judged.touching,
+                             shown(state, frame.timestamp))
+        seen = observe(world, display=judged.display) if put_back else judged
+        yield Moment(frame, world, state, judged, tuple(events + put_back))

@@ -25,6 +25,7 @@ Rules (times are the observations' clock; a protocol's ``task`` table sets every
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -120,19 +121,23 @@ def advance(state: TaskState, obs: Observation, rules: TaskRules) -> tuple[TaskS
 def _update_hold(state: TaskState, obs: Observation, rules: TaskRules, events: list[TaskEvent]) -> TaskState:
     t = obs.t
     if obs.grasped:
-        state = replace(state, loose_since=None)
+        if state.loose_since is not None:
+            state = replace(state, loose_since=None)
         if not state.held:
-            since = t if state.grasp_since is None else state.grasp_since
-            state = replace(state, grasp_since=since)
+            if state.grasp_since is None:
+                state = replace(state, grasp_since=t)
+            since = state.grasp_since
             if t - since >= rules.grasp_settle_s - _EPS:
                 state = replace(state, held=True, grasp_since=None)
                 events.append(TaskEvent(t, "hold", {"since": since}))
         return state
-    state = replace(state, grasp_since=None)
+    if state.grasp_since is not None:
+        state = replace(state, grasp_since=None)
     if not state.held:
         return state
-    since = t if state.loose_since is None else state.loose_since
-    state = replace(state, loose_since=since)
+    if state.loose_since is None:
+        state = replace(state, loose_since=t)
+    since = state.loose_since
     if t - since < rules.drop_grace_s - _EPS:
         return state
     state = replace(state, held=False)
@@ -150,8 +155,8 @@ def _update_hold(state: TaskState, obs: Observation, rules: TaskRules, events: l
 
 def _update_place(state: TaskState, obs: Observation, rules: TaskRules, events: list[TaskEvent]) -> TaskState:
     t = obs.t
-    target = np.asarray(rules.places[state.place])
-    inside = float(np.linalg.norm(np.asarray(obs.position) - target)) <= rules.place_radius
+    offset = np.asarray(obs.position) - np.asarray(rules.places[state.place])
+    inside = math.sqrt(offset.dot(offset)) <= rules.place_radius  # np.linalg.norm's arithmetic, without its checks
     if not (inside and state.held):
         if state.lit_since is not None:
             events.append(TaskEvent(t, "place_dark", {"place": state.place, "lit_s": t - state.lit_since}))

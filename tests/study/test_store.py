@@ -253,7 +253,7 @@ def test_withdraw_refuses_while_another_process_runs_the_session(make_study, hol
         with pytest.raises(StoreError, match="no task runs after its end"):
             again.begin_run(session.id, again.tasks(session.id)[1], "late", 0, 1.0)
         with pytest.raises(StoreError, match="no frames are logged after its end"):
-            again.add_frames(run.id, 0, [np.zeros((), dtype=framelog.FRAME)])
+            again.add_frames(run.id, 0, np.zeros(1, dtype=framelog.FRAME))
 
 
 def test_participant_ids_map_one_to_one_onto_bids_labels(make_study):
