@@ -112,6 +112,12 @@ def to_world(local: np.ndarray, palm_position: np.ndarray, palm_orientation: np.
                      np.asarray(palm_orientation, dtype=np.float64), -1.0 if side == "left" else 1.0)
 
 
+@njit(cache=True)
+def _posed(angles, knuckles, carpals, phalanges, position, orientation, mirror):
+    """``to_world(local_joints(angles), ...)`` in one compiled call (``make_hand`` makes one a frame)."""
+    return _to_world(_local_joints(angles, knuckles, carpals, phalanges), position, orientation, mirror)
+
+
 _CHECKED = {side: Hand(side, np.zeros((5, N_BONES + 1, 3)), WIDTHS, np.zeros(3)) for side in SIDES}
 """A hand of each side with the skeleton's widths, checked once; ``make_hand`` copies it."""
 
@@ -124,9 +130,11 @@ def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: n
     checked again at every frame: like ``Hand.renumbered``, it is a copy of a checked hand with its
     own read-only arrays, at a tenth of the cost of ``Hand(...)``.
     """
-    pose = {"joints": to_world(local_joints(angles), palm_position, palm_orientation, side),
-            "palm_position": np.asarray(palm_position, dtype=np.float64),
-            "palm_orientation": np.asarray(palm_orientation, dtype=np.float64)}
+    palm_position = np.asarray(palm_position, dtype=np.float64)
+    palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
+    joints = _posed(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
+                    palm_orientation, -1.0 if side == "left" else 1.0)
+    pose = {"joints": joints, "palm_position": palm_position, "palm_orientation": palm_orientation}
     for value in pose.values():
         value.setflags(write=False)
     hand = object.__new__(Hand)

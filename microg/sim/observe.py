@@ -12,6 +12,7 @@ import numpy as np
 
 from .hand import BONES_PER_HAND, N_BONES
 from .rotation import quat_to_matrix
+from .state import unpack
 from .vec import add, cell, dot, entry, mat_vec, rotation, row, scale, set_row
 from .world import World
 
@@ -54,8 +55,16 @@ def rendered_phalanges(world: World) -> np.ndarray:
     """(40, 3) centres of the rendered (god-object) phalanges: on the surface where a phalanx is
     in contact (its deepest contact), at the tracked position elsewhere; NaN where untracked."""
     data = world.data
-    return _rendered(data.valid, data.hand_position, data.active, data.depth, data.anchor, data.radius,
-                     data.normal, data.position, data.orientation)
+    return _rendered_state(data.reals, data.flags, data.counts, data.n_objects)
+
+
+@entry
+def _rendered_state(reals, flags, counts, n):
+    """``_rendered`` on a world's buffers, their views made in the compiled code (the frame log
+    asks it of every frame, and Python views cost more than the kernel)."""
+    s = unpack(reals, flags, counts, n)
+    return _rendered(s.valid, s.hand_position, s.active, s.depth, s.anchor, s.radius, s.normal, s.position,
+                     s.orientation)
 
 
 @entry

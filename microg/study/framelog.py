@@ -38,6 +38,8 @@ FRAME = np.dtype([
     ("palm_orientation", "<f8", (2, 4)), ("rendered", "<f4", (2, N_DIGITS * N_BONES, 3)),
 ])
 """One logged frame; per-side fields are indexed left (0), right (1). Untracked: NaN, ``tracked`` False."""
+HAND_FIELDS = ("joints", "widths", "palm_position", "palm_orientation", "rendered")
+"""The per-side fields that are NaN where a hand was not tracked."""
 CODEC = "zstd"
 
 
@@ -61,8 +63,17 @@ def decode(blob: bytes, count: int) -> np.ndarray:
     return frames
 
 
+def empty_batch(count: int) -> np.ndarray:
+    """``count`` ``FRAME`` records with no hand: zeros, NaN in the hands' fields. ``record`` fills
+    them and leaves an absent side as it is, so the usual one-handed frame writes one side only."""
+    frames = np.zeros(count, dtype=FRAME)
+    for field in HAND_FIELDS:
+        frames[field] = np.nan
+    return frames
+
+
 def record(out: np.ndarray, frame: HandFrame, world: World, state: TaskState, observation: Observation) -> None:
-    """Fill ``out``, a zeroed ``FRAME`` record (a row of a batch: ``batch[i, ...]``): ``frame`` as
+    """Fill ``out``, a record of ``empty_batch`` (a row of a batch: ``batch[i, ...]``): ``frame`` as
     the physics received it, ``world`` after it, the task in ``state``, and ``observation`` (what
     the task judged: object 0, its contacts, the grasp). Written in place, the batch is committed
     as it is, not stacked from records."""
@@ -76,7 +87,9 @@ def record(out: np.ndarray, frame: HandFrame, world: World, state: TaskState, ob
     out["velocity"], out["angular_velocity"] = data.velocity[0], data.angular_velocity[0]
     rendered = rendered_phalanges(world).reshape(2, -1, 3)
     for side, name in enumerate(SIDES):
-        put_hand(out, side, frame.hand(name), rendered[side])
+        hand = frame.hand(name)
+        if hand is not None:
+            put_hand(out, side, hand, rendered[side])
 
 
 def put_hand(frame: np.ndarray, side: int, hand: Hand | None, rendered: np.ndarray) -> None:
@@ -84,7 +97,7 @@ def put_hand(frame: np.ndarray, side: int, hand: Hand | None, rendered: np.ndarr
     centres; NaN and not ``tracked`` when the hand is None."""
     if hand is None:
         frame["tracked"][side] = False
-        for field in ("joints", "widths", "palm_position", "palm_orientation", "rendered"):
+        for field in HAND_FIELDS:
             frame[field][side] = np.nan
         return
     frame["tracked"][side], frame["track_id"][side] = True, hand.track_id
@@ -164,8 +177,7 @@ def frame_columns(frames: np.ndarray) -> dict[str, np.ndarray]:
         for i, axis in enumerate(axes):
             columns[f"{prefix}{axis}"] = frames[field][:, i].astype(np.float64)
     for s, side in enumerate(SIDES):
-        values = np.hstack([frames[field][:, s].reshape(n, -1) for field in
-                            ("joints", "widths", "palm_position", "palm_orientation", "rendered")]).astype(np.float64)
+        values = np.hstack([frames[field][:, s].reshape(n, -1) for field in HAND_FIELDS]).astype(np.float64)
         columns.update(zip(hand_columns(side), np.ascontiguousarray(values.T)))
     return columns
 

@@ -150,7 +150,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
     state, logged, last_t = TaskState(), 0, None
-    pending, count = np.zeros(batch, dtype=framelog.FRAME), 0
+    pending, count = framelog.empty_batch(batch), 0
     smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
     try:
         for moment in play(world, source, rules, smooth):
@@ -167,7 +167,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
             count += 1
             if count == batch:
                 store.add_frames(run_id, logged, pending)
-                logged, pending, count = logged + count, np.zeros(batch, dtype=framelog.FRAME), 0
+                logged, pending, count = logged + count, framelog.empty_batch(batch), 0
             if on_moment:
                 on_moment(moment)
     except BaseException as error:

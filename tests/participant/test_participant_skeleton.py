@@ -17,6 +17,7 @@ from microg.participant.skeleton import (
     UPPER,
     local_joints,
     make_hand,
+    to_world,
 )
 
 
@@ -50,6 +51,15 @@ def test_palm_pose_moves_the_hand_rigidly():
     c, s = np.cos(0.8), np.sin(0.8)
     rotation = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
     np.testing.assert_allclose(hand.joints, local @ rotation.T + [0.1, 0.2, 0.3], atol=1e-12)
+
+
+def test_a_made_hand_is_bit_for_bit_its_local_joints_taken_to_the_world():
+    rng = np.random.default_rng(3)
+    for side in ("left", "right"):
+        posture, q = random_posture(rng), rng.normal(size=4)
+        position, q = rng.normal(size=3) * 0.1, q / np.linalg.norm(q)
+        expected = to_world(local_joints(posture), position, q, side)
+        assert np.array_equal(make_hand(posture, position, q, side).joints, expected)
 
 
 def test_the_left_hand_is_the_mirror_image_of_the_right():

@@ -12,6 +12,7 @@ import pytest
 from microg.hands.filter import HandFilter
 from microg.sim import step
 from microg.sim.rotation import quat_to_matrix
+from microg.study import framelog
 from microg.study.export import hand_frames, run_frames, trials_table
 from microg.study.inputs import ScriptedInputs, participant_plan
 from microg.study.session import Unattended, SimulationClock, guarded, resume_session, run_session, run_task, task_world
@@ -126,6 +127,18 @@ def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study
         positions.append(world.data.position[0].copy())
     logged = run_frames(store, run_id)[["px", "py", "pz"]].to_numpy()
     assert np.array_equal(np.array(positions, dtype=np.float32), logged)  # the log keeps float32 poses
+
+
+def test_the_side_without_a_hand_is_logged_untracked_and_nan(make_study):
+    store, _ = make_study("quick")
+    _, run_id, _ = one_task(store)
+    frames = framelog.read(store.db, run_id)
+    tracked = frames["tracked"]
+    assert tracked[:, 1].all() and not tracked[:, 0].any()  # the scripted pinch is a right hand
+    assert not frames["track_id"][:, 0].any()
+    for field in framelog.HAND_FIELDS:
+        assert np.isnan(frames[field][:, 0]).all()
+    assert not np.isnan(frames["palm_position"][:, 1]).any()
 
 
 class Failing(ScriptedPinch):
