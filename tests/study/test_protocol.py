@@ -100,6 +100,16 @@ BAD = [
 ]
 
 
+def assert_refused(path, expected: list[str]) -> None:
+    """Loading ``path`` fails with a message that starts with the file and says each of ``expected``."""
+    with pytest.raises(ProtocolError) as error:
+        load_protocol(path)
+    message = str(error.value)
+    assert message.startswith(str(path)), message
+    for part in expected:
+        assert part in message, (part, message)
+
+
 @pytest.mark.parametrize("old, new, expected", [
     ("[[phases]]", "[[stages]]", ["`[[stages]]` is now `[[phases]]`"]),
     ('interaction = "soft_hand"', 'system = "soft_hand"', ["phases[1].system is now phases[1].interaction"]),
@@ -110,23 +120,13 @@ def test_an_older_protocol_is_told_what_its_keys_became(tmp_path, old, new, expe
     written before says so, naming the file."""
     path = tmp_path / "old.toml"
     path.write_text(PAPER.read_text().replace(old, new))
-    with pytest.raises(ProtocolError) as error:
-        load_protocol(path)
-    message = str(error.value)
-    assert message.startswith(str(path)), message
-    for part in expected:
-        assert part in message, (part, message)
+    assert_refused(path, expected)
 
 
 @pytest.mark.parametrize("old, new, expected", BAD, ids=[b[2][0] for b in BAD])
 def test_a_bad_protocol_is_rejected_naming_file_key_and_value(tmp_path, old, new, expected):
     path = edited(tmp_path, old, new)
-    with pytest.raises(ProtocolError) as error:
-        load_protocol(path)
-    message = str(error.value)
-    assert message.startswith(str(path)), message
-    for part in expected:
-        assert part in message, (part, message)
+    assert_refused(path, expected)
 
 
 def test_files_that_extend_each_other_in_a_circle_are_rejected(tmp_path):

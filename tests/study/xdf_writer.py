@@ -15,6 +15,8 @@ from pathlib import Path
 import pylsl
 
 FILE_HEADER, STREAM_HEADER, SAMPLES, CLOCK_OFFSET, STREAM_FOOTER = 1, 2, 3, 4, 6
+HANG_S = 300.0
+"""A bound against a hang only: each wait below ends as soon as LSL answers, on a busy machine too."""
 VALUE_FORMATS = {pylsl.cf_float32: "f", pylsl.cf_double64: "d", pylsl.cf_int32: "i", pylsl.cf_int16: "h",
                  pylsl.cf_int8: "b"}
 
@@ -35,7 +37,7 @@ class _Stream:
     def __init__(self, stream_id: int, info: pylsl.StreamInfo):
         self.id = stream_id
         self.inlet = pylsl.StreamInlet(info, max_buflen=600, recover=False)
-        self.inlet.open_stream(timeout=10.0)  # subscribed: every sample pushed from now on arrives
+        self.inlet.open_stream(timeout=HANG_S)  # subscribed: every sample pushed from now on arrives
         self.info = self.inlet.info()
         self.format = self.info.channel_format()
         self.samples: list[list] = []
@@ -43,7 +45,7 @@ class _Stream:
         self.offsets = [self._offset()]
 
     def _offset(self) -> tuple[float, float]:
-        offset = self.inlet.time_correction(timeout=5.0)
+        offset = self.inlet.time_correction(timeout=HANG_S)
         return pylsl.local_clock() - offset, offset
 
     def encode(self) -> bytes:
@@ -62,7 +64,7 @@ class XdfRecorder:
 
     def __init__(self, path: Path, source_ids: list[str]):
         self.path = path
-        self.streams = [_Stream(i + 1, pylsl.resolve_byprop("source_id", s, minimum=1, timeout=30.0)[0])
+        self.streams = [_Stream(i + 1, pylsl.resolve_byprop("source_id", s, minimum=1, timeout=HANG_S)[0])
                         for i, s in enumerate(source_ids)]
         self._arrived = threading.Condition()
         self._stop = threading.Event()
