@@ -208,6 +208,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     session = store.session(session_id)
     if session.status != "running":
         raise ValueError(f"session {session_id} is {session.status}; only a running session can go on")
+    store.commit_for(session.simulated)
     participant = store.participant(session.participant_id)
     tasks = store.tasks(session_id)
     task_phases = {p.name for p in protocol.phases}

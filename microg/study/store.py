@@ -3,7 +3,9 @@
 Every event, task result and answer is committed when it happens; frames go in batches of the
 protocol's ``logging.frame_batch``. With ``synchronous = FULL`` a commit is on disk before the
 session goes on, so a crash (even SIGKILL or a power cut) loses at most the frames of the batch
-in progress and never a task result. Nothing is overwritten: triggers make events, frames,
+in progress and never a task result. A simulated session commits with ``synchronous = NORMAL``
+(``Store.commit_for``): as safe against the program's crash, while a power cut may take its last
+commits too, which its seed computes again on resume. Nothing is overwritten: triggers make events, frames,
 answers, plans and protocols append-only, and a task run, session or participant can only move
 forward from its open state (running -> finished, active -> withdrawn), never back or twice.
 
@@ -263,6 +265,14 @@ class Store:
                 except StoreError:
                     pass  # the database rolls the transaction back itself when the connection closes
             raise
+
+    def commit_for(self, simulated: bool) -> None:
+        """Set how durable the coming commits are, for a live or a simulated session. A live
+        session's frames exist once: each commit is flushed to the disk before the session goes on
+        (``synchronous = FULL``). A simulated session's frames come again from its seed, so it skips
+        the flush (``synchronous = NORMAL``, in WAL mode still safe against a crash of the program);
+        the flush is about 6 ms a commit, and the sessions of a study share one writer's lock."""
+        self.db.execute(f"PRAGMA synchronous = {'NORMAL' if simulated else 'FULL'}")
 
     def close(self) -> None:
         for fd in self._locks.values():

@@ -58,6 +58,18 @@ def test_a_session_walks_the_timeline_and_each_task_ends_when_the_hand_lets_go(m
                                          ("soft_hand", "naturalness"): 3, ("soft_hand", "efficiency"): 4}
 
 
+@pytest.mark.parametrize("simulated, synchronous", [(True, 1), (False, 2)])
+def test_only_a_live_session_waits_for_the_disk_at_each_commit(make_study, simulated, synchronous):
+    """A live session's commits are flushed (FULL = 2); a simulated one's are not (NORMAL = 1): its
+    seed makes its frames again."""
+    store, _ = make_study("tiny")
+    session = store.create_session("P01", "scripted", simulated, "simulation")
+    assert store.db.execute("PRAGMA synchronous").fetchone()[0] == 2
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"),
+                progress=False)
+    assert store.db.execute("PRAGMA synchronous").fetchone()[0] == synchronous
+
+
 def test_under_gravity_the_object_waits_on_the_table_and_a_dropped_one_falls_back_onto_it(make_study):
     store, _ = make_study("quick-gravity")
     result, run_id, _ = one_task(store, squeeze=0.03, drop_at_place=1, open_s=0.3)
