@@ -17,16 +17,16 @@ use_user_cache()
 
 from .bodies import Material, ObjectSpec, SceneError, load_object  # noqa: E402
 from .hand import BONES, DIGITS, SIDES, SLOTS, Hand, HandFrame, slot, slot_name  # noqa: E402
-from .observe import (angular_momentum, grasped, highlighted, kinetic_energy, object_states,  # noqa: E402
-                      rendered_phalanges, touching)
+from .observe import (Snapshot, angular_momentum, grasped, highlighted, kinetic_energy,  # noqa: E402
+                      object_states, rendered_phalanges, snapshot, touching)
 from .scene import (EFFECTS, INTERACTION_MODELS, PlacedObject, Scene, TableParameters, compose_scene,  # noqa: E402
                     load_scene, with_interaction)
 from .world import Batch, HandFrames, World, make_batch, make_world, step, step_batch  # noqa: E402
 
 __all__ = [
     "BONES", "DIGITS", "EFFECTS", "INTERACTION_MODELS", "SIDES", "SLOTS", "Batch", "Hand", "HandFrame", "HandFrames",
-    "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "TableParameters", "World", "angular_momentum",
+    "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "Snapshot", "TableParameters", "World", "angular_momentum",
     "compose_scene", "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene", "make_batch",
-    "make_world", "object_states", "rendered_phalanges", "slot", "slot_name", "step", "step_batch", "touching",
+    "make_world", "object_states", "rendered_phalanges", "slot", "slot_name", "snapshot", "step", "step_batch", "touching",
     "with_interaction",
 ]

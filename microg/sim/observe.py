@@ -1,5 +1,9 @@
 """What a study reads off the world after each step: contacts, grasps, highlights, poses.
 
+``snapshot`` reads all a study needs of one object after a step (its pose and velocities, the
+phalanges touching it, the grasp, the rendered phalanges) in one compiled call: the study asks it
+of every frame, and reading each field from Python costs more than computing them.
+
 Grasp rule: an object is grasped when, on one hand, a thumb phalanx and a phalanx of another
 digit are both in contact with it and their contact normals oppose (their dot product is below
 ``OPPOSITION``, i.e. they press from directions more than 120 degrees apart), so the two squeeze
@@ -8,15 +12,51 @@ the object between them. A palm push or two fingers on the same face is not a gr
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .hand import BONES_PER_HAND, N_BONES
 from .rotation import quat_to_matrix
-from .state import unpack
+from .state import CLOCK_FRAME, CLOCK_TIME, COUNT_FRAMES, unpack
 from .vec import add, cell, dot, entry, mat_vec, rotation, row, scale, set_row
 from .world import World
 
 OPPOSITION = -0.5
+
+
+@dataclass(frozen=True, eq=False)
+class Snapshot:
+    """One object of a world after a step, and the hands' rendered phalanges (copies)."""
+
+    t: float
+    """The last frame's time (the world's time before any frame)."""
+    position: np.ndarray
+    orientation: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    touching: np.ndarray
+    """(40,) True where a phalanx slot touches the object (``touching``)."""
+    grasped: bool
+    """The module's grasp rule, for this object."""
+    rendered: np.ndarray
+    """(40, 3) ``rendered_phalanges``."""
+
+
+def snapshot(world: World, index: int = 0) -> Snapshot:
+    """What a study reads of object ``index`` after a step, in one compiled call (module docstring)."""
+    data = world.data
+    return Snapshot(*_snapshot(data.reals, data.flags, data.counts, data.n_objects, index))
+
+
+@entry
+def _snapshot(reals, flags, counts, n, index):
+    s = unpack(reals, flags, counts, n)
+    t = s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]
+    return (t, s.position[index].copy(), s.orientation[index].copy(), s.velocity[index].copy(),
+            s.angular_velocity[index].copy(), s.active[:, index].copy(), _grasped(s.active, s.normal)[index],
+            _rendered(s.valid, s.hand_position, s.active, s.depth, s.anchor, s.radius, s.normal, s.position,
+                      s.orientation))
 
 
 def touching(world: World) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame, World, rendered_phalanges
+from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame, Snapshot
 from microg.sim.hand import N_BONES, N_DIGITS
 from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Observation, TaskState
 
@@ -72,20 +72,19 @@ def empty_batch(count: int) -> np.ndarray:
     return frames
 
 
-def record(out: np.ndarray, frame: HandFrame, world: World, state: TaskState, observation: Observation) -> None:
+def record(out: np.ndarray, frame: HandFrame, after: Snapshot, state: TaskState, observation: Observation) -> None:
     """Fill ``out``, a record of ``empty_batch`` (a row of a batch: ``batch[i, ...]``): ``frame`` as
-    the physics received it, ``world`` after it, the task in ``state``, and ``observation`` (what
-    the task judged: object 0, its contacts, the grasp). Written in place, the batch is committed
-    as it is, not stacked from records."""
+    the physics received it, the world after it (``after``: object 0 and the rendered hands), the
+    task in ``state``, and ``observation`` (what the task judged: object 0, its contacts, the
+    grasp). Written in place, the batch is committed as it is, not stacked from records."""
     t = frame.timestamp
-    data = world.data
     out["t"], out["stage"], out["place"] = t, STAGES.index(state.stage), state.place
     out["place_lit"], out["place_timer"] = state.lit_since is not None, state.place_timer(t)
     out["grasped"], out["held"] = observation.grasped, state.held
     out["touching"] = int.from_bytes(np.packbits(observation.touching, bitorder="little").tobytes(), "little")
-    out["position"], out["orientation"] = data.position[0], data.orientation[0]
-    out["velocity"], out["angular_velocity"] = data.velocity[0], data.angular_velocity[0]
-    rendered = rendered_phalanges(world).reshape(2, -1, 3)
+    out["position"], out["orientation"] = after.position, after.orientation
+    out["velocity"], out["angular_velocity"] = after.velocity, after.angular_velocity
+    rendered = after.rendered.reshape(2, -1, 3)
     for side, name in enumerate(SIDES):
         hand = frame.hand(name)
         if hand is not None:

@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from microg.sim import BONES, DIGITS, SIDES, rendered_phalanges
+from microg.sim import BONES, DIGITS, SIDES
 
 NETWORK_NOTICE = (
     "--lsl: the session's LSL streams are open to the network, as LSL does by default: announced on UDP port 16571 "
@@ -80,15 +80,14 @@ MOCAP_CHANNELS = tuple(
 def mocap_sample(moment) -> np.ndarray:
     """One MoCap sample (``MOCAP_CHANNELS``) of a task's frame (``microg.task.Moment``)."""
     hands = [moment.frame.hand(side) for side in SIDES]
-    rendered = rendered_phalanges(moment.world).reshape(2, -1)
+    rendered, after = moment.after.rendered.reshape(2, -1), moment.after
     nan = np.full(len(JOINTS) * len(DIGITS) * 3, np.nan)
-    data = moment.world.data
     return np.concatenate(
         [[float(h is not None) for h in hands]]
         + [nan if h is None else h.joints.ravel() for h in hands]
         + [np.full(3, np.nan) if h is None else h.palm_position for h in hands]
         + [np.full(4, np.nan) if h is None else h.palm_orientation for h in hands]
-        + [rendered[0], rendered[1], data.position[0], data.orientation[0]])
+        + [rendered[0], rendered[1], after.position, after.orientation])
 
 
 class MocapOutlet:

@@ -163,7 +163,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
                     for event in events:
                         markers(event.kind, event.data)
                 store.log(session_id, events, run_id)
-            framelog.record(pending[count, ...], moment.frame, moment.world, state, moment.observation)
+            framelog.record(pending[count, ...], moment.frame, moment.after, state, moment.observation)
             count += 1
             if count == batch:
                 store.add_frames(run_id, logged, pending)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from microg.sim import World, grasped, touching
+from microg.sim import Snapshot, World, snapshot
 
 if TYPE_CHECKING:
     from .stages import TaskDisplay
@@ -36,7 +36,9 @@ class Observation:
 
 def observe(world: World, index: int = 0, display: TaskDisplay | None = None) -> Observation:
     """What ``world`` shows of object ``index`` now."""
-    data = world.data
-    return Observation(world.time if not data.frames else data.frame_time, bool(grasped(world)[index]),
-                       data.position[index].copy(), data.orientation[index].copy(), touching(world)[:, index],
-                       display)
+    return seen_in(snapshot(world, index), display)
+
+
+def seen_in(after: Snapshot, display: TaskDisplay | None = None) -> Observation:
+    """The observation a world's ``snapshot`` holds."""
+    return Observation(after.t, after.grasped, after.position, after.orientation, after.touching, display)

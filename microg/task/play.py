@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Callable, Iterator
 
-from microg.sim import HandFrame, World, step
+from microg.sim import HandFrame, Snapshot, World, snapshot, step
 
-from .observation import Observation, observe
+from .observation import Observation, observe, seen_in
 from .respawn import respawn
 from .rules import TaskRules
 from .stages import TaskEvent, TaskState, advance, shown
@@ -26,6 +26,8 @@ class Moment:
 
     frame: HandFrame
     world: World
+    after: Snapshot
+    """What ``world`` shows of the task's object (``microg.sim.snapshot``)."""
     state: TaskState
     observation: Observation
     """What the task judged (the world before a respawn), with what it now displays."""
@@ -44,10 +46,11 @@ def play(world: World, source, rules: TaskRules,
         if frame is None:
             return
         world = step(world, smooth(frame))
-        judged = observe(world)
-        state, events = advance(state, judged, rules)
-        world, put_back = respawn(world, rules, state, start)
-        judged = Observation(judged.t, judged.grasped, judged.position, judged.orientation, judged.touching,
-                             shown(state, frame.timestamp))
-        seen = observe(world, display=judged.display) if put_back else judged
-        yield Moment(frame, world, state, judged, tuple(events + put_back))
+        after = snapshot(world)
+        state, events = advance(state, seen_in(after), rules)
+        world, put_back = respawn(world, rules, state, start, after.position)
+        judged = seen_in(after, shown(state, frame.timestamp))
+        if put_back:
+            after = snapshot(world)
+        seen = seen_in(after, judged.display) if put_back else judged
+        yield Moment(frame, world, after, state, judged, tuple(events + put_back))

@@ -16,10 +16,9 @@ def inside_workspace(rules: TaskRules, position) -> bool:
     return all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, position, rules.workspace_max))
 
 
-def respawn(world: World, rules: TaskRules, state: TaskState, start) -> tuple[World, list[TaskEvent]]:
-    """``world`` with object 0 back at ``start`` (position, orientation), at rest, if it left the
-    workspace while not held; a new World (the argument is left as it was)."""
-    position = world.data.position[0]
+def respawn(world: World, rules: TaskRules, state: TaskState, start, position) -> tuple[World, list[TaskEvent]]:
+    """``world`` with object 0 (now at ``position``) back at ``start`` (position, orientation), at
+    rest, if it left the workspace while not held; a new World (the argument is left as it was)."""
     if state.held or inside_workspace(rules, position):
         return world, []
     data = world.data.copy()

@@ -38,7 +38,6 @@ from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
-from microg.sim import rendered_phalanges
 from microg.study.protocol import Item, Phase, Protocol, Questionnaire, TaskPhase, Viewpoint
 from microg.study.questionnaire import RatingError, parse_rating
 from microg.study.store import PlannedTask
@@ -173,8 +172,8 @@ class ParticipantDisplay:
         timers; kept as the newest frame and sent to each page as soon as it can take it. With
         hands from the page, ``read`` is when the page read the newest of them (its own clock)."""
         self.deliver_events()
-        world, state, display = moment.world, moment.state, moment.observation.display
-        rendered = rendered_phalanges(world)
+        after, state, display = moment.after, moment.state, moment.observation.display
+        rendered = after.rendered
         hands = []
         for side in range(2):
             hand = moment.frame.hand(("left", "right")[side])
@@ -190,7 +189,7 @@ class ParticipantDisplay:
                           "touching": moment.observation.touching[side * 20:(side + 1) * 20][drawn].tolist()})
         t = moment.frame.timestamp
         message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": now_ms(),
-                   "object": np.round(np.concatenate([world.data.position[0], world.data.orientation[0]]), 6).tolist(),
+                   "object": np.round(np.concatenate([after.position, after.orientation]), 6).tolist(),
                    "hands": hands, "stage": display.stage, "place": display.place, "lit": display.lit,
                    "place_timer": round(display.timer_s, 3),
                    "task_timer": round(t - state.started, 3) if state.started is not None else 0.0,
