@@ -23,6 +23,7 @@ with a new track id (the guard numbers tracks) starts an empty one.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, HandFrame
 
@@ -31,18 +32,36 @@ FILTER_WINDOW = 3
 another (``scene.filter_window``)."""
 
 
-def window_weights(times: list[float], period: float) -> list[float]:
-    """Eq. 1 as weights on the samples that arrived at ``times`` (newest first): the least-squares
-    line through them, read (len - 1) / 2 periods before the newest. They sum to 1; for evenly
-    spaced times at the nominal period each is 1 / len (the plain average). A handful of floats:
-    plain Python, where numpy's call overhead would dominate."""
-    count = len(times)
+@njit(cache=True)
+def window_mean(samples, times, count, newest, period):
+    """Eq. 1 over the ``count`` newest samples of a ring (``samples`` (F, ...), ``times`` (F,), the
+    newest at ``newest``): the least-squares line through them, read (count - 1) / 2 periods
+    before the newest. Its weights sum to 1; for evenly spaced times at the nominal period each is
+    1 / count (the plain average). Compiled: the filter runs on every frame."""
+    window = samples.shape[0]
+    flat = samples.reshape((window, -1))
+    value = flat[newest] * 1.0
     if count == 1:
-        return [1.0]
-    mean = sum(times) / count
-    spread = [t - mean for t in times]
-    lever = (times[0] - 0.5 * (count - 1) * period - mean) / sum(d * d for d in spread)
-    return [1.0 / count + lever * d for d in spread]
+        return value.reshape(samples.shape[1:])
+    mean = 0.0
+    for k in range(count):
+        mean += times[(newest - k) % window]
+    mean /= count
+    spread = 0.0
+    for k in range(count):
+        d = times[(newest - k) % window] - mean
+        spread += d * d
+    lever = (times[newest] - 0.5 * (count - 1) * period - mean) / spread
+    for k in range(count):
+        i = (newest - k) % window
+        weight = 1.0 / count + lever * (times[i] - mean)
+        if k == 0:
+            for j in range(value.size):
+                value[j] = weight * flat[i, j]
+        else:
+            for j in range(value.size):
+                value[j] += weight * flat[i, j]
+    return value.reshape(samples.shape[1:])
 
 
 class WindowFilter:
@@ -67,12 +86,7 @@ class WindowFilter:
     @property
     def value(self) -> np.ndarray:
         """Eq. 1 on the samples in the window."""
-        index = [(self.newest - k) % self.window for k in range(self.count)]
-        weights = window_weights([float(self.times[i]) for i in index], self.period)
-        value = weights[0] * self.samples[index[0]]
-        for weight, i in zip(weights[1:], index[1:]):
-            value += weight * self.samples[i]
-        return value
+        return window_mean(self.samples, self.times, self.count, self.newest, self.period)
 
 
 def filter_series(values: np.ndarray, times: np.ndarray, window: int, period: float,
