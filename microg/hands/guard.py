@@ -40,6 +40,7 @@ import statistics
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
+from numba import njit
 
 from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, hand_jumped
 from .source import HandSource
@@ -173,15 +174,24 @@ def period(config: GuardConfig, intervals: tuple[float, ...]) -> float:
     return float(statistics.median(intervals)) if intervals else 1.0 / config.nominal_rate
 
 
-def known_joints(hand: Hand) -> np.ndarray:
-    """(5, 5) True where the hand's joint is known."""
-    return np.isfinite(hand.joints).all(axis=-1)
+def completeness(hand: Hand, delivered: np.ndarray) -> tuple[bool, np.ndarray]:
+    """Whether the palm and every joint the tracker normally delivers (``delivered``, (5, 5)) are
+    known in ``hand``, and the joints delivered so far with this hand's."""
+    return _completeness(hand.joints, hand.palm_position, delivered)
 
 
-def is_complete(hand: Hand, known: np.ndarray, delivered: np.ndarray) -> bool:
-    """True when the palm and every joint the tracker normally delivers are known (the palm's three
-    numbers checked as floats: a numpy reduction costs more than the rest of the check)."""
-    return all(map(math.isfinite, hand.palm_position.tolist())) and bool(np.logical_and.reduce(known[delivered]))
+@njit(cache=True)
+def _completeness(joints, palm, delivered):
+    """``completeness`` compiled: the guard checks every frame, and numpy's reductions on a few
+    numbers cost more than the check."""
+    complete = math.isfinite(palm[0]) and math.isfinite(palm[1]) and math.isfinite(palm[2])
+    now = delivered.copy()
+    for d in range(joints.shape[0]):
+        for j in range(joints.shape[1]):
+            known = math.isfinite(joints[d, j, 0]) and math.isfinite(joints[d, j, 1]) and math.isfinite(joints[d, j, 2])
+            complete = complete and (known or not delivered[d, j])
+            now[d, j] = delivered[d, j] or known
+    return complete, now
 
 
 def bridge(a: Hand, t_a: float, b: Hand, t_b: float, t: float) -> Hand:
@@ -234,12 +244,11 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
         sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
         return replace(state, slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
 
-    known = None if hand is None else known_joints(hand)
-    if hand is not None and not is_complete(hand, known, memory.delivered):
+    complete, delivered = (False, None) if hand is None else completeness(hand, memory.delivered)
+    if hand is not None and not complete:
         counts, hand = counts.add(hands_incomplete=1), None
     if hand is None:
         return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
-    delivered = memory.delivered | known
     last = memory.last
 
     def new_track(starts: list[int], **increments: int) -> GuardState:
@@ -306,11 +315,11 @@ def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
             continue
         if memory.last is None or memory.holding or hand.track_id != memory.source_id:
             return None
-        known = known_joints(hand)
-        if not is_complete(hand, known, memory.delivered) or hand_jumped(hand, memory.last, config.jump_distance):
+        complete, delivered = completeness(hand, memory.delivered)
+        if not complete or hand_jumped(hand, memory.last, config.jump_distance):
             return None
         out = hand.renumbered(memory.last.track_id)
-        sides.append(SideState(out, t, hand.track_id, False, memory.delivered | known))
+        sides.append(SideState(out, t, hand.track_id, False, delivered))
         hands.append(out)
     intervals = (state.intervals + (interval,))[-RECENT_INTERVALS:]
     gap = int(interval > config.gap_factor * period(config, intervals))

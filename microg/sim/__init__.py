@@ -25,8 +25,8 @@ from .world import Batch, HandFrames, World, make_batch, make_world, step, step_
 
 __all__ = [
     "BONES", "DIGITS", "EFFECTS", "INTERACTION_MODELS", "SIDES", "SLOTS", "Batch", "Hand", "HandFrame", "HandFrames",
-    "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "Snapshot", "TableParameters", "World", "angular_momentum",
-    "compose_scene", "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene", "make_batch",
-    "make_world", "object_states", "rendered_phalanges", "slot", "slot_name", "snapshot", "step", "step_batch", "touching",
-    "with_interaction",
+    "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "Snapshot", "TableParameters", "World",
+    "angular_momentum", "compose_scene", "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene",
+    "make_batch", "make_world", "object_states", "rendered_phalanges", "slot", "slot_name", "snapshot", "step",
+    "step_batch", "touching", "with_interaction",
 ]

@@ -89,17 +89,16 @@ def is_jump(points, previous, jump_distance):
 
 
 @njit(cache=True)
-def _hand_displacement(palm, joints, last_palm, last_joints):
-    """``displacement`` between two hands' points (``Hand.points``), read from their palm and joint
+def jumped(palm, joints, last_palm, last_joints, jump_distance):
+    """``is_jump`` between two hands' points (``Hand.points``), read from their palm and joint
     arrays as they are."""
-    largest = displacement(palm.reshape((1, 3)), last_palm.reshape((1, 3)))
-    return max(largest, displacement(joints.reshape((-1, 3)), last_joints.reshape((-1, 3))))
+    return (is_jump(palm.reshape((1, 3)), last_palm.reshape((1, 3)), jump_distance)
+            or is_jump(joints.reshape((-1, 3)), last_joints.reshape((-1, 3)), jump_distance))
 
 
 def hand_jumped(hand: Hand, last: Hand, jump_distance: float) -> bool:
-    """``is_jump`` between two hands, without building their ``points``: the tracking guard asks it
-    of every frame."""
-    return _hand_displacement(hand.palm_position, hand.joints, last.palm_position, last.joints) >= jump_distance
+    """``is_jump`` between two hands, without building their ``points``."""
+    return jumped(hand.palm_position, hand.joints, last.palm_position, last.joints, jump_distance)
 
 
 def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
