@@ -17,14 +17,15 @@ object's state, the rendered phalanges, timers) is kept as float32, 0.1 micromet
 from __future__ import annotations
 
 import sqlite3
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame, Snapshot
-from microg.sim.hand import N_BONES, N_DIGITS
-from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Observation, TaskState
+from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame
+from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS
+from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
 
 STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL
 """A frame's ``stage`` is stored as its index here."""
@@ -63,46 +64,49 @@ def decode(blob: bytes, count: int) -> np.ndarray:
     return frames
 
 
-def empty_batch(count: int) -> np.ndarray:
-    """``count`` ``FRAME`` records with no hand: zeros, NaN in the hands' fields. ``record`` fills
-    them and leaves an absent side as it is, so the usual one-handed frame writes one side only."""
-    frames = np.zeros(count, dtype=FRAME)
+def _rows(arrays: list[np.ndarray]) -> np.ndarray:
+    """Arrays of one shape as the rows of one array (``np.stack``'s result at half its cost for
+    the few-number arrays of a frame)."""
+    return np.concatenate(arrays).reshape((len(arrays),) + arrays[0].shape)
+
+
+def frames_of(moments: Sequence[Moment]) -> np.ndarray:
+    """The ``FRAME`` records of a task's moments (``microg.task.Moment``): each frame as the physics
+    received it, the world after it (object 0 and the rendered hands: ``Moment.after``), the task's
+    state, and what the task judged (object 0's contacts, the grasp). Built a field at a time over
+    the batch: one write per field and batch costs less than one per field and frame."""
+    frames = np.zeros(len(moments), dtype=FRAME)
     for field in HAND_FIELDS:
         frames[field] = np.nan
-    return frames
-
-
-def record(out: np.ndarray, frame: HandFrame, after: Snapshot, state: TaskState, observation: Observation) -> None:
-    """Fill ``out``, a record of ``empty_batch`` (a row of a batch: ``batch[i, ...]``): ``frame`` as
-    the physics received it, the world after it (``after``: object 0 and the rendered hands), the
-    task in ``state``, and ``observation`` (what the task judged: object 0, its contacts, the
-    grasp). Written in place, the batch is committed as it is, not stacked from records."""
-    t = frame.timestamp
-    out["t"], out["stage"], out["place"] = t, STAGES.index(state.stage), state.place
-    out["place_lit"], out["place_timer"] = state.lit_since is not None, state.place_timer(t)
-    out["grasped"], out["held"] = observation.grasped, state.held
-    out["touching"] = int.from_bytes(np.packbits(observation.touching, bitorder="little").tobytes(), "little")
-    out["position"], out["orientation"] = after.position, after.orientation
-    out["velocity"], out["angular_velocity"] = after.velocity, after.angular_velocity
-    rendered = after.rendered.reshape(2, -1, 3)
+    if not moments:
+        return frames
+    frames["t"] = [m.frame.timestamp for m in moments]
+    frames["stage"] = [STAGES.index(m.state.stage) for m in moments]
+    frames["place"] = [m.state.place for m in moments]
+    frames["place_lit"] = [m.state.lit_since is not None for m in moments]
+    frames["place_timer"] = [m.state.place_timer(m.frame.timestamp) for m in moments]
+    frames["grasped"] = [m.observation.grasped for m in moments]
+    frames["held"] = [m.state.held for m in moments]
+    bits = np.packbits(_rows([m.observation.touching for m in moments]), axis=1, bitorder="little")
+    frames["touching"] = np.pad(bits, ((0, 0), (0, 8 - bits.shape[1]))).view("<u8")[:, 0]
+    for field in ("position", "orientation", "velocity", "angular_velocity"):
+        frames[field] = _rows([getattr(m.after, field) for m in moments])
     for side, name in enumerate(SIDES):
-        hand = frame.hand(name)
-        if hand is not None:
-            put_hand(out, side, hand, rendered[side])
-
-
-def put_hand(frame: np.ndarray, side: int, hand: Hand | None, rendered: np.ndarray) -> None:
-    """Fill one side's fields of a ``FRAME`` record: ``hand`` and its (20, 3) rendered phalanx
-    centres; NaN and not ``tracked`` when the hand is None."""
-    if hand is None:
-        frame["tracked"][side] = False
-        for field in HAND_FIELDS:
-            frame[field][side] = np.nan
-        return
-    frame["tracked"][side], frame["track_id"][side] = True, hand.track_id
-    frame["joints"][side], frame["widths"][side] = hand.joints, hand.widths
-    frame["palm_position"][side], frame["palm_orientation"][side] = hand.palm_position, hand.palm_orientation
-    frame["rendered"][side] = rendered
+        rows, hands = [], []
+        for i, m in enumerate(moments):
+            hand = m.frame.hand(name)
+            if hand is not None:
+                rows.append(i)
+                hands.append(hand)
+        if not rows:
+            continue
+        frames["tracked"][rows, side] = True
+        frames["track_id"][rows, side] = [h.track_id for h in hands]
+        for field in ("joints", "widths", "palm_position", "palm_orientation"):
+            frames[field][rows, side] = _rows([getattr(h, field) for h in hands])
+        rendered = _rows([moments[i].after.rendered for i in rows])
+        frames["rendered"][rows, side] = rendered[:, side * BONES_PER_HAND:(side + 1) * BONES_PER_HAND]
+    return frames
 
 
 # ---------------------------------------------------------------- the store's side

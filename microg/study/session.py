@@ -150,7 +150,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
     state, logged, last_t = TaskState(), 0, None
-    pending, count = framelog.empty_batch(batch), 0
+    pending: list[Moment] = []
     smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
     try:
         for moment in play(world, source, rules, smooth):
@@ -163,20 +163,20 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
                     for event in events:
                         markers(event.kind, event.data)
                 store.log(session_id, events, run_id)
-            framelog.record(pending[count, ...], moment.frame, moment.after, state, moment.observation)
-            count += 1
-            if count == batch:
-                store.add_frames(run_id, logged, pending)
-                logged, pending, count = logged + count, framelog.empty_batch(batch), 0
+            pending.append(moment)
+            if len(pending) == batch:
+                store.add_frames(run_id, logged, framelog.frames_of(pending))
+                logged, pending = logged + batch, []
             if on_moment:
                 on_moment(moment)
     except BaseException as error:
-        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops, frames=(logged, pending[:count]),
+        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops,
+                      frames=(logged, framelog.frames_of(pending)),
                       reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
         raise
     finally:
         source.close()
-    frames = logged + count
+    frames = logged + len(pending)
     if state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
         result = TaskResult(status, state.completion_time, state.drops, frames)
@@ -189,7 +189,7 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
     if markers:
         markers("task_end", {"status": result.status, "time_s": result.time_s, "attempts": result.attempts})
     store.end_run(run_id, result.status, ended, time_s=result.time_s, attempts=result.attempts,
-                  reason=reason, frames=(logged, pending[:count]),
+                  reason=reason, frames=(logged, framelog.frames_of(pending)),
                   events=[Event(ended, "tracking_guard", counts.as_dict())] if counts is not None else [])
     return result
 

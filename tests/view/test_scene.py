@@ -28,8 +28,13 @@ def a_hand(rng, side="right") -> Hand:
 def logged(hand: Hand | None, rendered: np.ndarray, side: int = 1) -> np.ndarray:
     """A logged frame with ``hand`` on ``side`` (the other side untracked), through the frame log's codec."""
     frame = np.zeros((), dtype=framelog.FRAME)
-    framelog.put_hand(frame, side, hand, rendered)
-    framelog.put_hand(frame, 1 - side, None, rendered)
+    for field in framelog.HAND_FIELDS:
+        frame[field] = np.nan
+    if hand is not None:
+        frame["tracked"][side], frame["track_id"][side] = True, hand.track_id
+        for field in ("joints", "widths", "palm_position", "palm_orientation"):
+            frame[field][side] = getattr(hand, field)
+        frame["rendered"][side] = rendered
     return framelog.decode(framelog.encode(frame[None]), 1)[0]
 
 
