@@ -89,10 +89,10 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
         for participant_id in ids:
             inputs = _inputs(store, participant_id)
             sessions.append(store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock).id)
-        total_tasks = sum(len(store.protocol.objects) * len(store.protocol.phases)
-                          + (len(store.protocol.training.objects) if store.protocol.training
-                             and store.participant(i).group in store.protocol.training.groups else 0)
-                          for i in ids)
+        planned = {session_id: len(store.tasks(session_id)) for session_id in sessions}
+        total_tasks = sum(planned.values())
+        # Longest first: the last session to start is a short one, so the workers finish close together.
+        sessions.sort(key=lambda session_id: -planned[session_id])
 
     jobs = max(1, min(jobs or os.cpu_count() or 1, participants))
     bar = tqdm(total=total_tasks, unit="task", desc=f"{participants} simulated participants", disable=not progress,
