@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -107,7 +108,11 @@ class Player:
     """The own hand's slots among the physics' 40 phalanx slots."""
     thumb: np.ndarray
     """(20,) True for the own hand's thumb slots."""
+    fingers: np.ndarray
+    """(20,) True for its other slots."""
     streams: Streams
+    mirror: float
+    """-1.0 for a left hand, 1.0 for a right (the skeleton is a right hand's)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,17 +167,18 @@ class ParticipantState:
     def changed(self, **changes) -> ParticipantState:
         """This state with ``changes``: ``dataclasses.replace`` without its look at every field on
         each call (a state has no checks to rerun), at a fifth of its cost; a frame makes a few."""
-        unknown = changes.keys() - self.__dict__.keys()
-        if unknown:
-            raise TypeError(f"ParticipantState has no field {min(unknown)!r}")
+        fields = self.__dict__
+        if not changes.keys() <= fields.keys():
+            raise TypeError(f"ParticipantState has no field {min(changes.keys() - fields.keys())!r}")
         state = object.__new__(ParticipantState)
-        state.__dict__.update(self.__dict__, **changes)
+        state.__dict__.update(fields)
+        state.__dict__.update(changes)
         return state
 
 
-@dataclass(frozen=True, eq=False)
-class Seen:
-    """One frame as the participant perceives it."""
+class Seen(NamedTuple):
+    """One frame as the participant perceives it (a named tuple: made every frame, it costs a
+    third of a frozen dataclass)."""
 
     t: float
     """Its own clock (s)."""
@@ -181,8 +187,6 @@ class Seen:
     position: np.ndarray
     """The object's centre (m)."""
     orientation: np.ndarray
-    rotation: np.ndarray
-    """The object's orientation as a matrix."""
     touching: np.ndarray
     """(20,) True for each of its own hand's phalanx slots touching the object."""
     grasped: bool
@@ -217,7 +221,7 @@ def _grasp_pose(grasp: Grasp, closure: float, seen: Seen, approach: bool) -> Pos
     """Where the hand grasps the object as seen now (with this attempt's aim error); ``approach``:
     the pre-grasp pose, backed off along the template's approach."""
     template = grasp.template
-    palm, rotation = template.hand_pose(seen.position, seen.rotation)
+    palm, rotation = template.hand_pose(seen.position, quat_to_matrix(seen.orientation))
     palm = palm + grasp.aim
     if approach:
         palm = palm + rotation @ template.approach
@@ -368,7 +372,7 @@ def descend(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Move the pre-shaped hand around the object until the descent ends or a phalanx touches it."""
     movement = s.movement.toward(_grasp_pose(s.grasp, s.closure, seen, approach=False))
     pose = movement.at(seen.t)
-    if movement.progress(seen.t) >= 1.0 or seen.touching.any():
+    if movement.progress(seen.t) >= 1.0 or np.count_nonzero(seen.touching):
         return _enter(s, CLOSE, seen.t, pose=pose, movement=movement, close_origin=seen.position)
     return s.changed(pose=pose, movement=movement)
 

@@ -124,19 +124,27 @@ _CHECKED = {side: Hand(side, np.zeros((5, N_BONES + 1, 3)), WIDTHS, np.zeros(3))
 
 def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray,
               side: str = "right", track_id: int = 1) -> Hand:
-    """The full Leap-shaped hand for a posture and palm pose (world frame, m).
+    """The full Leap-shaped hand for a posture and palm pose (world frame, m)."""
+    palm_position = np.asarray(palm_position, dtype=np.float64)
+    palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
+    joints = _posed(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
+                    palm_orientation, -1.0 if side == "left" else 1.0)
+    return posed_hand(joints, palm_position, palm_orientation, side, track_id)
+
+
+def posed_hand(joints: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray, side: str,
+               track_id: int = 1) -> Hand:
+    """The hand of the skeleton posed at ``joints`` (5, 5, 3) with its palm pose (float64 arrays,
+    which it makes read-only).
 
     Such a hand is valid by construction (the skeleton's bones and widths, posed), so it is not
     checked again at every frame: like ``Hand.renumbered``, it is a copy of a checked hand with its
     own read-only arrays, at a tenth of the cost of ``Hand(...)``.
     """
-    palm_position = np.asarray(palm_position, dtype=np.float64)
-    palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
-    joints = _posed(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
-                    palm_orientation, -1.0 if side == "left" else 1.0)
-    pose = {"joints": joints, "palm_position": palm_position, "palm_orientation": palm_orientation}
-    for value in pose.values():
-        value.setflags(write=False)
+    joints.setflags(write=False)
+    palm_position.setflags(write=False)
+    palm_orientation.setflags(write=False)
     hand = object.__new__(Hand)
-    hand.__dict__.update(_CHECKED[side].__dict__, **pose, track_id=track_id)
+    hand.__dict__.update(_CHECKED[side].__dict__, joints=joints, palm_position=palm_position,
+                         palm_orientation=palm_orientation, track_id=track_id)
     return hand
