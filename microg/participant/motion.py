@@ -13,7 +13,7 @@ palm orientation by slerp, joint angles) along ``s``; a target that moves while 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -71,17 +71,17 @@ def _interpolate(start_position, end_position, start_orientation, end_orientatio
             posture[d, j] = start_posture[d, j] + s * (end_posture[d, j] - start_posture[d, j])
 
 
-@dataclass(frozen=True, eq=False)
-class Pose:
-    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4)."""
+class Pose(NamedTuple):
+    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4).
+    (Named tuples, this and ``Movement``: immutable, and a third of a frozen dataclass's cost to
+    make; a frame makes a few.)"""
 
     position: np.ndarray
     orientation: np.ndarray
     posture: np.ndarray
 
 
-@dataclass(frozen=True, eq=False)
-class Movement:
+class Movement(NamedTuple):
     """A minimum-jerk movement of every degree of freedom from ``start`` to ``end``, beginning at
     ``begin`` (s) and lasting ``duration`` (s)."""
 

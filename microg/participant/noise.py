@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -89,10 +90,10 @@ class TrackingNoiseLevels:
         return scale * np.array([self.palm_position, self.palm_rotation, self.digit_angle])
 
 
-@dataclass(frozen=True, eq=False)
-class TrackingNoise:
+class TrackingNoise(NamedTuple):
     """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters: the
-    state of its two filter stages."""
+    state of its two filter stages. (Named tuples, this and ``Tremor``: immutable, and cheaper to
+    make than a frozen dataclass; a frame makes one of each.)"""
 
     SIZE = 16
 
@@ -147,8 +148,7 @@ FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
 AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
 
 
-@dataclass(frozen=True, eq=False)
-class Tremor:
+class Tremor(NamedTuple):
     """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and
     amplitude; the state of the oscillators."""
 
