@@ -134,6 +134,9 @@ class Grasp:
     template: GraspTemplate
     orientation: np.ndarray
     aim: np.ndarray
+    last: list = field(default_factory=lambda: [None, None], repr=False)
+    """The last grasp pose worked out and what it was worked out from (``_grasp_pose``): an object
+    at rest is seen at the same pose frame after frame while the hand reaches for it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -231,12 +234,17 @@ def _closing(s: ParticipantState, seen: Seen, limit: float = math.inf, palm: Pos
 def _grasp_pose(grasp: Grasp, closure: float, seen: Seen, approach: bool) -> Pose:
     """Where the hand grasps the object as seen now (with this attempt's aim error); ``approach``:
     the pre-grasp pose, backed off along the template's approach."""
+    key = (float(closure).hex(), approach, seen.position.tobytes(), seen.orientation.tobytes())
+    if key == grasp.last[0]:
+        return grasp.last[1]
     template = grasp.template
     palm, rotation = template.hand_pose(seen.position, quat_to_matrix(seen.orientation))
     palm = palm + grasp.aim
     if approach:
         palm = palm + rotation @ template.approach
-    return Pose(palm, quat_multiply(seen.orientation, grasp.orientation), template.posture(closure))
+    pose = Pose(palm, quat_multiply(seen.orientation, grasp.orientation), template.posture(closure))
+    grasp.last[:] = key, pose
+    return pose
 
 
 def _object_in_hand(pose: Pose, seen: Seen) -> np.ndarray:
