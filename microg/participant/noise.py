@@ -115,7 +115,9 @@ class TrackingNoise(NamedTuple):
     def advance(self, dt: float, draws: np.ndarray) -> TrackingNoise:
         """The noise ``dt`` seconds later, driven by 16 standard normal ``draws``; its ``value``
         is the offset."""
-        return TrackingNoise(self.tau, self.sd, advance_noise(self.stages, self.tau, self.sd, dt, draws))
+        stages = np.empty_like(self.stages)
+        advance_noise(self.stages, self.tau, self.sd, dt, draws, stages)
+        return TrackingNoise(self.tau, self.sd, stages)
 
     @property
     def value(self) -> np.ndarray:
@@ -124,16 +126,15 @@ class TrackingNoise(NamedTuple):
 
 
 @njit(cache=True)
-def advance_noise(stages, tau, sd, dt, draws):
-    """``TrackingNoise.stages`` ``dt`` later (compiled: the participant's hand takes one a frame)."""
+def advance_noise(stages, tau, sd, dt, draws, out):
+    """``TrackingNoise.stages`` ``dt`` later, into ``out`` (compiled: the participant's hand takes
+    one a frame)."""
     decay = math.exp(-dt / tau)
     gain = math.sqrt(2.0 * (1.0 - decay * decay))
-    out = np.empty_like(stages)
     for i in range(stages.shape[1]):
         first = decay * stages[0, i] + gain * sd[i] * draws[i]
         out[0, i] = first
         out[1, i] = decay * stages[1, i] + (1.0 - decay) * first
-    return out
 
 
 @njit(cache=True)
@@ -178,18 +179,21 @@ class Tremor(NamedTuple):
 
     def advance(self, dt: float, draws: np.ndarray) -> Tremor:
         """The tremor ``dt`` seconds later, driven by 4 standard normal ``draws``."""
-        return Tremor(self.centre, self.base, advance_tremor(self.state, self.centre, dt, draws))
+        state = np.empty(7)
+        advance_tremor(self.state, self.centre, dt, draws, state)
+        return Tremor(self.centre, self.base, state)
 
     @property
     def value(self) -> np.ndarray:
         """The tremor displacement (3,) in metres."""
-        return tremor_value(self.state, self.base)
+        value = np.empty(3)
+        tremor_value(self.state, self.base, value)
+        return value
 
 
 @njit(cache=True)
-def advance_tremor(state, centre, dt, draws):
-    """``Tremor.state`` ``dt`` later (compiled: the participant's hand takes one a frame)."""
-    out = np.empty(7)
+def advance_tremor(state, centre, dt, draws, out):
+    """``Tremor.state`` ``dt`` later, into ``out`` (compiled: the participant's hand takes one a frame)."""
     offset = _ou(state[0], dt, FREQUENCY_TAU, FREQUENCY_SD, draws[0])
     frequency = min(max(centre + offset, TREMOR_LOW), TREMOR_HIGH)
     out[0] = offset
@@ -197,13 +201,10 @@ def advance_tremor(state, centre, dt, draws):
     for i in range(3):
         out[1 + i] = state[1 + i] + turn
         out[4 + i] = _ou(state[4 + i], dt, AMPLITUDE_TAU, AMPLITUDE_LOG_SD, draws[1 + i])
-    return out
 
 
 @njit(cache=True)
-def tremor_value(state, base):
-    """The displacement (3,) of a ``Tremor.state`` (m)."""
-    out = np.empty(3)
+def tremor_value(state, base, out):
+    """The displacement (3,) of a ``Tremor.state`` (m), into ``out``."""
     for i in range(3):
         out[i] = base * math.exp(state[4 + i]) * math.sin(state[1 + i])
-    return out

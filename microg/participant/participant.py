@@ -119,9 +119,10 @@ def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_
     """One compiled call a frame: the tremor's and the tracking noise's states ``dt`` later
     (into ``next_oscillators``, ``next_stages``) and the hand they jitter, the intended pose plus
     the tremor and the noise's offsets (into ``palm``, ``palm_orientation`` and ``joints``)."""
-    next_oscillators[:] = advance_tremor(oscillators, centre, dt, tremor_draws)
-    next_stages[:] = advance_noise(stages, tau, sd, dt, noise_draws)
-    shake, offset = tremor_value(next_oscillators, base), next_stages[1]
+    advance_tremor(oscillators, centre, dt, tremor_draws, next_oscillators)
+    advance_noise(stages, tau, sd, dt, noise_draws, next_stages)
+    shake, offset = np.empty(3), next_stages[1]
+    tremor_value(next_oscillators, base, shake)
     for i in range(3):
         palm[i] = position[i] + shake[i] + offset[i]
     palm_orientation[:] = quat_multiply(quat_from_rotation_vector(offset[3:6]), orientation)
@@ -129,7 +130,7 @@ def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_
     for d in range(5):
         for k in range(2):
             angles[d, k] += offset[6 + 2 * d + k]
-    joints[:] = _posed(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror)
+    _posed(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
 
 
 def _frame(t: float, hand: Hand) -> HandFrame:
