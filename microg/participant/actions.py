@@ -181,12 +181,13 @@ class ParticipantState:
     def changed(self, **changes) -> ParticipantState:
         """This state with ``changes``: ``dataclasses.replace`` without its look at every field on
         each call (a state has no checks to rerun), at a fifth of its cost; a frame makes a few."""
-        fields = self.__dict__
-        if not changes.keys() <= fields.keys():
-            raise TypeError(f"ParticipantState has no field {min(changes.keys() - fields.keys())!r}")
+        fields = self.__dict__.copy()
+        count = len(fields)
+        fields.update(changes)
+        if len(fields) != count:
+            raise TypeError(f"ParticipantState has no field {min(changes.keys() - self.__dict__.keys())!r}")
         state = object.__new__(ParticipantState)
-        state.__dict__.update(fields)
-        state.__dict__.update(changes)
+        object.__setattr__(state, "__dict__", fields)
         return state
 
 

@@ -156,7 +156,8 @@ def posed_hand(joints: np.ndarray, palm_position: np.ndarray, palm_orientation: 
     joints.setflags(write=False)
     palm_position.setflags(write=False)
     palm_orientation.setflags(write=False)
+    fields = _CHECKED[side].__dict__.copy()
+    fields.update(joints=joints, palm_position=palm_position, palm_orientation=palm_orientation, track_id=track_id)
     hand = object.__new__(Hand)
-    hand.__dict__.update(_CHECKED[side].__dict__, joints=joints, palm_position=palm_position,
-                         palm_orientation=palm_orientation, track_id=track_id)
+    object.__setattr__(hand, "__dict__", fields)
     return hand
