@@ -11,7 +11,9 @@ goes through them:
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
 open, back off, reach again). Random draws come from the generators in ``Player.streams``, the
-one mutable part of the state: every other field is replaced, never changed.
+one mutable part of the state: every other field is replaced, never changed (a grasp and its
+template do remember the last pose and posture they worked out, which saves work and changes
+nothing).
 """
 
 from __future__ import annotations
@@ -284,7 +286,7 @@ def _squeeze_depth(s: ParticipantState, seen: Seen) -> float:
     per side, through the believed stiffness of the phalanges pressing on each side."""
     player, plan = s.player, s.player.plan
     thumb = max(int((seen.touching & player.thumb).sum()), 1)
-    others = max(int((seen.touching & ~player.thumb).sum()), 1)
+    others = max(int((seen.touching & player.fingers).sum()), 1)
     target = np.asarray(plan.rules.places[min(s.place, len(plan.rules.places) - 1)])
     distance = _distance(target, seen.position)
     duration = _carry_time(player, distance)

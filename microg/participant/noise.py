@@ -144,6 +144,7 @@ def _ou(value, dt, tau, sd, noise):
     return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
 
 
+# The tremor's constants (see ``Tremor``), at module level for its compiled kernels.
 TREMOR_LOW, TREMOR_HIGH = 8.0, 12.0
 FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
 AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5

@@ -43,7 +43,7 @@ from .motion import Pose
 from .noise import (FrameTiming, NormalStream, TrackingNoise, TrackingNoiseLevels, Tremor, advance_noise,
                     advance_tremor, tremor_value)
 from .plan import TaskPlan
-from .skeleton import CARPALS, KNUCKLES, PHALANGES, REST, _posed, posed_hand
+from .skeleton import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .skill import SkillProfile, skill_profile
 
 MEASURED_TIMING = FrameTiming()
@@ -130,7 +130,7 @@ def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_
     for d in range(5):
         for k in range(2):
             angles[d, k] += offset[6 + 2 * d + k]
-    _posed(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
+    pose_joints(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
 
 
 def _frame(t: float, hand: Hand) -> HandFrame:

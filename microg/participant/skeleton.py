@@ -121,7 +121,7 @@ def to_world(local: np.ndarray, palm_position: np.ndarray, palm_orientation: np.
 
 
 @njit(cache=True)
-def _posed(angles, knuckles, carpals, phalanges, position, orientation, mirror, joints):
+def pose_joints(angles, knuckles, carpals, phalanges, position, orientation, mirror, joints):
     """``to_world(local_joints(angles), ...)`` into ``joints`` in one compiled call (the
     participant's hand takes one a frame)."""
     local = np.empty_like(joints)
@@ -139,7 +139,7 @@ def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: n
     palm_position = np.asarray(palm_position, dtype=np.float64)
     palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
     joints = np.empty((5, N_BONES + 1, 3))
-    _posed(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
+    pose_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
            palm_orientation, -1.0 if side == "left" else 1.0, joints)
     return posed_hand(joints, palm_position, palm_orientation, side, track_id)
 
