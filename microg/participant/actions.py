@@ -11,7 +11,9 @@ goes through them:
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
 open, back off, reach again). Random draws come from the generators in ``Player.streams``, the
-one mutable part of the state: every other field is replaced, never changed.
+one mutable part of the state: every other field is replaced, never changed (a grasp and its
+template do remember the last pose and posture they worked out, which saves work and changes
+nothing).
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 from scipy.spatial.transform import Rotation
 
 from microg.sim.rotation import quat_multiply, quat_to_matrix
@@ -76,7 +80,17 @@ HOLDING = (LIFT, CARRY, HOLD)
 
 
 def _length(v: np.ndarray) -> float:
-    return math.sqrt(float(v @ v))
+    """|v| of a 3-vector, in floats: numpy's arithmetic (``v @ v`` sums in order), without its
+    cost per call on three elements."""
+    x, y, z = v.tolist()
+    return math.sqrt(x * x + y * y + z * z)
+
+
+def _distance(a: np.ndarray, b: np.ndarray) -> float:
+    """``_length(a - b)``, in floats."""
+    (ax, ay, az), (bx, by, bz) = a.tolist(), b.tolist()
+    x, y, z = ax - bx, ay - by, az - bz
+    return math.sqrt(x * x + y * y + z * z)
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,7 +121,11 @@ class Player:
     """The own hand's slots among the physics' 40 phalanx slots."""
     thumb: np.ndarray
     """(20,) True for the own hand's thumb slots."""
+    fingers: np.ndarray
+    """(20,) True for its other slots."""
     streams: Streams
+    mirror: float
+    """-1.0 for a left hand, 1.0 for a right (the skeleton is a right hand's)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -118,6 +136,9 @@ class Grasp:
     template: GraspTemplate
     orientation: np.ndarray
     aim: np.ndarray
+    last: list = field(default_factory=lambda: [None, None], repr=False)
+    """The last grasp pose worked out and what it was worked out from (``_grasp_pose``): an object
+    at rest is seen at the same pose frame after frame while the hand reaches for it."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,17 +183,19 @@ class ParticipantState:
     def changed(self, **changes) -> ParticipantState:
         """This state with ``changes``: ``dataclasses.replace`` without its look at every field on
         each call (a state has no checks to rerun), at a fifth of its cost; a frame makes a few."""
-        unknown = changes.keys() - self.__dict__.keys()
-        if unknown:
-            raise TypeError(f"ParticipantState has no field {min(unknown)!r}")
+        fields = self.__dict__.copy()
+        count = len(fields)
+        fields.update(changes)
+        if len(fields) != count:
+            raise TypeError(f"ParticipantState has no field {min(changes.keys() - self.__dict__.keys())!r}")
         state = object.__new__(ParticipantState)
-        state.__dict__.update(self.__dict__, **changes)
+        object.__setattr__(state, "__dict__", fields)
         return state
 
 
-@dataclass(frozen=True, eq=False)
-class Seen:
-    """One frame as the participant perceives it."""
+class Seen(NamedTuple):
+    """One frame as the participant perceives it (a named tuple: made every frame, it costs a
+    third of a frozen dataclass)."""
 
     t: float
     """Its own clock (s)."""
@@ -181,8 +204,6 @@ class Seen:
     position: np.ndarray
     """The object's centre (m)."""
     orientation: np.ndarray
-    rotation: np.ndarray
-    """The object's orientation as a matrix."""
     touching: np.ndarray
     """(20,) True for each of its own hand's phalanx slots touching the object."""
     grasped: bool
@@ -216,17 +237,34 @@ def _closing(s: ParticipantState, seen: Seen, limit: float = math.inf, palm: Pos
 def _grasp_pose(grasp: Grasp, closure: float, seen: Seen, approach: bool) -> Pose:
     """Where the hand grasps the object as seen now (with this attempt's aim error); ``approach``:
     the pre-grasp pose, backed off along the template's approach."""
+    key = (float(closure).hex(), approach, seen.position.tobytes(), seen.orientation.tobytes())
+    if key == grasp.last[0]:
+        return grasp.last[1]
     template = grasp.template
-    palm, rotation = template.hand_pose(seen.position, seen.rotation)
+    palm, rotation = template.hand_pose(seen.position, quat_to_matrix(seen.orientation))
     palm = palm + grasp.aim
     if approach:
         palm = palm + rotation @ template.approach
-    return Pose(palm, quat_multiply(seen.orientation, grasp.orientation), template.posture(closure))
+    pose = Pose(palm, quat_multiply(seen.orientation, grasp.orientation), template.posture(closure))
+    grasp.last[:] = key, pose
+    return pose
 
 
 def _object_in_hand(pose: Pose, seen: Seen) -> np.ndarray:
     """The seen object's centre in the intended hand frame."""
-    return quat_to_matrix(pose.orientation).T @ (seen.position - pose.position)
+    in_hand = np.empty(3)
+    _to_hand_frame(pose.orientation, pose.position, seen.position, in_hand)
+    return in_hand
+
+
+@njit(cache=True)
+def _to_hand_frame(orientation, position, point, out):
+    """``quat_to_matrix(orientation).T @ (point - position)`` into ``out``, with numpy's arithmetic
+    (compiled: a frame with the object in the hand takes one)."""
+    rotation = quat_to_matrix(orientation)
+    x, y, z = point[0] - position[0], point[1] - position[1], point[2] - position[2]
+    for i in range(3):
+        out[i] = rotation[0, i] * x + rotation[1, i] * y + rotation[2, i] * z
 
 
 def _destination(s: ParticipantState) -> np.ndarray:
@@ -248,9 +286,9 @@ def _squeeze_depth(s: ParticipantState, seen: Seen) -> float:
     per side, through the believed stiffness of the phalanges pressing on each side."""
     player, plan = s.player, s.player.plan
     thumb = max(int((seen.touching & player.thumb).sum()), 1)
-    others = max(int((seen.touching & ~player.thumb).sum()), 1)
+    others = max(int((seen.touching & player.fingers).sum()), 1)
     target = np.asarray(plan.rules.places[min(s.place, len(plan.rules.places) - 1)])
-    distance = _length(target - seen.position)
+    distance = _distance(target, seen.position)
     duration = _carry_time(player, distance)
     gravity = _length(np.asarray(plan.gravity, dtype=np.float64))
     load = float(plan.object.mass) * (gravity + PEAK_ACCELERATION * distance / duration ** 2)
@@ -275,7 +313,7 @@ def _keep_grip(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bool]
     """Keep the grip: squeeze more after a visible slip; True with a drop (the object out of the
     grasp and ``DROP_DISTANCE`` from its place in the hand)."""
     in_hand = _object_in_hand(s.pose, seen)
-    moved = _length(in_hand - s.in_hand)
+    moved = _distance(in_hand, s.in_hand)
     s, dropped = _check_drop(s, seen, moved > DROP_DISTANCE)
     if dropped:
         return s, True
@@ -296,7 +334,7 @@ def _move_holding(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bo
 def _begin_reach(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Plan a grasp of the object as it lies now and reach for its pre-grasp pose."""
     player, skill, t = s.player, s.player.skill, seen.t
-    if _length(seen.position - player.home) > REACH_RADIUS:
+    if _distance(seen.position, player.home) > REACH_RADIUS:
         return _enter(s, WAIT_FOR_OBJECT, t)
     spec = player.plan.object
     template = plan_grasp(spec.shape, spec.half_extents, seen.orientation, player.plan.hand)
@@ -304,7 +342,7 @@ def _begin_reach(s: ParticipantState, seen: Seen) -> ParticipantState:
     grasp = Grasp(template, orientation, player.streams.decisions.normal(0.0, skill.aim_sd, 3))
     closure = -skill.preshape_margin
     target = _grasp_pose(grasp, closure, seen, approach=True)
-    duration = movement_time(_length(target.position - s.pose.position), skill.preshape_margin,
+    duration = movement_time(_distance(target.position, s.pose.position), skill.preshape_margin,
                              skill.movement_intercept, skill.movement_slope)
     return _enter(s, REACH, t, grasp=grasp, closure=closure, movement=Movement(s.pose, target, t, duration))
 
@@ -315,7 +353,7 @@ def _begin_carry(s: ParticipantState, seen: Seen, delay: float) -> ParticipantSt
     offset = seen.position - s.pose.position
     goal = _destination(s) + player.streams.decisions.normal(0.0, player.skill.aim_sd, 3)
     start = s.pose
-    duration = _carry_time(player, _length(goal - seen.position))
+    duration = _carry_time(player, _distance(goal, seen.position))
     end = Pose(goal - offset, start.orientation, start.posture)
     return _enter(s, CARRY, seen.t, movement=Movement(start, end, seen.t + delay, duration))
 
@@ -345,7 +383,7 @@ def wait(s: ParticipantState, seen: Seen) -> ParticipantState:
 
 def wait_for_object(s: ParticipantState, seen: Seen) -> ParticipantState:
     """The object is out of reach: wait until it comes back (a task puts a lost object back)."""
-    if _length(seen.position - s.player.home) <= REACH_RADIUS:
+    if _distance(seen.position, s.player.home) <= REACH_RADIUS:
         return _enter(s, WAIT, seen.t, go_at=seen.t + pause(s.player))
     return s
 
@@ -368,7 +406,7 @@ def descend(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Move the pre-shaped hand around the object until the descent ends or a phalanx touches it."""
     movement = s.movement.toward(_grasp_pose(s.grasp, s.closure, seen, approach=False))
     pose = movement.at(seen.t)
-    if movement.progress(seen.t) >= 1.0 or seen.touching.any():
+    if movement.progress(seen.t) >= 1.0 or np.count_nonzero(seen.touching):
         return _enter(s, CLOSE, seen.t, pose=pose, movement=movement, close_origin=seen.position)
     return s.changed(pose=pose, movement=movement)
 
@@ -379,7 +417,7 @@ def close(s: ParticipantState, seen: Seen) -> ParticipantState:
     s = _closing(s, seen)
     if seen.grasped:
         return _enter(s, SQUEEZE, seen.t, grip=s.closure + _squeeze_depth(s, seen))
-    if s.closure >= CLOSURES[-1] or _length(seen.position - s.close_origin) > LOST_DISTANCE:
+    if s.closure >= CLOSURES[-1] or _distance(seen.position, s.close_origin) > LOST_DISTANCE:
         return _begin_retry(s, seen.t)
     return s
 
@@ -413,7 +451,7 @@ def carry(s: ParticipantState, seen: Seen) -> ParticipantState:
         if seen.display is None or seen.display.stage == RELEASE:
             return _begin_open(s, seen.t)
         return _begin_carry(s.changed(place=seen.display.place), seen, player.skill.reaction_s)
-    if _length(seen.position - _destination(s)) <= player.skill.place_accept * player.plan.rules.place_radius:
+    if _distance(seen.position, _destination(s)) <= player.skill.place_accept * player.plan.rules.place_radius:
         rate = 1.0 + player.streams.decisions.normal(0.0, player.skill.clock_cv)
         return _enter(s, HOLD, seen.t, hold_clock=0.0, clock_rate=rate, dark_since=None)
     return _begin_carry(s, seen, player.skill.reaction_s)
@@ -426,7 +464,7 @@ def hold(s: ParticipantState, seen: Seen) -> ParticipantState:
     s, dropped = _keep_grip(_closing(s, seen, s.grip), seen)
     if dropped:
         return s
-    if _length(seen.position - _destination(s)) > player.plan.rules.place_radius:
+    if _distance(seen.position, _destination(s)) > player.plan.rules.place_radius:
         return _begin_carry(s, seen, player.skill.reaction_s)
     dark = seen.display is not None and not seen.display.lit
     if dark != (s.dark_since is not None):
@@ -473,7 +511,7 @@ def retreat(s: ParticipantState, seen: Seen) -> ParticipantState:
 def watch(s: ParticipantState, seen: Seen) -> ParticipantState:
     """Stay until the object is seen away from the hand (with a display: until the task shows it
     is over); if it still clings after ``WATCH_S``, open and back off again."""
-    away = _length(seen.position - s.pose.position) > RELEASED_DISTANCE and not seen.grasped
+    away = _distance(seen.position, s.pose.position) > RELEASED_DISTANCE and not seen.grasped
     if away and seen.display is None:
         return _enter(s, DONE, seen.t)
     if not away and seen.t - s.since > WATCH_S:

@@ -20,7 +20,8 @@ the inverse kinematics (``scipy.optimize.least_squares``) runs once per grasp sh
 from __future__ import annotations
 
 import bisect
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -85,13 +86,20 @@ class GraspTemplate:
     """(3,) hand-frame offset of the pre-grasp palm position from the grasp position (m)."""
     postures: np.ndarray
     """(len(CLOSURES), 5, 4) joint angles along the closure ladder."""
+    last: list = field(default_factory=lambda: [math.nan, None], repr=False)
+    """The last closure asked for and its posture: a grip holds its closure for many frames."""
 
     def posture(self, closure: float) -> np.ndarray:
-        """Joint angles at closure ``closure`` (m), interpolated on the ladder."""
+        """Joint angles at closure ``closure`` (m), interpolated on the ladder; read-only."""
         q = min(max(float(closure), _LADDER[0]), _LADDER[-1])
+        if q == self.last[0] and q != 0.0:  # (0.0 and -0.0 are equal, yet might interpolate apart)
+            return self.last[1]
         i = min(bisect.bisect_right(_LADDER, q) - 1, len(_LADDER) - 2)
         w = (q - _LADDER[i]) / (_LADDER[i + 1] - _LADDER[i])
-        return (1.0 - w) * self.postures[i] + w * self.postures[i + 1]
+        posture = (1.0 - w) * self.postures[i] + w * self.postures[i + 1]
+        posture.setflags(write=False)
+        self.last[:] = q, posture
+        return posture
 
     def hand_pose(self, object_position: np.ndarray, object_rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Palm position and hand rotation matrix that put the object where the template holds it."""

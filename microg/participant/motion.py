@@ -13,9 +13,10 @@ palm orientation by slerp, joint angles) along ``s``; a target that moves while 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 
 def minimum_jerk(tau: float | np.ndarray) -> float | np.ndarray:
@@ -30,29 +31,57 @@ def movement_time(distance: float, tolerance: float, intercept: float, slope: fl
     return intercept + slope * math.log2(distance / (2.0 * tolerance) + 1.0)
 
 
+@njit(cache=True)
 def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Spherical interpolation between unit quaternions (shortest arc), s in [0, 1]."""
-    dot = float(np.dot(q0, q1))
+    q = np.empty(4)
+    _slerp(q0, q1, s, q)
+    return q
+
+
+@njit(cache=True)
+def _slerp(q0, q1, s, out):
+    """``slerp`` into ``out``, with numpy's arithmetic (its dot product sums in order)."""
+    dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
+    sign = 1.0
     if dot < 0.0:
-        q1, dot = -q1, -dot
+        sign, dot = -1.0, -dot
     if dot > 0.9995:
-        q = q0 + s * (q1 - q0)
-        return q / math.sqrt(q.dot(q))  # np.linalg.norm's arithmetic, without its checks
+        for i in range(4):
+            out[i] = q0[i] + s * (sign * q1[i] - q0[i])
+        norm = math.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2] + out[3] * out[3])
+        for i in range(4):
+            out[i] /= norm
+        return
     theta = math.acos(dot)
-    return (math.sin((1.0 - s) * theta) * q0 + math.sin(s * theta) * q1) / math.sin(theta)
+    a, b, c = math.sin((1.0 - s) * theta), math.sin(s * theta), math.sin(theta)
+    for i in range(4):
+        out[i] = (a * q0[i] + b * (sign * q1[i])) / c
 
 
-@dataclass(frozen=True, eq=False)
-class Pose:
-    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4)."""
+@njit(cache=True)
+def _interpolate(start_position, end_position, start_orientation, end_orientation, start_posture, end_posture, s,
+                 position, orientation, posture):
+    """The pose ``s`` of the way from start to end (``Movement.at``), into the last three arrays."""
+    for i in range(3):
+        position[i] = start_position[i] + s * (end_position[i] - start_position[i])
+    _slerp(start_orientation, end_orientation, s, orientation)
+    for d in range(start_posture.shape[0]):
+        for j in range(start_posture.shape[1]):
+            posture[d, j] = start_posture[d, j] + s * (end_posture[d, j] - start_posture[d, j])
+
+
+class Pose(NamedTuple):
+    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4).
+    (Named tuples, this and ``Movement``: immutable, and a third of a frozen dataclass's cost to
+    make; a frame makes a few.)"""
 
     position: np.ndarray
     orientation: np.ndarray
     posture: np.ndarray
 
 
-@dataclass(frozen=True, eq=False)
-class Movement:
+class Movement(NamedTuple):
     """A minimum-jerk movement of every degree of freedom from ``start`` to ``end``, beginning at
     ``begin`` (s) and lasting ``duration`` (s)."""
 
@@ -66,10 +95,12 @@ class Movement:
         return min(max((t - self.begin) / self.duration, 0.0), 1.0)
 
     def at(self, t: float) -> Pose:
-        s = minimum_jerk(self.progress(t))
+        """The pose at ``t`` (one compiled call: a frame of a movement takes one)."""
         start, end = self.start, self.end
-        return Pose(start.position + s * (end.position - start.position), slerp(start.orientation, end.orientation, s),
-                    start.posture + s * (end.posture - start.posture))
+        position, orientation, posture = np.empty(3), np.empty(4), np.empty((5, 4))
+        _interpolate(start.position, end.position, start.orientation, end.orientation, start.posture, end.posture,
+                     minimum_jerk(self.progress(t)), position, orientation, posture)
+        return Pose(position, orientation, posture)
 
     def toward(self, end: Pose) -> Movement:
         """The same movement re-aimed at ``end`` (a target that moved while the hand travels)."""

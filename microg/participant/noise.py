@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 
 class NormalStream:
@@ -88,10 +90,10 @@ class TrackingNoiseLevels:
         return scale * np.array([self.palm_position, self.palm_rotation, self.digit_angle])
 
 
-@dataclass(frozen=True, eq=False)
-class TrackingNoise:
+class TrackingNoise(NamedTuple):
     """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters: the
-    state of its two filter stages."""
+    state of its two filter stages. (Named tuples, this and ``Tremor``: immutable, and cheaper to
+    make than a frozen dataclass; a frame makes one of each.)"""
 
     SIZE = 16
 
@@ -99,8 +101,8 @@ class TrackingNoise:
     """Time constant of each stage (s)."""
     sd: np.ndarray
     """(16,) stationary SD of each parameter."""
-    first: np.ndarray
-    second: np.ndarray
+    stages: np.ndarray
+    """(2, 16) the first and the second stage."""
 
     @classmethod
     def start(cls, levels: TrackingNoiseLevels, normals: NormalStream) -> TrackingNoise:
@@ -108,46 +110,62 @@ class TrackingNoise:
         sd = np.repeat(levels.stationary_sd(), [3, 3, 10])
         # Two equal first-order stages: the output's variance is half the first stage's.
         first = math.sqrt(2.0) * sd * normals.take(cls.SIZE)
-        return cls(1.0 / (2.0 * math.pi * levels.corner), sd, first, sd * normals.take(cls.SIZE))
+        return cls(1.0 / (2.0 * math.pi * levels.corner), sd, np.stack([first, sd * normals.take(cls.SIZE)]))
 
     def advance(self, dt: float, draws: np.ndarray) -> TrackingNoise:
         """The noise ``dt`` seconds later, driven by 16 standard normal ``draws``; its ``value``
         is the offset."""
-        decay = math.exp(-dt / self.tau)
-        first = decay * self.first + math.sqrt(2.0 * (1.0 - decay * decay)) * self.sd * draws
-        return TrackingNoise(self.tau, self.sd, first, decay * self.second + (1.0 - decay) * first)
+        stages = np.empty_like(self.stages)
+        advance_noise(self.stages, self.tau, self.sd, dt, draws, stages)
+        return TrackingNoise(self.tau, self.sd, stages)
 
     @property
     def value(self) -> np.ndarray:
         """(16,) = palm offset (3, m), rotation vector (3, rad), digit base angles (5, 2; rad)."""
-        return self.second
+        return self.stages[1]
 
 
-def _ou(value, dt: float, tau: float, sd: float, noise):
+@njit(cache=True)
+def advance_noise(stages, tau, sd, dt, draws, out):
+    """``TrackingNoise.stages`` ``dt`` later, into ``out`` (compiled: the participant's hand takes
+    one a frame)."""
+    decay = math.exp(-dt / tau)
+    gain = math.sqrt(2.0 * (1.0 - decay * decay))
+    for i in range(stages.shape[1]):
+        first = decay * stages[0, i] + gain * sd[i] * draws[i]
+        out[0, i] = first
+        out[1, i] = decay * stages[1, i] + (1.0 - decay) * first
+
+
+@njit(cache=True)
+def _ou(value, dt, tau, sd, noise):
     """An Ornstein-Uhlenbeck process of time constant ``tau`` and stationary SD ``sd``, ``dt`` later."""
     decay = math.exp(-dt / tau)
     return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
 
 
-@dataclass(frozen=True, eq=False)
-class Tremor:
+# The tremor's constants (see ``Tremor``), at module level for its compiled kernels.
+TREMOR_LOW, TREMOR_HIGH = 8.0, 12.0
+FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
+AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
+
+
+class Tremor(NamedTuple):
     """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and
     amplitude; the state of the oscillators."""
 
-    LOW, HIGH = 8.0, 12.0
-    FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
+    LOW, HIGH = TREMOR_LOW, TREMOR_HIGH
+    FREQUENCY_SD, FREQUENCY_TAU = FREQUENCY_SD, FREQUENCY_TAU
     """Hz and s: the frequency wanders around the participant's own as an Ornstein-Uhlenbeck process."""
-    AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
+    AMPLITUDE_LOG_SD, AMPLITUDE_TAU = AMPLITUDE_LOG_SD, AMPLITUDE_TAU
 
     centre: float
     """The participant's own frequency (Hz)."""
-    offset: float
-    """How far the frequency has wandered from it (Hz)."""
-    phase: np.ndarray
-    """(3,) phase of each axis (rad)."""
-    log_amplitude: np.ndarray
     base: float
     """Amplitude at log-amplitude 0 (m)."""
+    state: np.ndarray
+    """(7,) how far the frequency has wandered from ``centre`` (Hz), the phase of each axis (3,
+    rad), the log-amplitude of each axis (3)."""
 
     @classmethod
     def start(cls, rms: float, normals: NormalStream) -> Tremor:
@@ -157,16 +175,37 @@ class Tremor:
         phase = rng.uniform(0.0, 2.0 * math.pi, 3)
         log_amplitude = cls.AMPLITUDE_LOG_SD * normals.take(3)
         # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
-        return cls(centre, 0.0, phase, log_amplitude, rms * math.sqrt(2.0) * math.exp(-cls.AMPLITUDE_LOG_SD ** 2))
+        base = rms * math.sqrt(2.0) * math.exp(-cls.AMPLITUDE_LOG_SD ** 2)
+        return cls(centre, base, np.concatenate([[0.0], phase, log_amplitude]))
 
     def advance(self, dt: float, draws: np.ndarray) -> Tremor:
         """The tremor ``dt`` seconds later, driven by 4 standard normal ``draws``."""
-        offset = _ou(self.offset, dt, self.FREQUENCY_TAU, self.FREQUENCY_SD, float(draws[0]))
-        frequency = min(max(self.centre + offset, self.LOW), self.HIGH)
-        log_amplitude = _ou(self.log_amplitude, dt, self.AMPLITUDE_TAU, self.AMPLITUDE_LOG_SD, draws[1:])
-        return Tremor(self.centre, offset, self.phase + 2.0 * math.pi * frequency * dt, log_amplitude, self.base)
+        state = np.empty(7)
+        advance_tremor(self.state, self.centre, dt, draws, state)
+        return Tremor(self.centre, self.base, state)
 
     @property
     def value(self) -> np.ndarray:
         """The tremor displacement (3,) in metres."""
-        return self.base * np.exp(self.log_amplitude) * np.sin(self.phase)
+        value = np.empty(3)
+        tremor_value(self.state, self.base, value)
+        return value
+
+
+@njit(cache=True)
+def advance_tremor(state, centre, dt, draws, out):
+    """``Tremor.state`` ``dt`` later, into ``out`` (compiled: the participant's hand takes one a frame)."""
+    offset = _ou(state[0], dt, FREQUENCY_TAU, FREQUENCY_SD, draws[0])
+    frequency = min(max(centre + offset, TREMOR_LOW), TREMOR_HIGH)
+    out[0] = offset
+    turn = 2.0 * math.pi * frequency * dt
+    for i in range(3):
+        out[1 + i] = state[1 + i] + turn
+        out[4 + i] = _ou(state[4 + i], dt, AMPLITUDE_TAU, AMPLITUDE_LOG_SD, draws[1 + i])
+
+
+@njit(cache=True)
+def tremor_value(state, base, out):
+    """The displacement (3,) of a ``Tremor.state`` (m), into ``out``."""
+    for i in range(3):
+        out[i] = base * math.exp(state[4 + i]) * math.sin(state[1 + i])

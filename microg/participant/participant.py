@@ -33,15 +33,17 @@ over. Without one it judges everything from the scene and its own clock.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from microg.sim.hand import BONES_PER_HAND, SIDES, SLOT_DIGIT, HandFrame
-from microg.sim.rotation import quat_from_rotation_vector, quat_multiply, quat_to_matrix
+from microg.sim.hand import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, Hand, HandFrame
+from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.task import Observation
 from .actions import DONE, ParticipantState, Player, Seen, Streams, decide, pause
 from .motion import Pose
-from .noise import FrameTiming, NormalStream, TrackingNoise, TrackingNoiseLevels, Tremor
+from .noise import (FrameTiming, NormalStream, TrackingNoise, TrackingNoiseLevels, Tremor, advance_noise,
+                    advance_tremor, tremor_value)
 from .plan import TaskPlan
-from .skeleton import REST, make_hand
+from .skeleton import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .skill import SkillProfile, skill_profile
 
 MEASURED_TIMING = FrameTiming()
@@ -62,7 +64,9 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
             else np.asarray(plan.start, dtype=np.float64) + ABOVE_THE_OBJECT)
     side = SIDES.index(plan.hand)
     slots = slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
-    player = Player(plan, skill, timing, float(time_limit_s), home, slots, SLOT_DIGIT[slots] == 0, streams)
+    thumb = SLOT_DIGIT[slots] == 0
+    player = Player(plan, skill, timing, float(time_limit_s), home, slots, thumb, ~thumb, streams,
+                    -1.0 if plan.hand == "left" else 1.0)
     pose = Pose(home, np.array([1.0, 0.0, 0.0, 0.0]), REST.copy())
     return ParticipantState(player, pose, tremor, jitter, go_at=pause(player))
 
@@ -71,11 +75,10 @@ def perceive(player: Player, observation: Observation, t: float, dt: float) -> S
     """What the participant takes in of ``observation`` at its time ``t``."""
     touching = (np.zeros(BONES_PER_HAND, dtype=bool) if observation.touching is None
                 else np.asarray(observation.touching, dtype=bool)[player.slots])
-    in_my_hand = (bool(observation.grasped) and bool(touching[player.thumb].any())
-                  and bool(touching[~player.thumb].any()))
-    orientation = np.asarray(observation.orientation, dtype=np.float64)
-    return Seen(t, dt, np.asarray(observation.position, dtype=np.float64), orientation, quat_to_matrix(orientation),
-                touching, in_my_hand, observation.display)
+    in_my_hand = (bool(observation.grasped) and np.count_nonzero(touching & player.thumb) > 0
+                  and np.count_nonzero(touching & player.fingers) > 0)
+    return Seen(t, dt, np.asarray(observation.position, dtype=np.float64),
+                np.asarray(observation.orientation, dtype=np.float64), touching, in_my_hand, observation.display)
 
 
 def advance(state: ParticipantState, observation: Observation) -> tuple[ParticipantState, HandFrame | None]:
@@ -96,16 +99,46 @@ def advance(state: ParticipantState, observation: Observation) -> tuple[Particip
 def _tracked(state: ParticipantState, t: float, dt: float) -> tuple[ParticipantState, HandFrame]:
     """The intended pose plus tremor and tracking noise, as a Leap-shaped hand at ``t``, ``dt``
     after the last frame."""
-    streams = state.player.streams
-    tremor = state.tremor.advance(dt, streams.tremor.take(4))
-    jitter = state.noise.advance(dt, streams.noise.take(TrackingNoise.SIZE))
-    offset, pose = jitter.value, state.pose
-    palm = pose.position + tremor.value + offset[:3]
-    orientation = quat_multiply(quat_from_rotation_vector(offset[3:6]), pose.orientation)
-    angles = pose.posture.copy()
-    angles[:, :2] += offset[6:].reshape(5, 2)
-    hand = make_hand(angles, palm, orientation, state.player.plan.hand)
-    return state.changed(time=t, tremor=tremor, noise=jitter), HandFrame(t, (hand,))
+    player, tremor, noise, pose = state.player, state.tremor, state.noise, state.pose
+    streams = player.streams
+    # The kernel fills arrays made here: a compiled function's new arrays cost more to hand back.
+    oscillators, stages = np.empty(7), np.empty((2, TrackingNoise.SIZE))
+    palm, orientation, joints = np.empty(3), np.empty(4), np.empty((5, N_BONES + 1, 3))
+    _jitter(dt, tremor.state, tremor.centre, tremor.base, noise.stages, noise.tau, noise.sd,
+            streams.tremor.take(4), streams.noise.take(TrackingNoise.SIZE), pose.position, pose.orientation,
+            pose.posture, player.mirror, oscillators, stages, palm, orientation, joints)
+    hand = posed_hand(joints, palm, orientation, player.plan.hand)
+    return (state.changed(time=t, tremor=Tremor(tremor.centre, tremor.base, oscillators),
+                          noise=TrackingNoise(noise.tau, noise.sd, stages)),
+            _frame(t, hand))
+
+
+@njit(cache=True)
+def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_draws, position, orientation,
+            posture, mirror, next_oscillators, next_stages, palm, palm_orientation, joints):
+    """One compiled call a frame: the tremor's and the tracking noise's states ``dt`` later
+    (into ``next_oscillators``, ``next_stages``) and the hand they jitter, the intended pose plus
+    the tremor and the noise's offsets (into ``palm``, ``palm_orientation`` and ``joints``)."""
+    advance_tremor(oscillators, centre, dt, tremor_draws, next_oscillators)
+    advance_noise(stages, tau, sd, dt, noise_draws, next_stages)
+    shake, offset = np.empty(3), next_stages[1]
+    tremor_value(next_oscillators, base, shake)
+    for i in range(3):
+        palm[i] = position[i] + shake[i] + offset[i]
+    palm_orientation[:] = quat_multiply(quat_from_rotation_vector(offset[3:6]), orientation)
+    angles = posture.copy()
+    for d in range(5):
+        for k in range(2):
+            angles[d, k] += offset[6 + 2 * d + k]
+    pose_joints(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
+
+
+def _frame(t: float, hand: Hand) -> HandFrame:
+    """``HandFrame(t, (hand,))`` without its checks, which a participant's frame passes by
+    construction (a finite float time, one hand)."""
+    frame = object.__new__(HandFrame)
+    frame.__dict__.update(timestamp=t, hands=(hand,))
+    return frame
 
 
 class SimulatedParticipant:

@@ -63,59 +63,70 @@ UPPER = np.radians([[75.0, 75.0, 60.0, 80.0]] + [[20.0, 90.0, 105.0, 70.0]] * 4)
 
 
 @njit(cache=True)
-def _local_joints(angles, knuckles, carpals, phalanges):
-    joints = np.empty((5, 5, 3))
+def _local_joints(angles, knuckles, carpals, phalanges, joints):
+    """``local_joints`` into ``joints``, element by element (compiled code pays for each small
+    array it makes)."""
     for d in range(1, 5):
         abduction = angles[d, 0]
-        forward = np.array([np.sin(abduction), 0.0, -np.cos(abduction)])
+        forward_x, forward_z = np.sin(abduction), -np.cos(abduction)
         joints[d, 0] = carpals[d - 1]
         joints[d, 1] = knuckles[d]
         bend = 0.0
         for b in range(3):
             bend += angles[d, b + 1]
-            direction = np.cos(bend) * forward
-            direction[1] -= np.sin(bend)
-            joints[d, b + 2] = joints[d, b + 1] + phalanges[d, b] * direction
+            c, length = np.cos(bend), phalanges[d, b]
+            joints[d, b + 2, 0] = joints[d, b + 1, 0] + length * (c * forward_x)
+            joints[d, b + 2, 1] = joints[d, b + 1, 1] + length * (c * 0.0 - np.sin(bend))
+            joints[d, b + 2, 2] = joints[d, b + 1, 2] + length * (c * forward_z)
     azimuth, elevation, mcp, ip = angles[0, 0], angles[0, 1], angles[0, 2], angles[0, 3]
-    metacarpal = np.array([-np.sin(azimuth) * np.cos(elevation), -np.sin(elevation), -np.cos(azimuth) * np.cos(elevation)])
-    across = -metacarpal[0] * metacarpal
-    across[0] += 1.0
-    across /= np.sqrt(across[0] ** 2 + across[1] ** 2 + across[2] ** 2)
+    metacarpal = (-np.sin(azimuth) * np.cos(elevation), -np.sin(elevation), -np.cos(azimuth) * np.cos(elevation))
+    across_x = -metacarpal[0] * metacarpal[0] + 1.0
+    across_y, across_z = -metacarpal[0] * metacarpal[1], -metacarpal[0] * metacarpal[2]
+    norm = np.sqrt(across_x ** 2 + across_y ** 2 + across_z ** 2)
+    across = (across_x / norm, across_y / norm, across_z / norm)
     joints[0, 0] = knuckles[0]
     joints[0, 1] = knuckles[0]
     bends = (0.0, mcp, mcp + ip)
     for b in range(3):
-        joints[0, b + 2] = joints[0, b + 1] + phalanges[0, b] * (np.cos(bends[b]) * metacarpal + np.sin(bends[b]) * across)
-    return joints
+        c, s, length = np.cos(bends[b]), np.sin(bends[b]), phalanges[0, b]
+        for i in range(3):
+            joints[0, b + 2, i] = joints[0, b + 1, i] + length * (c * metacarpal[i] + s * across[i])
 
 
 def local_joints(angles: np.ndarray) -> np.ndarray:
     """(5, 5, 3) joints of a right hand in the hand frame for a posture ``angles`` (5, 4)."""
-    return _local_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES)
+    joints = np.empty((5, N_BONES + 1, 3))
+    _local_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, joints)
+    return joints
 
 
 @njit(cache=True)
-def _to_world(local, position, orientation, mirror):
+def _to_world(local, position, orientation, mirror, out):
+    """``to_world`` into ``out``."""
     rotation = quat_to_matrix(orientation)
-    out = np.empty_like(local)
     for d in range(local.shape[0]):
         for j in range(local.shape[1]):
             x = mirror * local[d, j, 0]
             for i in range(3):
                 out[d, j, i] = position[i] + rotation[i, 0] * x + rotation[i, 1] * local[d, j, 1] + rotation[i, 2] * local[d, j, 2]
-    return out
 
 
 def to_world(local: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray, side: str) -> np.ndarray:
     """Hand-frame points (..., 5, 3) of a right hand to the world, mirrored for a left hand."""
-    return _to_world(np.ascontiguousarray(local, dtype=np.float64), np.asarray(palm_position, dtype=np.float64),
-                     np.asarray(palm_orientation, dtype=np.float64), -1.0 if side == "left" else 1.0)
+    local = np.ascontiguousarray(local, dtype=np.float64)
+    out = np.empty_like(local)
+    _to_world(local, np.asarray(palm_position, dtype=np.float64), np.asarray(palm_orientation, dtype=np.float64),
+              -1.0 if side == "left" else 1.0, out)
+    return out
 
 
 @njit(cache=True)
-def _posed(angles, knuckles, carpals, phalanges, position, orientation, mirror):
-    """``to_world(local_joints(angles), ...)`` in one compiled call (``make_hand`` makes one a frame)."""
-    return _to_world(_local_joints(angles, knuckles, carpals, phalanges), position, orientation, mirror)
+def pose_joints(angles, knuckles, carpals, phalanges, position, orientation, mirror, joints):
+    """``to_world(local_joints(angles), ...)`` into ``joints`` in one compiled call (the
+    participant's hand takes one a frame)."""
+    local = np.empty_like(joints)
+    _local_joints(angles, knuckles, carpals, phalanges, local)
+    _to_world(local, position, orientation, mirror, joints)
 
 
 _CHECKED = {side: Hand(side, np.zeros((5, N_BONES + 1, 3)), WIDTHS, np.zeros(3)) for side in SIDES}
@@ -124,19 +135,29 @@ _CHECKED = {side: Hand(side, np.zeros((5, N_BONES + 1, 3)), WIDTHS, np.zeros(3))
 
 def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray,
               side: str = "right", track_id: int = 1) -> Hand:
-    """The full Leap-shaped hand for a posture and palm pose (world frame, m).
+    """The full Leap-shaped hand for a posture and palm pose (world frame, m)."""
+    palm_position = np.asarray(palm_position, dtype=np.float64)
+    palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
+    joints = np.empty((5, N_BONES + 1, 3))
+    pose_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
+           palm_orientation, -1.0 if side == "left" else 1.0, joints)
+    return posed_hand(joints, palm_position, palm_orientation, side, track_id)
+
+
+def posed_hand(joints: np.ndarray, palm_position: np.ndarray, palm_orientation: np.ndarray, side: str,
+               track_id: int = 1) -> Hand:
+    """The hand of the skeleton posed at ``joints`` (5, 5, 3) with its palm pose (float64 arrays,
+    which it makes read-only).
 
     Such a hand is valid by construction (the skeleton's bones and widths, posed), so it is not
     checked again at every frame: like ``Hand.renumbered``, it is a copy of a checked hand with its
     own read-only arrays, at a tenth of the cost of ``Hand(...)``.
     """
-    palm_position = np.asarray(palm_position, dtype=np.float64)
-    palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
-    joints = _posed(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
-                    palm_orientation, -1.0 if side == "left" else 1.0)
-    pose = {"joints": joints, "palm_position": palm_position, "palm_orientation": palm_orientation}
-    for value in pose.values():
-        value.setflags(write=False)
+    joints.setflags(write=False)
+    palm_position.setflags(write=False)
+    palm_orientation.setflags(write=False)
+    fields = _CHECKED[side].__dict__.copy()
+    fields.update(joints=joints, palm_position=palm_position, palm_orientation=palm_orientation, track_id=track_id)
     hand = object.__new__(Hand)
-    hand.__dict__.update(_CHECKED[side].__dict__, **pose, track_id=track_id)
+    object.__setattr__(hand, "__dict__", fields)
     return hand
