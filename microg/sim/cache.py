@@ -11,9 +11,10 @@ scene asks for it), and numba's ahead-of-time compiler is deprecated.
 user set ``NUMBA_CACHE_DIR``, the cache goes to the platform's user cache directory
 (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%``
 on Windows) under ``microg/numba/<stamp>``; if that cannot be written, to the temporary directory.
-The stamp is a hash of the physics' sources: numba checks a cached function against its own file
-only, not against the kernels it calls in other files, so an upgrade (or an edit) that changed a
-kernel would otherwise run the old compiled step. A new stamp compiles afresh.
+The stamp is a hash of the sources of every room with compiled code (``COMPILED``: the physics,
+the hand filter and guard, the simulated participant): numba checks a cached function against its
+own file only, not against the kernels it calls in other files, so an upgrade (or an edit) that
+changed a kernel would otherwise run the old compiled step. A new stamp compiles afresh.
 """
 
 from __future__ import annotations
@@ -36,10 +37,15 @@ def user_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 
 
+COMPILED = ("hands", "participant", "sim")
+"""The rooms of ``microg`` that hold compiled kernels (numba), whose sources the stamp covers."""
+
+
 def source_stamp() -> str:
-    """A short hash of every source file of ``microg.sim``."""
+    """A short hash of every source file of the rooms in ``COMPILED``."""
     digest = hashlib.sha256()
-    for path in sorted(Path(__file__).parent.glob("*.py")):
+    package = Path(__file__).parents[1]
+    for path in sorted(p for room in COMPILED for p in (package / room).glob("*.py")):
         digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
 
