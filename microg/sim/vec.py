@@ -10,13 +10,37 @@ from __future__ import annotations
 import math
 
 from numba import njit
+from numba.core.registry import CPUDispatcher
 
-entry = njit(cache=True, error_model="numpy")
+entry = njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
 """A compiled entry point (called from Python): cached on disk, numpy's float semantics (x / 0 is
-inf, not an error)."""
-kernel = njit(cache=True, error_model="numpy")
-"""A compiled physics function, called from compiled code. Each is compiled on its own (numba-level
-inlining makes a step this size several times slower to compile)."""
+inf, not an error). No C-callable wrapper (nothing takes its address)."""
+
+
+class Kernel(CPUDispatcher):
+    """A compiled physics function, called from compiled code: numba links its code into the
+    caller's. It is compiled without the wrappers that let Python (and C) call it, which are a
+    third of what compiling a small kernel costs; a call from Python (a test, a tool) goes to a
+    twin compiled with them, not cached on disk (numba's cache index would not tell the two apart)."""
+
+    def __call__(self, *args, **kwargs):
+        twin = self.__dict__.get("_python_twin")
+        if twin is None:
+            twin = self._python_twin = njit(error_model="numpy")(self.py_func)
+        return twin(*args, **kwargs)
+
+    def __repr__(self) -> str:
+        return f"CPUDispatcher({self.py_func})"  # what numba's typed code shows for any compiled function
+
+
+def kernel(func):
+    """A ``Kernel``: cached on disk, numpy's float semantics. Each is compiled on its own
+    (numba-level inlining makes a step this size several times slower to compile)."""
+    compiled = Kernel(py_func=func, locals={}, targetoptions={
+        "nopython": True, "boundscheck": None, "error_model": "numpy", "no_cpython_wrapper": True,
+        "no_cfunc_wrapper": True})
+    compiled.enable_caching()
+    return compiled
 
 
 @kernel
