@@ -125,4 +125,4 @@ class HandFilter:
             window.push(hand.joints, frame.timestamp)
             self._tracks[side] = hand.track_id
             hands.append(hand.with_joints(window.value))
-        return HandFrame(frame.timestamp, tuple(hands))
+        return HandFrame.made(frame.timestamp, tuple(hands))

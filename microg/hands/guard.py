@@ -37,7 +37,8 @@ from __future__ import annotations
 
 import math
 import statistics
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -132,9 +133,13 @@ class Slot:
         return Slot(self.time, tuple(hands), tuple(decided))
 
 
-@dataclass(frozen=True, eq=False)
-class SideState:
-    """The guard's memory of one hand side."""
+NOTHING_DELIVERED = np.zeros((N_DIGITS, N_BONES + 1), dtype=bool)
+NOTHING_DELIVERED.setflags(write=False)
+
+
+class SideState(NamedTuple):
+    """The guard's memory of one hand side. The guard's states are named tuples: immutable, and
+    made every frame at a third of a frozen dataclass's cost."""
 
     last: Hand | None = None
     """The last decided hand on this side (guard track id); None when it was absent."""
@@ -143,12 +148,11 @@ class SideState:
     """The source's track id behind ``last``."""
     holding: bool = False
     """A jump is waiting for a decision."""
-    delivered: np.ndarray = field(default_factory=lambda: np.zeros((N_DIGITS, N_BONES + 1), dtype=bool))
+    delivered: np.ndarray = NOTHING_DELIVERED
     """(5, 5) joints this side has delivered before."""
 
 
-@dataclass(frozen=True, eq=False)
-class GuardState:
+class GuardState(NamedTuple):
     last_time: float | None = None
     """Output timestamp of the latest slot."""
     offset: float = 0.0
@@ -213,20 +217,20 @@ def _time(config: GuardConfig, state: GuardState, raw: float) -> tuple[GuardStat
         run = state.stale_run + 1 if (state.stale_run and raw > state.stale_raw) else 1
         if run < config.resync_after:
             counts = state.counts.add(**{"duplicate_timestamps" if t == state.last_time else "out_of_order": 1})
-            return replace(state, stale_run=run, stale_raw=raw, counts=counts), None, False
+            return state._replace(stale_run=run, stale_raw=raw, counts=counts), None, False
     if t <= state.last_time or t - state.last_time > config.max_gap:
         t = state.last_time + state.period(config)
-        state = replace(state, offset=t - raw, stale_run=0, counts=state.counts.add(clock_resyncs=1))
+        state = state._replace(offset=t - raw, stale_run=0, counts=state.counts.add(clock_resyncs=1))
         return state, t, True
     intervals = (state.intervals + (t - state.last_time,))[-RECENT_INTERVALS:]
-    return replace(state, stale_run=0, intervals=intervals), t, False
+    return state._replace(stale_run=0, intervals=intervals), t, False
 
 
 def _count_gap(config: GuardConfig, state: GuardState, t: float) -> GuardState:
     """Count the interval before ``t`` as a gap when frames are missing in it."""
     if state.last_time is None or t - state.last_time <= config.gap_factor * state.period(config):
         return state
-    return replace(state, counts=state.counts.add(gaps=1))
+    return state._replace(counts=state.counts.add(gaps=1))
 
 
 def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) -> GuardState:
@@ -242,7 +246,7 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
         for i, decided in decisions.items():
             slots[i] = slots[i].decide(side, decided)
         sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
-        return replace(state, slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
+        return state._replace(slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
 
     complete, delivered = (False, None) if hand is None else completeness(hand, memory.delivered)
     if hand is not None and not complete:
@@ -277,7 +281,7 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
     if len(open_slots) > config.max_hold:
         counts = counts.add(jumps_lost=1)
         return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
-    return settle({}, replace(memory, holding=True, delivered=delivered))
+    return settle({}, memory._replace(holding=True, delivered=delivered))
 
 
 def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
@@ -287,7 +291,7 @@ def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
         ready += 1
     frames = tuple(HandFrame(slot.time, tuple(h for h in slot.hands if h is not None))
                    for slot in state.slots[:ready])
-    return replace(state, slots=state.slots[ready:], counts=state.counts.add(frames_out=ready)), frames
+    return state._replace(slots=state.slots[ready:], counts=state.counts.add(frames_out=ready)), frames
 
 
 def admit(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
@@ -326,19 +330,19 @@ def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
     counts = state.counts.add(frames_in=1, frames_out=1, gaps=gap)
     state = GuardState(last_time=t, offset=state.offset, stale_run=0, stale_raw=state.stale_raw, intervals=intervals,
                        next_track=state.next_track, sides=tuple(sides), slots=(), counts=counts)
-    return state, (HandFrame(t, tuple(hands)),)
+    return state, (HandFrame.made(t, tuple(hands)),)
 
 
 def decided(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
     """The guard's step for any frame, through the slots that wait for each side's decision."""
-    state = replace(state, counts=state.counts.add(frames_in=1))
+    state = state._replace(counts=state.counts.add(frames_in=1))
     state, t, restart = _time(config, state, frame.timestamp)
     if t is None:
         return state, ()
     if not restart:
         state = _count_gap(config, state, t)
     slot = Slot(t, tuple(frame.hand(name) for name in SIDES), (False, False))
-    state = replace(state, last_time=t, slots=state.slots + (slot,))
+    state = state._replace(last_time=t, slots=state.slots + (slot,))
     for side in range(len(SIDES)):
         state = _decide(config, state, side, restart)
     return _release(state)
@@ -348,7 +352,7 @@ def finish(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
     """The source has ended: hands still waiting for a decision are marked lost; pass the rest."""
     slots = tuple(Slot(s.time, tuple(h if d else None for h, d in zip(s.hands, s.decided)), (True, True))
                   for s in state.slots)
-    return _release(replace(state, slots=slots))
+    return _release(state._replace(slots=slots))
 
 
 class TrackingGuard:

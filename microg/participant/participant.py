@@ -110,7 +110,7 @@ def _tracked(state: ParticipantState, t: float, dt: float) -> tuple[ParticipantS
     hand = posed_hand(joints, palm, orientation, player.plan.hand)
     return (state.changed(time=t, tremor=Tremor(tremor.centre, tremor.base, oscillators),
                           noise=TrackingNoise(noise.tau, noise.sd, stages)),
-            _frame(t, hand))
+            HandFrame.made(t, (hand,)))
 
 
 @njit(cache=True)
@@ -131,14 +131,6 @@ def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_
         for k in range(2):
             angles[d, k] += offset[6 + 2 * d + k]
     pose_joints(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
-
-
-def _frame(t: float, hand: Hand) -> HandFrame:
-    """``HandFrame(t, (hand,))`` without its checks, which a participant's frame passes by
-    construction (a finite float time, one hand)."""
-    frame = object.__new__(HandFrame)
-    frame.__dict__.update(timestamp=t, hands=(hand,))
-    return frame
 
 
 class SimulatedParticipant:

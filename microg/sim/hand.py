@@ -233,6 +233,14 @@ class HandFrame:
                 raise ValueError(f"HandFrame at t={self.timestamp}: two {sides[0]} hands in one frame")
         object.__setattr__(self, "hands", hands)
 
+    @classmethod
+    def made(cls, timestamp: float, hands: tuple[Hand, ...]) -> HandFrame:
+        """A frame without the checks, for the code that makes one every frame in order by
+        construction: a finite float time, at most one hand per side, left first."""
+        frame = object.__new__(cls)
+        frame.__dict__.update(timestamp=timestamp, hands=hands)
+        return frame
+
     def hand(self, side: str) -> Hand | None:
         """The hand on ``side``, or None when it is not tracked in this frame."""
         for hand in self.hands:
