@@ -16,8 +16,10 @@ from __future__ import annotations
 import os
 import shutil
 import time
+from contextlib import ExitStack
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
+from multiprocessing.util import Finalize
 from pathlib import Path
 
 from tqdm import tqdm
@@ -30,7 +32,7 @@ from .inputs import open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .model_rater import ModelRater
 from .session import SimulationClock, run_session
-from .store import FINAL_RUN, StoreError, create_study, open_study
+from .store import FINAL_RUN, Store, StoreError, create_study, open_study
 
 
 @dataclass(frozen=True)
@@ -47,26 +49,37 @@ def _inputs(store, participant_id: str):
     return open_inputs("simulated", store.protocol.group(store.participant(participant_id).group).simulated_profile)
 
 
-def _run_session(study_dir: str, session_id: int) -> str:
+_worker_store: Store | None = None
+"""The study as a worker process opened it, once: the integrity check on opening reads the whole
+log, which grows with every session."""
+
+
+def _open_in_worker(study_dir: str) -> None:
+    global _worker_store
+    _worker_store = open_study(study_dir)
+    Finalize(_worker_store, _worker_store.close, exitpriority=1)  # closed when the worker ends
+
+
+def _run_session(session_id: int) -> str:
     """One simulated session (in a worker process)."""
-    with open_study(study_dir) as store:
-        session = store.session(session_id)
-        store.lock_session(session_id)
+    store = _worker_store
+    session = store.session(session_id)
+    store.lock_session(session_id)
+    try:
         return run_session(store, session_id, _inputs(store, session.participant_id), clock=SimulationClock(),
                            rater=ModelRater(store, session_id, session.seed), progress=False)
+    finally:
+        store.unlock_session(session_id)
 
 
-def _tasks_finished(study_dir: Path) -> int:
-    with open_study(study_dir, readonly=True) as store:
-        return store.db.execute("SELECT COUNT(*) FROM task_runs WHERE status IN (%s)" % ",".join("?" * len(FINAL_RUN)),
-                                FINAL_RUN).fetchone()[0]
+def _tasks_finished(store: Store) -> int:
+    return store.db.execute("SELECT COUNT(*) FROM task_runs WHERE status IN (%s)" % ",".join("?" * len(FINAL_RUN)),
+                            FINAL_RUN).fetchone()[0]
 
 
 def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: str | Path = "paper",
              jobs: int | None = None, overwrite: bool = False, progress: bool = True) -> DemoResult:
     """Run a whole simulated study into ``out`` (see the module docstring) and return where things are."""
-    from microg.analysis import write_report
-
     started = time.monotonic()
     out = Path(out)
     if out.exists() and any(out.iterdir()):
@@ -97,15 +110,18 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     jobs = max(1, min(jobs or os.cpu_count() or 1, participants))
     bar = tqdm(total=total_tasks, unit="task", desc=f"{participants} simulated participants", disable=not progress,
                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} tasks [{elapsed}<{remaining}, {rate_fmt}] {postfix}")
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        pending = {pool.submit(_run_session, str(study_dir), session_id) for session_id in sessions}
+    with ProcessPoolExecutor(max_workers=jobs, initializer=_open_in_worker, initargs=(str(study_dir),)) as pool, \
+            ExitStack() as watching:
+        pending = {pool.submit(_run_session, session_id) for session_id in sessions}
+        from microg.analysis import write_report  # a few seconds, while the workers run the sessions
+        watcher = watching.enter_context(open_study(study_dir, readonly=True))  # opened after the workers start
         done_participants = 0
         while pending:
             finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
             for future in finished:
                 future.result()
                 done_participants += 1
-            bar.n = _tasks_finished(study_dir)
+            bar.n = _tasks_finished(watcher)
             bar.set_postfix_str(f"participants {done_participants}/{participants}")
             bar.refresh()
     bar.close()
