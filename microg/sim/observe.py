@@ -12,7 +12,7 @@ the object between them. A palm push or two fingers on the same face is not a gr
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,8 +25,7 @@ from .world import World
 OPPOSITION = -0.5
 
 
-@dataclass(frozen=True, eq=False)
-class Snapshot:
+class Snapshot(NamedTuple):
     """One object of a world after a step, and the hands' rendered phalanges (copies)."""
 
     t: float

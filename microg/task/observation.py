@@ -7,8 +7,7 @@ participant, what the task displays. Nobody downstream of the physics reads ``wo
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -18,15 +17,18 @@ if TYPE_CHECKING:
     from .stages import TaskDisplay
 
 
-@dataclass(frozen=True, eq=False)
-class Observation:
+UPRIGHT = np.array([1.0, 0.0, 0.0, 0.0])
+UPRIGHT.setflags(write=False)
+
+
+class Observation(NamedTuple):
     """The task's object at one moment (positions in metres, tracker frame)."""
 
     t: float
     grasped: bool
     position: tuple[float, float, float] | np.ndarray
     """The object's centre."""
-    orientation: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    orientation: np.ndarray = UPRIGHT
     """(w, x, y, z)."""
     touching: np.ndarray | None = None
     """(40,) True for each phalanx slot in contact with the object (``microg.sim.slot``)."""

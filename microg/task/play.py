@@ -9,8 +9,7 @@ last ``Observation`` (with what the task displays), gives a frame, the frame goe
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable, Iterator
+from typing import Callable, Iterator, NamedTuple
 
 from microg.sim import HandFrame, Snapshot, World, snapshot, step
 
@@ -20,8 +19,7 @@ from .rules import TaskRules
 from .stages import TaskEvent, TaskState, advance, shown
 
 
-@dataclass(frozen=True, eq=False)
-class Moment:
+class Moment(NamedTuple):
     """One frame of a task: the frame as the source gave it, and what the world and task made of it."""
 
     frame: HandFrame
