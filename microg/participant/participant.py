@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from microg.sim.hand import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, Hand, HandFrame
+from microg.sim.hand import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, HandFrame
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.task import Observation
 from .actions import DONE, ParticipantState, Player, Seen, Streams, decide, pause

@@ -25,7 +25,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Protocol as Interface
 
-import numpy as np
 from tqdm import tqdm
 
 from microg.hands.filter import FILTER_WINDOW, HandFilter

@@ -4,7 +4,6 @@ reader in another thread following a session while it is written."""
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -75,31 +74,28 @@ def test_the_rendered_hand_stays_on_the_surface_while_the_tracked_hand_sinks_in(
 
 def test_a_reader_follows_a_session_while_another_thread_writes_it(tmp_path):
     folder = new_study(tmp_path / "study")
-    gate = threading.Semaphore(0)
-    writer = gated_session(folder, gate)  # commits a frame batch, then waits for the gate
-    seen = []  # (frames read, run status) after each batch the session commits
+    gate, waiting = threading.Semaphore(0), threading.Semaphore(0)
+    writer = gated_session(folder, gate, waiting)  # commits a frame batch, says so, waits for the gate
+    seen = []  # (frames read, run status) each time the session waits after a batch
     with open_readonly(folder) as store:
         batch = store.protocol.frame_batch
-        while (session := find_session(store, "P01")) is None or not session_runs(store, session.id):
-            assert writer.is_alive(), "the session ended before its first task started"
-            time.sleep(0.01)
-        track = read_track(store, session_runs(store, session.id)[0])
-        while track.run.status == "running":
-            before = len(track.frames)
+        track = None
+        while track is None or track.run.status == "running":
+            while not waiting.acquire(timeout=0.01):
+                assert writer.is_alive(), "the session ended before the reader saw the first task end"
+            if track is None:
+                track = read_track(store, session_runs(store, find_session(store, "P01").id)[0])
+            else:
+                track.refresh(store)
+            seen.append((len(track.frames), track.run.status))
             gate.release()  # the session may commit its next batch (or end the task)
-            while track.refresh(store) == 0 and track.run.status == "running":
-                assert writer.is_alive()
-                time.sleep(0.01)
-            seen.append((before, len(track.frames), track.run.status))
         gate.release(1_000_000)  # let the session run on to its end
         writer.join()
         logged = store.db.execute("SELECT frames FROM task_runs WHERE id = ?", (track.run.id,)).fetchone()[0]
-    # a read may see "running" just before the run ends; the frames it then gets are the last ones,
-    # which commit together with the end and are not a whole batch
-    growing = [(before, after) for before, after, status in seen if status == "running" and after < logged]
-    assert len(growing) >= 3 and all(after == before + batch for before, after in growing)  # batch by batch
-    assert 0 < growing[-1][1] < logged and len(track.frames) == logged
-    assert (np.diff(track.frames["t"]) > 0).all() and track.run.status == "completed"
+    growing = [frames for frames, status in seen if status == "running"]
+    assert len(growing) >= 3 and growing == [batch * (i + 1) for i in range(len(growing))]  # batch by batch
+    assert seen[-1] == (logged, "completed") and growing[-1] < logged
+    assert (np.diff(track.frames["t"]) > 0).all()
 
 
 def test_the_view_opens_a_study_read_only_and_names_what_is_missing(logged_study, tmp_path):
