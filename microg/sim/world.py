@@ -25,7 +25,7 @@ leading world axis, in one compiled call: world i of the batch follows exactly t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -188,9 +188,9 @@ def make_world(scene: Scene) -> World:
     return World(model, initial_data(model))
 
 
-@dataclass(frozen=True, eq=False)
-class HandFrames:
-    """Hand frames as arrays with a leading world axis: what the compiled step reads.
+class HandFrames(NamedTuple):
+    """Hand frames as arrays with a leading world axis: what the compiled step reads (a named tuple:
+    ``step`` makes one every frame).
 
     ``points`` (B, 2, 26, 3): each side's palm, then its 25 joints digit-major (NaN: unknown);
     ``widths`` (B, 2, 5, 4); ``present`` (B, 2) and ``track_id`` (B, 2) per side; ``timestamp`` (B,).
