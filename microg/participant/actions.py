@@ -79,18 +79,20 @@ HOLDING = (LIFT, CARRY, HOLD)
 """The actions in which the object is in the hand."""
 
 
-def _length(v: np.ndarray) -> float:
-    """|v| of a 3-vector, in floats: numpy's arithmetic (``v @ v`` sums in order), without its
-    cost per call on three elements."""
-    x, y, z = v.tolist()
-    return math.sqrt(x * x + y * y + z * z)
-
-
 def _distance(a: np.ndarray, b: np.ndarray) -> float:
-    """``_length(a - b)``, in floats."""
+    """|a - b| of 3-vectors, in floats: numpy's arithmetic (``v @ v`` sums in order), without its
+    cost per call on three elements."""
     (ax, ay, az), (bx, by, bz) = a.tolist(), b.tolist()
     x, y, z = ax - bx, ay - by, az - bz
     return math.sqrt(x * x + y * y + z * z)
+
+
+def _length(v: np.ndarray) -> float:
+    """|v| of a 3-vector (``_distance`` from the origin: x - 0.0 is x)."""
+    return _distance(v, _ORIGIN)
+
+
+_ORIGIN = np.zeros(3)
 
 
 @dataclass(frozen=True, eq=False)

@@ -144,20 +144,18 @@ def _ou(value, dt, tau, sd, noise):
     return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
 
 
-# The tremor's constants (see ``Tremor``), at module level for its compiled kernels.
+# The tremor's constants (``Tremor``), at module level for its compiled kernels.
 TREMOR_LOW, TREMOR_HIGH = 8.0, 12.0
+"""Hz: the band of physiological tremor."""
 FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
+"""Hz and s: the frequency wanders around the participant's own as an Ornstein-Uhlenbeck process."""
 AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
+"""The log-amplitude's stationary SD and time constant (s), an Ornstein-Uhlenbeck process too."""
 
 
 class Tremor(NamedTuple):
     """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and
     amplitude; the state of the oscillators."""
-
-    LOW, HIGH = TREMOR_LOW, TREMOR_HIGH
-    FREQUENCY_SD, FREQUENCY_TAU = FREQUENCY_SD, FREQUENCY_TAU
-    """Hz and s: the frequency wanders around the participant's own as an Ornstein-Uhlenbeck process."""
-    AMPLITUDE_LOG_SD, AMPLITUDE_TAU = AMPLITUDE_LOG_SD, AMPLITUDE_TAU
 
     centre: float
     """The participant's own frequency (Hz)."""
@@ -171,11 +169,11 @@ class Tremor(NamedTuple):
     def start(cls, rms: float, normals: NormalStream) -> Tremor:
         """A tremor of ``rms`` metres per axis, its frequency and phases drawn from ``normals``' generator."""
         rng = normals.rng
-        centre = rng.uniform(cls.LOW + 1.0, cls.HIGH - 1.0)
+        centre = rng.uniform(TREMOR_LOW + 1.0, TREMOR_HIGH - 1.0)
         phase = rng.uniform(0.0, 2.0 * math.pi, 3)
-        log_amplitude = cls.AMPLITUDE_LOG_SD * normals.take(3)
+        log_amplitude = AMPLITUDE_LOG_SD * normals.take(3)
         # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
-        base = rms * math.sqrt(2.0) * math.exp(-cls.AMPLITUDE_LOG_SD ** 2)
+        base = rms * math.sqrt(2.0) * math.exp(-AMPLITUDE_LOG_SD ** 2)
         return cls(centre, base, np.concatenate([[0.0], phase, log_amplitude]))
 
     def advance(self, dt: float, draws: np.ndarray) -> Tremor:

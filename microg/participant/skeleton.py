@@ -140,7 +140,7 @@ def make_hand(angles: np.ndarray, palm_position: np.ndarray, palm_orientation: n
     palm_orientation = np.asarray(palm_orientation, dtype=np.float64)
     joints = np.empty((5, N_BONES + 1, 3))
     pose_joints(np.ascontiguousarray(angles, dtype=np.float64), KNUCKLES, CARPALS, PHALANGES, palm_position,
-           palm_orientation, -1.0 if side == "left" else 1.0, joints)
+                palm_orientation, -1.0 if side == "left" else 1.0, joints)
     return posed_hand(joints, palm_position, palm_orientation, side, track_id)
 
 

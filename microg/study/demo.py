@@ -16,7 +16,6 @@ from __future__ import annotations
 import os
 import shutil
 import time
-from contextlib import ExitStack
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from multiprocessing.util import Finalize
@@ -110,20 +109,19 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     jobs = max(1, min(jobs or os.cpu_count() or 1, participants))
     bar = tqdm(total=total_tasks, unit="task", desc=f"{participants} simulated participants", disable=not progress,
                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} tasks [{elapsed}<{remaining}, {rate_fmt}] {postfix}")
-    with ProcessPoolExecutor(max_workers=jobs, initializer=_open_in_worker, initargs=(str(study_dir),)) as pool, \
-            ExitStack() as watching:
+    with ProcessPoolExecutor(max_workers=jobs, initializer=_open_in_worker, initargs=(str(study_dir),)) as pool:
         pending = {pool.submit(_run_session, session_id) for session_id in sessions}
         from microg.analysis import write_report  # a few seconds, while the workers run the sessions
-        watcher = watching.enter_context(open_study(study_dir, readonly=True))  # opened after the workers start
-        done_participants = 0
-        while pending:
-            finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
-            for future in finished:
-                future.result()
-                done_participants += 1
-            bar.n = _tasks_finished(watcher)
-            bar.set_postfix_str(f"participants {done_participants}/{participants}")
-            bar.refresh()
+        with open_study(study_dir, readonly=True) as watcher:  # opened after the workers start
+            done_participants = 0
+            while pending:
+                finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    future.result()
+                    done_participants += 1
+                bar.n = _tasks_finished(watcher)
+                bar.set_postfix_str(f"participants {done_participants}/{participants}")
+                bar.refresh()
     bar.close()
 
     tables = out / "tables"
