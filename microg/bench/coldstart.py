@@ -1,6 +1,6 @@
 """Cold start: from a fresh Python process to the first physics frame, with an empty compile cache.
 
-The first command after ``pip install`` compiles the physics for its scene (numba, ``microg.sim.cache``);
+The first command after ``pip install`` compiles the physics for its scene (numba, ``microg.skeleton.cache``);
 later runs load it from the user's cache directory. Each run is a fresh subprocess with its own
 ``NUMBA_CACHE_DIR`` (a new empty directory for the cold runs, the same one again for the warm run),
 timed from before the interpreter starts to the first frame's return: wall seconds, and the CPU

@@ -13,8 +13,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from microg.sim import (Hand, HandFrame, Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene,
-                        kinetic_energy, make_world, slot, step)
+from microg.skeleton import Hand, HandFrame, slot
+from microg.sim import (Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene, kinetic_energy,
+                        make_world, step)
 from microg.hands.filter import HandFilter
 from microg.participant.scripted import probe_hand
 
@@ -59,7 +60,7 @@ def run_frames(world, frames, after=None, filter_window: int = 1) -> tuple[objec
     (``microg.hands.filter``), not to the physics, and costs the same at every dt (``filter_cost``).
     ``after(world, i)`` is called after frame i, outside the clock."""
     if filter_window > 1:
-        smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
+        smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate).smooth
         frames = [smooth(frame) for frame in frames]
     spent = 0.0
     for i, frame in enumerate(frames):
@@ -74,7 +75,7 @@ def run_frames(world, frames, after=None, filter_window: int = 1) -> tuple[objec
 def physics_steps(frames, substeps: int, filter_window: int, rate: float) -> list[HandFrame]:
     """The (filtered) frames cut into one frame per physics step, the hand on the line between two
     frames as the world moves it: stepping through these runs the same physics one step a call."""
-    smooth = HandFilter(filter_window, 1.0 / rate) if filter_window > 1 else (lambda frame: frame)
+    smooth = HandFilter(filter_window, 1.0 / rate).smooth if filter_window > 1 else (lambda frame: frame)
     filtered = [smooth(frame) for frame in frames]
     cut = filtered[:1]
     for before, after in zip(filtered, filtered[1:]):
@@ -188,7 +189,7 @@ def live(config: Config, duration: float = 4.0, scene: LiveScene = LIVE) -> dict
 def filter_cost(config: Config, duration: float = 1.0, scene: LiveScene = LIVE) -> float:
     """Microseconds per frame of the window filter (Eq. 1, ``config.filter_window``) on the live hand."""
     frames = live_frames(config, duration, scene)
-    smooth = HandFilter(config.filter_window, 1.0 / config.tracking_rate)
+    smooth = HandFilter(config.filter_window, 1.0 / config.tracking_rate).smooth
     start = time.process_time()
     for frame in frames:
         smooth(frame)

@@ -22,7 +22,8 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from tqdm import tqdm  # noqa: E402
 
-from microg.sim import HandFrame, HandFrames, make_batch, step, step_batch  # noqa: E402
+from microg.skeleton import HandFrame
+from microg.sim import HandFrames, make_batch, step, step_batch  # noqa: E402
 from microg.participant.scripted import pinch_and_carry, probe_hand  # noqa: E402
 
 from . import ours  # noqa: E402

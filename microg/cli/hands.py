@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from microg.sim.hand import BONES, DIGITS, SIDES
+from microg.skeleton import BONES, DIGITS, SIDES
 from microg.hands import RecordingError, load_recording, write_recording
 from microg.hands.recording import SUFFIX, UNKNOWN, RecordingInfo, record
 

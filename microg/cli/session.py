@@ -4,6 +4,7 @@ with the participant's view served by the session itself (``--display``)."""
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 
 import click
 from tqdm import tqdm
@@ -13,10 +14,10 @@ from microg.study.inputs import PacedInputs, open_inputs, parse_input, participa
 from microg.study.protocol import Phase
 from microg.study.model_rater import ModelRater
 from microg.study.questionnaire import TerminalRater
-from microg.study.session import Unattended, make_clock, resume_session, run_session
+from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
 from microg.study.protocol import ProtocolError
 from microg.study.replay import ReplayError, ReplayInputs
-from microg.study.store import Event, PlannedTask, Store, describe_counts, open_study, plan_tasks
+from microg.study.store import PlannedTask, Store, describe_counts, open_study, plan_tasks
 
 from .common import clear_errors, study_dir_argument
 
@@ -28,7 +29,7 @@ LIVE = ("leap", "webxr", "lsl")
 class TerminalOperator:
     """The researcher at the keyboard of a live session."""
 
-    def show(self, phase: Phase) -> None:
+    def present(self, phase: Phase) -> None:
         click.echo(f"\n== {phase.name} ({phase.minutes:g} min) ==")
         if phase.text.strip():
             click.echo(phase.text.strip())
@@ -48,31 +49,41 @@ def session() -> None:
     """Run and resume participants' sessions."""
 
 
-def _rejected_logger(store: Store, session_id: int, clock):
+@dataclass(frozen=True)
+class SessionOptions:
+    """What ``session run`` and ``session resume`` share (``session_options``): how the session asks
+    its questionnaire, shows the participant's view, places replayed recordings and streams on LSL."""
+
+    questionnaire: str | None
+    display: bool | None
+    """None: on for live input."""
+    host: str
+    port: int
+    eye: str | None
+    look_at: str | None
+    fov: float | None
+    pace: float
+    align: str | None
+    lsl: bool
+    quiet: bool
+
+
+def _rejected_logger(log: EventLog):
     def rejected(item, phase, text, message):
-        store.log(session_id, [Event(clock.now(), "answer_rejected", {"interaction": phase.interaction,
-                                                                      "item": item.name, "answer": text,
-                                                                      "message": message})])
+        log.emit("answer_rejected", {"interaction": phase.interaction, "item": item.name, "answer": text,
+                                     "message": message})
     return rejected
 
 
-def _event_logger(store: Store, session_id: int, clock):
-    """Logs what the participant's page measured or decided (``display_clock``, ``display_placement``)
-    with the session; the display calls it on the session's thread."""
-    def log(kind: str, data: dict) -> None:
-        store.log(session_id, [Event(clock.now(), kind, data)])
-    return log
-
-
-def _rater(kind: str, store: Store, session_id: int, seed: int, clock, display):
+def _rater(kind: str, log: EventLog, seed: int, display):
     if kind == "skip":
         return None
     if kind == "ask":
         if display is not None:
             from microg.view.display import DisplayRater
-            return DisplayRater(display, on_rejected=_rejected_logger(store, session_id, clock))
-        return TerminalRater(on_rejected=_rejected_logger(store, session_id, clock))
-    return ModelRater(store, session_id, seed)
+            return DisplayRater(display, on_rejected=_rejected_logger(log))
+        return TerminalRater(on_rejected=_rejected_logger(log))
+    return ModelRater(log.store, log.session_id, seed)
 
 
 def _point(text: str | None, name: str) -> tuple[float, float, float] | None:
@@ -87,8 +98,8 @@ def _point(text: str | None, name: str) -> tuple[float, float, float] | None:
     return values
 
 
-def _run_one(store: Store, participant_id: str, input_spec: str | None, questionnaire: str | None, lsl: bool,
-             progress: bool, resume: bool, view: dict) -> str:
+def _run_one(store: Store, participant_id: str, *, input_spec: str | None, options: SessionOptions,
+             resume: bool) -> str:
     record = store.participant(participant_id)
     existing = store.session_of(participant_id)
     if resume and existing is None:
@@ -98,7 +109,7 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
     if spec is None:
         raise click.ClickException("give --input leap, webxr, replay:FILE or simulated[:PROFILE]")
     kind = parse_input(spec)[0]
-    shown = view["display"] if view["display"] is not None else kind in LIVE
+    shown = options.display if options.display is not None else kind in LIVE
     if kind == "webxr" and not shown:
         raise click.UsageError("--input webxr reads the hands from the participant's page: it needs --display")
     if resume:
@@ -106,17 +117,17 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
         if session_record.status != "running":
             raise click.ClickException(f"session {existing.id} of {participant_id} is {existing.status}; "
                                        "there is nothing to resume")
-    rating = questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
+    rating = options.questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
     problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
     if problems:
         raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
     with contextlib.ExitStack() as stack:
-        display = stack.enter_context(_display(store, view, kind)) if shown else None
+        display = stack.enter_context(_display(store, options, kind)) if shown else None
         inputs = open_inputs(spec, store.protocol.group(record.group).simulated_profile,
-                             webxr=None if display is None else display.hands, align=view["align"])
+                             webxr=None if display is None else display.hands, align=options.align)
         stack.callback(inputs.close)
         if shown and kind not in LIVE:
-            inputs = PacedInputs(inputs, view["pace"])
+            inputs = PacedInputs(inputs, options.pace)
         if isinstance(inputs, ReplayInputs):  # every task has its recording, before anything runs
             tasks = plan_tasks(store.protocol, record.group, record.object_order)
             try:
@@ -127,43 +138,34 @@ def _run_one(store: Store, participant_id: str, input_spec: str | None, question
             session_record = store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock)
         store.lock_session(session_record.id)
         clock = make_clock(inputs.clock, store.last_time(session_record.id))
-        rater = _rater(rating, store, session_record.id, session_record.seed, clock, display)
-        markers, watchers = None, []
-        if lsl:
-            from microg.study.lsl import (
-                NETWORK_NOTICE,
-                MarkerOutlet,
-                MocapOutlet,
-                session_tags,
-            )
+        log = EventLog(store, session_record.id, clock)
+        rater = _rater(rating, log, session_record.seed, display)
+        markers, sinks = None, []
+        if options.lsl:
+            from microg.study.lsl import NETWORK_NOTICE, MarkerOutlet, MocapOutlet, session_tags
 
             click.echo(NETWORK_NOTICE, err=True)
             tags = session_tags(store, session_record.id)
             try:
-                markers = MarkerOutlet(tags)
-                watchers.append(MocapOutlet(store.protocol.tracking_rate, tags))
+                markers = MarkerOutlet(tags, clock)
+                sinks.append(MocapOutlet(store.protocol.tracking_rate, tags))
             except ImportError as error:
                 raise click.ClickException(str(error)) from None
         operator = TerminalOperator() if kind in LIVE else Unattended()
         if display is not None:
             from microg.view.display import DisplayOperator
             operator = DisplayOperator(display, operator)
-            display.on_event = _event_logger(store, session_record.id, clock)
-            watchers.append(display.show)
+            display.on_event = log.emit  # what the page measured or decided: display_clock, display_placement
+            sinks.append(display)
             click.echo(f"participant view: {display.url}")
             if display.token:
                 click.echo(f"  (one-time token {display.token}: the address above carries it; "
                            f"the page refuses to connect without it)")
-        def on_moment(moment) -> None:
-            for watch in watchers:
-                watch(moment)
-
-        options = dict(clock=clock, operator=operator, rater=rater, markers=markers, progress=progress,
-                       on_moment=on_moment if watchers else None)
+        outputs = Outputs(sinks=tuple(sinks), markers=markers, progress=not options.quiet)
+        go_on = resume_session if resume else run_session
         try:
-            if resume:
-                return resume_session(store, session_record.id, inputs, **options)
-            return run_session(store, session_record.id, inputs, **options)
+            return go_on(store, session_record.id, inputs, clock=clock, operator=operator, rater=rater,
+                         outputs=outputs)
         except (KeyboardInterrupt, click.Abort):
             raise click.ClickException(f"session {session_record.id} of {participant_id} paused; the task in "
                                        f"progress will run again from its start on: microg session resume "
@@ -177,19 +179,19 @@ def _outcome(store: Store, participant_id: str, status: str) -> str:
 
 
 @contextlib.contextmanager
-def _display(store: Store, view: dict, kind: str):
+def _display(store: Store, options: SessionOptions, kind: str):
     from microg.study.protocol import Viewpoint
     from microg.view.display import ParticipantDisplay
 
     default = store.protocol.viewpoint
-    viewpoint = Viewpoint(_point(view["eye"], "--eye") or default.eye,
-                          _point(view["look_at"], "--look-at") or default.look_at,
-                          view["fov"] if view["fov"] is not None else default.fov_deg)
+    viewpoint = Viewpoint(_point(options.eye, "--eye") or default.eye,
+                          _point(options.look_at, "--look-at") or default.look_at,
+                          options.fov if options.fov is not None else default.fov_deg)
     hands = None
     if kind == "webxr":
         from microg.hands.webxr import WebXRSource
         hands = WebXRSource(store.protocol.tracking_rate)
-    with ParticipantDisplay(store.protocol, view["host"], view["port"], viewpoint, hands) as display:
+    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands) as display:
         yield display
 
 
@@ -238,10 +240,6 @@ def session_options(command):
     return command
 
 
-def _view(display, host, port, eye, look_at, fov, pace, align) -> dict:
-    return dict(display=display, host=host, port=port, eye=eye, look_at=look_at, fov=fov, pace=pace, align=align)
-
-
 @session.command("run")
 @study_dir_argument
 @click.option("--participant", "participant_id", help="The participant whose session to run.")
@@ -250,24 +248,22 @@ def _view(display, host, port, eye, look_at, fov, pace, align) -> dict:
 @click.option("--input", "input_spec", required=True, help=INPUT_HELP)
 @session_options
 @clear_errors
-def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: str, questionnaire: str | None,
-        display: bool | None, host: str, port: int, eye: str | None, look_at: str | None, fov: float | None, pace: float,
-        align: str | None, lsl: bool, quiet: bool) -> None:
+def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: str, **shared) -> None:
     """Run a participant's session: timeline, tasks, questionnaire; everything is logged as it happens."""
     if bool(participant_id) == run_all:
         raise click.UsageError("give either --participant ID or --all")
     parse_input(input_spec)
-    view = _view(display, host, port, eye, look_at, fov, pace, align)
+    options = SessionOptions(**shared)
     with open_study(study_dir) as store:
         if participant_id:
-            status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, False, view)
+            status = _run_one(store, participant_id, input_spec=input_spec, options=options, resume=False)
             click.echo(_outcome(store, participant_id, status))
             return
         todo = [p.id for p in store.participants() if p.status == "active"
                 and (store.session_of(p.id) is None or store.session_of(p.id).status == "running")]
-        for pid in tqdm(todo, unit="participant", desc="participants", disable=quiet):
+        for pid in tqdm(todo, unit="participant", desc="participants", disable=options.quiet):
             resume = store.session_of(pid) is not None
-            status = _run_one(store, pid, None if resume else input_spec, questionnaire, lsl, not quiet, resume, view)
+            status = _run_one(store, pid, input_spec=None if resume else input_spec, options=options, resume=resume)
             click.echo(_outcome(store, pid, status))
         click.echo(f"ran {len(todo)} session(s)")
 
@@ -278,14 +274,12 @@ def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: s
 @click.option("--input", "input_spec", default=None, help=INPUT_HELP + " Default: the session's own input.")
 @session_options
 @clear_errors
-def resume(study_dir: str, participant_id: str, input_spec: str | None, questionnaire: str | None,
-           display: bool | None, host: str, port: int, eye: str | None, look_at: str | None, fov: float | None, pace: float,
-           align: str | None, lsl: bool, quiet: bool) -> None:
+def resume(study_dir: str, participant_id: str, input_spec: str | None, **shared) -> None:
     """Carry on a session that was cut off: at its first unfinished task (a task cut off midway runs
     again from its start; its partial frames stay, marked interrupted)."""
     with open_study(study_dir) as store:
-        status = _run_one(store, participant_id, input_spec, questionnaire, lsl, not quiet, True,
-                          _view(display, host, port, eye, look_at, fov, pace, align))
+        status = _run_one(store, participant_id, input_spec=input_spec, options=SessionOptions(**shared),
+                          resume=True)
         click.echo(_outcome(store, participant_id, status))
 
 

@@ -87,7 +87,7 @@ def gallery(out: Path, names: str, hands: str, size: str, fps: float, overwrite:
 
     For each demo it writes DEMO.png, an image strip with a row per interaction model and a column
     per key moment, and DEMO.gif, the models side by side in real time; gallery.csv has one row per
-    demo and model: demo, interaction, grasped (held at the end), drops (holds lost while the
+    demo and model: demo, interaction, grasped (held at the end), attempts (holds lost while the
     script held on), peak_object_speed_m_s, deepest_penetration_mm (of a tracked phalanx into the
     object).
     """
@@ -126,7 +126,7 @@ def _demo_names(text: str) -> list[str]:
 
 def _summary_line(result: DemoResult) -> str:
     summary = result.summary()
-    return (f"{'held' if summary['grasped'] else 'not held'} at the end, {summary['drops']} drops, peak object "
+    return (f"{'held' if summary['grasped'] else 'not held'} at the end, {summary['attempts']} attempts (drops), peak object "
             f"speed {summary['peak_object_speed_m_s']:.3f} m/s, deepest penetration "
             f"{summary['deepest_penetration_mm']:.1f} mm")
 

@@ -1,24 +1,24 @@
 """Hand input: every source of hand frames behind one interface (see ``source.HandSource``).
 
-    source = TrackingGuard(open_source("replay:grab.json.gz"))   # or "leap"
-    smooth = HandFilter(window=3, period=1 / 110)                # Eq. 1
-    while (frame := source.next_frame()) is not None:
-        world = step(world, smooth(frame))
+    tracked = Tracking(open_source("replay:grab.json.gz"))   # or "leap"; the guard, then Eq. 1
+    while (frame := tracked.next_frame()) is not None:
+        world = step(world, frame.smoothed)
 
 Sources: live Leap Motion (``leap_device``, optional), replay of recordings (``recording``: the
 project's Arrow stream format, and LeapJS v2 JSON through ``leapjs``). The simulated participant
-lives in ``microg.participant``. Every session puts the ``TrackingGuard`` between its source
-and the world, and the window filter (``filter.HandFilter``, Eq. 1) between the guard and the
-physics. ``filter_report`` measures the window filter's noise and lag on a recording.
+lives in ``microg.participant``. Every session takes its source's frames through hand tracking
+(``tracking.Tracking``): the tracking guard (``guard``), then the window filter (``filter``, Eq. 1),
+before the physics. ``filter_report`` measures the window filter's noise and lag on a recording.
 """
 
 from __future__ import annotations
 
 from .filter import HandFilter
-from .guard import GuardConfig, GuardCounts, GuardState, TrackingGuard, admit, finish
+from .guard import Guard, GuardConfig, GuardCounts, GuardState, admit, finish
 from .recording import (Recording, RecordingError, RecordingInfo, RecordingWriter, ReplaySource, load_recording,
                         read_recording, record, write_recording)
 from .source import HandSource
+from .tracking import Tracking
 
 SPECS = ("leap", "lsl:STREAM_NAME", "replay:PATH")
 
@@ -42,7 +42,7 @@ def open_source(spec: str, *, realtime: bool = False) -> HandSource:
 
 
 __all__ = [
-    "GuardConfig", "GuardCounts", "GuardState", "HandFilter", "HandSource", "Recording", "RecordingError", "RecordingInfo",
-    "RecordingWriter", "ReplaySource", "TrackingGuard", "admit", "finish", "load_recording", "open_source",
+    "Guard", "GuardConfig", "GuardCounts", "GuardState", "HandFilter", "HandSource", "Recording", "RecordingError",
+    "RecordingInfo", "RecordingWriter", "ReplaySource", "Tracking", "admit", "finish", "load_recording", "open_source",
     "read_recording", "record", "write_recording",
 ]

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microg.sim.hand import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame
 from microg.sim.rotation import quat_from_euler_deg, quat_multiply, quat_to_matrix
 
 FOUND = ("start", "grasp")

@@ -15,9 +15,9 @@ line passes through the mean of its samples, at their mean time); after a gap th
 same and no frame is invented. A new track (first frame, a hand found again, a jump) empties the
 window, so the filter never mixes two tracks.
 
-``HandFilter`` runs it on a stream of hand frames, once per frame, between the tracking guard and
-the physics: each side's joints go through their own window, and a hand that appears or comes
-with a new track id (the guard numbers tracks) starts an empty one.
+``HandFilter`` runs it on a stream of hand frames, once per frame, after the tracking guard
+(``microg.hands.tracking``): each side's joints go through their own window, and a hand that
+appears or comes with a new track id (the guard numbers tracks) starts an empty one.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from microg.sim.hand import N_BONES, N_DIGITS, SIDES, HandFrame
+from microg.skeleton import N_BONES, N_DIGITS, SIDES, HandFrame
 
 FILTER_WINDOW = 3
 """F in Eq. 1, the frames the window filter averages: the paper found 3 best. A protocol may set
@@ -111,7 +111,7 @@ class HandFilter:
         self._windows = [WindowFilter(window, period, (N_DIGITS, N_BONES + 1, 3)) for _ in SIDES]
         self._tracks: list[int | None] = [None for _ in SIDES]
 
-    def __call__(self, frame: HandFrame) -> HandFrame:
+    def smooth(self, frame: HandFrame) -> HandFrame:
         """The frame with each hand's joints filtered; everything else as it came."""
         hands = []
         for side, name in enumerate(SIDES):

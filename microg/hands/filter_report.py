@@ -27,7 +27,7 @@ import pandas as pd
 from scipy.optimize import minimize_scalar
 
 from .filter import filter_series
-from microg.sim.hand import DIGITS, SIDES, HandFrame
+from microg.skeleton import DIGITS, SIDES, HandFrame
 from .guard import GuardConfig, GuardState, admit, finish
 
 WINDOWS = tuple(range(1, 8))

@@ -1,8 +1,9 @@
 """The tracking guard: bad tracking is handled here, never passed on to the physics.
 
-Every session puts a ``TrackingGuard`` between its hand source and the world. The logic is pure:
-``admit(config, state, frame)`` returns the next state and the frames to pass on (none, one, or
-several), ``finish`` releases what is still waiting when the source ends. What it does:
+Every session's hand tracking (``microg.hands.tracking``) passes its source's frames through the
+guard, then the window filter. The logic is pure: ``admit(config, state, frame)`` returns the next
+state and the frames to pass on (none, one, or several), ``finish`` releases what is still waiting
+when the source ends; ``Guard`` holds the state between frames. What it does:
 
 - **Incomplete hand** (NaN in the palm position, or in a joint the tracker normally delivers): the
   hand is left out of the frame, as if lost. "Normally delivers" is learned: every joint this
@@ -43,8 +44,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, hand_jumped
-from .source import HandSource
+from microg.skeleton import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, hand_jumped
 
 RECENT_INTERVALS = 31
 
@@ -52,7 +52,8 @@ RECENT_INTERVALS = 31
 @dataclass(frozen=True)
 class GuardConfig:
     jump_distance: float = 0.10
-    """m: the same threshold the world uses (``Scene.jump_distance``)."""
+    """m: a hand that moved this far between two frames jumped (``microg.skeleton.is_jump``); the
+    physics learns of an accepted jump by the new track id the guard gives it."""
     confirm_frames: int = 3
     """Frames in a row at a jumped-to place before it is accepted as a new track."""
     max_hold: int = 10
@@ -355,31 +356,22 @@ def finish(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
     return _release(state._replace(slots=slots))
 
 
-class TrackingGuard:
-    """A ``HandSource`` that passes another source's frames through ``admit``."""
+class Guard:
+    """The guard as a stage of hand tracking: ``admit`` each frame and get the frames now ready,
+    ``finish`` when the source has ended."""
 
-    def __init__(self, source: HandSource, config: GuardConfig = GuardConfig()):
-        self.source = source
+    def __init__(self, config: GuardConfig = GuardConfig()):
         self.config = config
         self.state = GuardState()
-        self.description = source.description
-        self._ready: list[HandFrame] = []
-        self._ended = False
 
     @property
     def counts(self) -> GuardCounts:
         return self.state.counts
 
-    def next_frame(self, observation=None) -> HandFrame | None:
-        while not self._ready and not self._ended:
-            frame = self.source.next_frame(observation)
-            if frame is None:
-                self.state, ready = finish(self.state)
-                self._ended = True
-            else:
-                self.state, ready = admit(self.config, self.state, frame)
-            self._ready.extend(ready)
-        return self._ready.pop(0) if self._ready else None
+    def admit(self, frame: HandFrame) -> tuple[HandFrame, ...]:
+        self.state, ready = admit(self.config, self.state, frame)
+        return ready
 
-    def close(self) -> None:
-        self.source.close()
+    def finish(self) -> tuple[HandFrame, ...]:
+        self.state, ready = finish(self.state)
+        return ready

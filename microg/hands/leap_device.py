@@ -18,7 +18,7 @@ from typing import Callable
 
 import numpy as np
 
-from microg.sim.hand import N_BONES, N_DIGITS, Hand, HandFrame
+from microg.skeleton import N_BONES, N_DIGITS, Hand, HandFrame
 from .units import metres, seconds
 
 INSTALL_HELP = """\

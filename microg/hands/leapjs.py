@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microg.sim.hand import N_BONES, N_DIGITS, Hand, HandFrame
+from microg.skeleton import N_BONES, N_DIGITS, Hand, HandFrame
 from .recording import UNKNOWN, Recording, RecordingError, RecordingInfo
 from .units import metres, palm_quaternion, seconds
 

@@ -2,7 +2,7 @@
 
 A tracker (or a bridge from one) publishes an LSL stream of type ``MoCap`` with ``CHANNELS``,
 float32, one sample per tracking frame, stamped with LSL's clock. The layout, per side (left
-then right), is the project's hand skeleton (``microg.sim.hand``) in metres, in the workspace's
+then right), is the project's hand skeleton (``microg.skeleton``) in metres, in the workspace's
 frame (x right, y up, z toward the participant)::
 
     {side}_tracked                      1 when the hand is tracked in this sample, else 0
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from microg.sim.hand import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame
+from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame
 
 JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
 PER_SIDE = 1 + 3 + 4 + N_DIGITS * (N_BONES + 1) * 3 + N_DIGITS * N_BONES

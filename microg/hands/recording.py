@@ -30,7 +30,7 @@ import pyarrow as pa
 
 from microg import __version__
 
-from microg.sim.hand import N_BONES, N_DIGITS, SIDES, Hand, HandFrame
+from microg.skeleton import N_BONES, N_DIGITS, SIDES, Hand, HandFrame
 from .source import HandSource
 
 FORMAT = "microg-hands"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from typing import Callable, Protocol, runtime_checkable
 
-from microg.sim.hand import HandFrame
+from microg.skeleton import HandFrame
 
 
 @runtime_checkable

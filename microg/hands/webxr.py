@@ -13,7 +13,7 @@ Message (one per XR frame once the workspace is placed, also when no hand is tra
                 "joints": [[x, y, z], ...25],           # m, workspace frame, in XR_JOINTS order
                 "radii": [...25]}]}                      # m, WebXR joint radii
 
-Joint mapping onto the project's skeleton (``microg.sim.hand``: digit-major, joint j of a digit is
+Joint mapping onto the project's skeleton (``microg.skeleton``: digit-major, joint j of a digit is
 where bone j begins, joint 4 the tip):
 
 - index to pinky: joints 0..4 are WebXR's metacarpal, phalanx-proximal, -intermediate, -distal, tip.
@@ -51,7 +51,7 @@ from collections import deque
 
 import numpy as np
 
-from microg.sim.hand import N_BONES, SIDES, Hand, HandFrame
+from microg.skeleton import N_BONES, SIDES, Hand, HandFrame
 
 from .units import palm_quaternion
 

@@ -33,7 +33,7 @@ from .grasp import CLOSURES, GraspTemplate, plan_grasp
 from .motion import Movement, Pose, movement_time
 from .noise import FrameTiming, NormalStream, TrackingNoise, Tremor
 from .plan import TaskPlan
-from .skeleton import REST
+from .anatomy import REST
 from .skill import SkillProfile
 
 BELIEVED_STIFFNESS = 100.0
@@ -167,8 +167,8 @@ class ParticipantState:
     """The closure the squeeze aims for (m)."""
     place: int = 0
     """The place it is carrying to or holding at; the number of places once all are done."""
-    drops: int = 0
-    """Objects the participant saw leave its grasp (its own count; the task keeps the official one)."""
+    attempts: int = 0
+    """Drops the participant saw (its own count of attempts; the task keeps the official one)."""
     in_hand: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """Where the object sat in the hand when the grip settled (or after the last slip), hand frame (m)."""
     close_origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -307,7 +307,7 @@ def _check_drop(s: ParticipantState, seen: Seen, displaced: bool) -> tuple[Parti
         return (s if s.released_since is None else s.changed(released_since=None)), False
     since = seen.t if s.released_since is None else s.released_since
     if seen.t - since >= DROP_CONFIRM_S:
-        return _begin_retry(s.changed(drops=s.drops + 1, released_since=None), seen.t), True
+        return _begin_retry(s.changed(attempts=s.attempts + 1, released_since=None), seen.t), True
     return s.changed(released_since=since), False
 
 
@@ -543,11 +543,11 @@ def follow_display(s: ParticipantState, seen: Seen) -> ParticipantState | None:
     """React to what the task display shows, before the action does; None if it changes nothing.
     The task is over: done. The task counts a drop while the hand thinks it holds the object: go
     back for it (after a reaction time in the action)."""
-    shown = seen.display
-    if shown.stage in FINAL:
+    display = seen.display
+    if display.stage in FINAL:
         return _enter(s, DONE, seen.t)
-    if shown.stage == MANIPULATION and s.action in HOLDING and seen.t - s.since > s.player.skill.reaction_s:
-        return _begin_retry(s.changed(drops=s.drops + 1), seen.t)
+    if display.stage == MANIPULATION and s.action in HOLDING and seen.t - s.since > s.player.skill.reaction_s:
+        return _begin_retry(s.changed(attempts=s.attempts + 1), seen.t)
     return None
 
 

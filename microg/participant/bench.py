@@ -1,7 +1,7 @@
 """A test bench for simulated participants: pick-and-place trials against the real physics.
 
-Each trial is the task every session plays (``microg.task.play``: the window filter, the physics,
-the task's rules and display, a lost object put back), with the bench's own layout: the object
+Each trial is the task every session plays (``microg.task.play``: hand tracking's guard and window
+filter, the physics, the task's rules and display, a lost object put back), with the bench's own layout: the object
 starts in front of the device and the places lie on an arc 10-15 cm away, about as far as the
 paper's Fig. 9 suggests. Under gravity the object starts on the physics' table (its bottom face on
 the table top) and a dropped object falls back onto it; in microgravity there is no table.
@@ -20,10 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from microg.hands.filter import FILTER_WINDOW, HandFilter
+from microg.hands.guard import GuardConfig
+from microg.hands.tracking import Tracking
 from microg.paths import object_file
-from microg.sim import INTERACTION_MODELS, HandFrame, PlacedObject, TableParameters, World, compose_scene, \
-    load_object, make_world
+from microg.skeleton import HandFrame
+from microg.sim import (INTERACTION_MODELS, PlacedObject, TableParameters, World, compose_scene, load_object,
+                        make_world)
 from microg.task import TaskRules, TaskState, play
 from .participant import SimulatedParticipant
 from .plan import TaskPlan
@@ -60,20 +62,20 @@ class TrialResult:
     """From the task's first frame until the object was let go after the last place (s, the task's
     rule); NaN if not completed."""
     places_done: int
-    drops: int
+    attempts: int
     """Holds that ended before the release stage (the task's attempts)."""
     frames: int
     participant_time: float
     """Seconds of computer time spent producing the participant's frames."""
     world_time: float
-    """Seconds of computer time spent on the rest of each frame: filter, physics, the task's rules."""
+    """Seconds of computer time spent on the rest of each frame: hand tracking, physics, the task's rules."""
 
 
 class _Timed:
     """A hand source whose ``next_frame`` calls are timed."""
 
     def __init__(self, source):
-        self.source, self.seconds = source, 0.0
+        self.source, self.seconds, self.description = source, 0.0, source.description
 
     def next_frame(self, observation=None) -> HandFrame | None:
         clock = time.perf_counter()
@@ -81,20 +83,23 @@ class _Timed:
         self.seconds += time.perf_counter() - clock
         return frame
 
+    def close(self) -> None:
+        self.source.close()
+
 
 def run_trial(participant: SimulatedParticipant, interaction: str) -> TrialResult:
     """Play the participant's task once on a fresh world, until the task ends or the participant stops."""
     plan = participant.plan
     world = bench_world(plan, interaction)
     source = _Timed(participant)
-    smooth = HandFilter(FILTER_WINDOW, 1.0 / world.model.scene.tracking_rate)
+    tracked = Tracking(source, GuardConfig(nominal_rate=world.model.scene.tracking_rate))
     state, frames, began = TaskState(), 0, time.perf_counter()
-    for moment in play(world, source, plan.rules, smooth):
+    for moment in play(world, tracked, plan.rules):
         state, frames = moment.state, frames + 1
     spent = time.perf_counter() - began
     completion = state.completion_time
     return TrialResult(completion is not None, math.nan if completion is None else completion, state.place,
-                       state.drops, frames, source.seconds, spent - source.seconds)
+                       state.attempts, frames, source.seconds, spent - source.seconds)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -119,13 +124,13 @@ def main(argv: list[str] | None = None) -> None:
             frames = sum(r.frames for r in results)
             rows.append((skill, name, interaction, gravity, len(done), len(results),
                          np.mean([r.completion_time for r in done]) if done else math.nan,
-                         np.mean([r.drops for r in results]),
+                         np.mean([r.attempts for r in results]),
                          1e6 * sum(r.participant_time for r in results) / frames,
                          1e6 * sum(r.world_time for r in results) / frames))
     print(f"{'skill':9} {'object':12} {'interaction':20} {'gravity':7} {'success':>8} {'time (s)':>9} "
-          f"{'drops':>6} {'us/frame participant':>21} {'world':>8}")
-    for skill, name, interaction, gravity, ok, n, mean_time, drops, participant_us, world_us in rows:
-        print(f"{skill:9} {name:12} {interaction:20} {gravity:7} {ok:>4}/{n:<3} {mean_time:9.1f} {drops:6.1f} "
+          f"{'attempts':>8} {'us/frame participant':>21} {'world':>8}")
+    for skill, name, interaction, gravity, ok, n, mean_time, attempts, participant_us, world_us in rows:
+        print(f"{skill:9} {name:12} {interaction:20} {gravity:7} {ok:>4}/{n:<3} {mean_time:9.1f} {attempts:8.1f} "
               f"{participant_us:21.0f} {world_us:8.0f}")
 
 

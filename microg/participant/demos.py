@@ -1,7 +1,7 @@
 """The paper's demonstrations (section 4.2, Fig. 8) as scripted scenes, run with any interaction model.
 
     result = run_demo("ball-catch", "impulse_penetration")
-    result.summary()        # grasped at the end, drops, peak speed, deepest penetration
+    result.summary()        # grasped at the end, attempts, peak speed, deepest penetration
 
 Each demo is one shipped object, a scripted hand and the world around them (zero g, or Earth's
 gravity and a table). The hand is a ``probe_hand``: only the phalanges that do the work are
@@ -34,9 +34,9 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from microg.paths import object_file
-from microg.sim import (SIDES, Hand, HandFrame, PlacedObject, Scene, SceneError, TableParameters, World,
-                        compose_scene, grasped, highlighted, load_object, make_world, rendered_phalanges, step)
-from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS
+from microg.skeleton import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
+from microg.sim import (PlacedObject, Scene, SceneError, TableParameters, World, compose_scene, grasped, highlighted,
+                        load_object, make_world, rendered_phalanges, step)
 from .motion import minimum_jerk
 from .scripted import grip_and_carry, pinch_and_carry, probe_hand
 
@@ -134,21 +134,21 @@ class DemoResult:
         return (self.t >= start - 1e-9) & (self.t <= end + 1e-9)
 
     @property
-    def drops(self) -> int:
-        """Holds lost before the script lets go (``count_drops``: the protocol's rule)."""
+    def attempts(self) -> int:
+        """Holds lost before the script lets go (``count_attempts``: the protocol's rule)."""
         if self.demo.hold is None:
             return 0
-        return count_drops(self.t, self.grasped, self.demo.hold[1])
+        return count_attempts(self.t, self.grasped, self.demo.hold[1])
 
     def summary(self) -> dict[str, object]:
-        """One row of ``gallery.csv``: held at the end, drops, peak object speed, deepest penetration."""
+        """One row of ``gallery.csv``: held at the end, attempts, peak object speed, deepest penetration."""
         return {"demo": self.demo.name, "interaction": self.interaction, "grasped": bool(self.grasped[-1]),
-                "drops": self.drops,
+                "attempts": self.attempts,
                 "peak_object_speed_m_s": float(np.linalg.norm(self.velocity, axis=1).max()),
                 "deepest_penetration_mm": float(self.depth.max() * 1e3)}
 
 
-def count_drops(t: np.ndarray, grasped: np.ndarray, until: float) -> int:
+def count_attempts(t: np.ndarray, grasped: np.ndarray, until: float) -> int:
     """Holds lost before ``until``, by the protocol's rule.
 
     A hold begins once the grasp has lasted ``GRASP_SETTLE_S`` and ends once it has been gone
@@ -166,9 +166,9 @@ def count_drops(t: np.ndarray, grasped: np.ndarray, until: float) -> int:
     Returns
     -------
     int
-        The number of drops.
+        The number of attempts (drops).
     """
-    drops, held, since = 0, False, None
+    attempts, held, since = 0, False, None
     for time, now in zip(t, grasped):
         if bool(now) == held:
             since = None
@@ -176,9 +176,9 @@ def count_drops(t: np.ndarray, grasped: np.ndarray, until: float) -> int:
         since = time if since is None else since
         if time - since >= (DROP_GRACE_S if held else GRASP_SETTLE_S) - 1e-9:
             if held and since < until:
-                drops += 1
+                attempts += 1
             held, since = not held, None
-    return drops
+    return attempts
 
 
 def _shipped(name: str, position: Sequence[float] = START, **state) -> PlacedObject:
@@ -445,7 +445,7 @@ def run_demo(name: str, interaction: str = "impulse_penetration", **options) -> 
 def _record(world: World, hand: Hand) -> dict[str, object]:
     """What a frame of the world shows of the demo's one object and the scripted right hand."""
     data = world.data
-    right = slice(BONES_PER_HAND, 2 * BONES_PER_HAND)
+    right = side_slots(SIDES.index("right"))
     touching = data.active[:, 0]
     joints = np.full((len(SIDES),) + hand.joints.shape, np.nan)
     widths = np.full((len(SIDES),) + hand.widths.shape, np.nan)

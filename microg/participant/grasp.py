@@ -27,18 +27,9 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from microg.sim.hand import bone_centres
+from microg.skeleton import bone_centres
 from microg.sim.rotation import quat_to_matrix
-from .skeleton import (
-    DIP_PER_PIP,
-    KNUCKLES,
-    LOWER,
-    PHALANGES,
-    RADII,
-    REST,
-    UPPER,
-    local_joints,
-)
+from .anatomy import DIP_PER_PIP, KNUCKLES, LOWER, PHALANGES, RADII, REST, UPPER, local_joints
 
 CLOSURES = np.array([-0.012, -0.008, -0.004, 0.0, 0.006, 0.012, 0.018, 0.024])
 """The closure ladder (m) at which postures are solved."""

@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from microg.sim.hand import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, HandFrame
+from microg.skeleton import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, HandFrame, side_slots
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.task import Observation
 from .actions import DONE, ParticipantState, Player, Seen, Streams, decide, pause
@@ -43,7 +43,7 @@ from .motion import Pose
 from .noise import (FrameTiming, NormalStream, TrackingNoise, TrackingNoiseLevels, Tremor, advance_noise,
                     advance_tremor, tremor_value)
 from .plan import TaskPlan
-from .skeleton import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
+from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .skill import SkillProfile, skill_profile
 
 MEASURED_TIMING = FrameTiming()
@@ -63,7 +63,7 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     home = (np.asarray(plan.hand_start, dtype=np.float64) if plan.hand_start is not None
             else np.asarray(plan.start, dtype=np.float64) + ABOVE_THE_OBJECT)
     side = SIDES.index(plan.hand)
-    slots = slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
+    slots = side_slots(side)
     thumb = SLOT_DIGIT[slots] == 0
     player = Player(plan, skill, timing, float(time_limit_s), home, slots, thumb, ~thumb, streams,
                     -1.0 if plan.hand == "left" else 1.0)

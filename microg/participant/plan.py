@@ -9,7 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from microg.sim import SIDES, ObjectSpec
+from microg.skeleton import SIDES
+from microg.sim import ObjectSpec
 from microg.task import TaskRules
 
 Point = tuple[float, float, float]

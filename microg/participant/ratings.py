@@ -3,7 +3,7 @@
 A simulated participant feels nothing, so its ratings come from a model fed by what happened in
 its own tasks with each interaction model (the study reads it back from its log: ``microg.study.questionnaire``):
 
-- ``drops_per_task``: attempts (the study's drops) per task;
+- ``attempts_per_task``: attempts (the study's drops) per task;
 - ``not_completed``: share of the interaction model's tasks not completed (timeout, aborted);
 - ``time_s``: mean completion time of the completed tasks;
 - ``penetration_mm``: visible penetration, how far the tracked phalanges sank into the object
@@ -14,8 +14,8 @@ its own tasks with each interaction model (the study reads it back from its log:
 
 Each rating is an anchor minus penalties, plus the participant's own leaning and noise::
 
-    naturalness = 7 - 0.15/mm (penetration - 5 mm)+ - 0.02 s/mm (shake - 20 mm/s)+ - 1.0 x drops/task
-    efficiency  = 7 - 0.04/s (time - 20 s)+ - 1.0 x drops/task - 4 x not_completed
+    naturalness = 7 - 0.15/mm (penetration - 5 mm)+ - 0.02 s/mm (shake - 20 mm/s)+ - 1.0 x attempts/task
+    efficiency  = 7 - 0.04/s (time - 20 s)+ - 1.0 x attempts/task - 4 x not_completed
 
 then rounded and clipped to the scale. The leaning is N(0, 1), one draw per participant for all
 answers (some people rate high); the noise is N(0, 0.7) per answer. The directions follow what the
@@ -36,8 +36,8 @@ ANCHOR = 7.0
 LEANING_SD = 1.0
 NOISE_SD = 0.7
 PENALTIES = {
-    "naturalness": {"penetration_mm": (5.0, 0.15), "shake_mm_s": (20.0, 0.02), "drops_per_task": (0.0, 1.0)},
-    "efficiency": {"time_s": (20.0, 0.04), "drops_per_task": (0.0, 1.0), "not_completed": (0.0, 4.0)},
+    "naturalness": {"penetration_mm": (5.0, 0.15), "shake_mm_s": (20.0, 0.02), "attempts_per_task": (0.0, 1.0)},
+    "efficiency": {"time_s": (20.0, 0.04), "attempts_per_task": (0.0, 1.0), "not_completed": (0.0, 4.0)},
 }
 """item -> measure -> (reference, penalty per unit above the reference)."""
 
@@ -47,7 +47,7 @@ class Experience:
     """What one participant went through with one interaction model (module docstring)."""
 
     tasks: int
-    drops_per_task: float
+    attempts_per_task: float
     not_completed: float
     time_s: float
     penetration_mm: float

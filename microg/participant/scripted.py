@@ -11,7 +11,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from microg.sim.hand import BONES, DIGITS, N_BONES, N_DIGITS, Hand
+from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, Hand
 from .motion import minimum_jerk
 
 PHALANX_LENGTH = 0.02

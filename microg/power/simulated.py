@@ -54,7 +54,7 @@ def simulated_trials(protocol: Protocol, n_per_group: int, study_seed: int) -> p
         for record in store.participants():
             inputs = open_inputs("simulated", sized.group(record.group).simulated_profile)
             session = store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
-            run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+            run_session(store, session.id, inputs, clock=SimulationClock())
         return trials_table(store)
 
 

@@ -30,7 +30,7 @@ import math
 
 
 from .bodies import BOX, MESH
-from .hand import SLOTS
+from microg.skeleton import SLOTS
 from .mesh_contact import mesh_closest_point, mesh_over_face, mesh_project, mesh_segment_entry
 from .state import CLOCK_DRIFT
 from .vec import (add, cell, cross, dot, kernel, mat_t_vec, mat_vec, norm, quat_mul, quat_turn, quat_unit, rotation,

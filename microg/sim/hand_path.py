@@ -2,7 +2,8 @@
 
 A frame gives each side's palm and joints (``points``: (2, 26, 3), palm first, then the 25 joints
 digit-major) and bone widths; the compiled frame intake ``take_hands`` decides which sides start a
-new track (the hand reappeared, changed id, or jumped: ``hand.is_jump``), which slots are phalanges
+new track (the hand reappeared or changed id: the tracking guard gives a hand that jumped a new id,
+``microg.hands.guard``), which slots are phalanges
 (known ends, length at least ``MIN_PHALANX_LENGTH``, positive width) and where each phalanx goes.
 Between frames ``move_hand`` moves the phalanges linearly from the last frame to this one, a
 physics step at a time.
@@ -16,37 +17,35 @@ from __future__ import annotations
 import math
 
 
-from .hand import BONES_PER_HAND, MIN_PHALANX_LENGTH, N_BONES, SLOTS, is_jump
-from .vec import add, cell, kernel, norm, row, scale, set_cell, set_row, sub
+from microg.skeleton import BONES_PER_HAND, MIN_PHALANX_LENGTH, N_BONES, SLOTS
+from .vec import add, cell, kernel, norm, row, scale, set_row, sub
 
 NAN3 = (math.nan, math.nan, math.nan)
 
 
 @kernel
-def new_tracks(p, s, present, track, points):
-    """Per side: does its track start this frame? Remembers each side's hand for the next frame."""
+def new_tracks(s, present, track):
+    """Per side: does its track start this frame (it appears, or comes with another track id)?
+    Remembers each side's track for the next frame."""
     left = right = False
     for side in range(2):
         if not present[side]:
             s.present[side] = False
             continue
-        jumped = is_jump(points[side], s.reference[side], p.jump_distance)
-        starts = not s.present[side] or track[side] != s.track_id[side] or jumped
+        starts = not s.present[side] or track[side] != s.track_id[side]
         if side == 0:
             left = starts
         else:
             right = starts
         s.present[side] = True
         s.track_id[side] = track[side]
-        for i in range(points.shape[1]):
-            set_cell(s.reference, side, i, cell(points, side, i))
     return left, right
 
 
 @kernel
-def take_hands(p, s, present, track, points, widths, interval):
+def take_hands(s, present, track, points, widths, interval):
     """Set each phalanx's path for the coming steps from this frame's (filtered) joints."""
-    starts = new_tracks(p, s, present, track, points)
+    starts = new_tracks(s, present, track)
     for k in range(SLOTS):
         side, bone = divmod(k, BONES_PER_HAND)
         digit, b = divmod(bone, N_BONES)

@@ -51,7 +51,7 @@ import math
 import numpy as np
 
 from .contact import COLLIDING, SEPARATING, classify, point_velocity
-from .hand import SLOTS
+from microg.skeleton import SLOTS
 from .vec import (add, cell, conjugated, cross, dot, kernel, mat_t_vec, mat_vec, quat_mul, quat_turn,
                   quat_unit, rotation, row, scale, set_row, sub)
 

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cache import user_cache_dir
+from microg.skeleton.cache import user_cache_dir
 
 MESH_SUFFIXES = (".obj", ".stl")
 COPLANAR = 1e-6

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .hand import BONES_PER_HAND, N_BONES
+from microg.skeleton import BONES_PER_HAND, N_BONES
 from .rotation import quat_to_matrix
 from .state import CLOCK_FRAME, CLOCK_TIME, COUNT_FRAMES, unpack
 from .vec import add, cell, dot, entry, mat_vec, rotation, row, scale, set_row

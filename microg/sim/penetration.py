@@ -32,7 +32,7 @@ from __future__ import annotations
 from .bodies import BOX, MESH
 from .contact import _with, point_velocity, project_on_face
 from .mesh_contact import mesh_along_face
-from .hand import SLOTS
+from microg.skeleton import SLOTS
 from .vec import add, cell, dot, kernel, mat_t_vec, mat_vec, norm, row, scale, set_cell, sub
 from .wrench import add_point_force, add_point_matrix, outer
 

@@ -12,7 +12,7 @@ The effects are compile-time constants of ``advance`` (its closure): numba prune
 the effects a scene does not name before it types the function, so their kernels are not in the
 machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
 The mesh kernels (``mesh_contact``) are compiled in the same way only for a scene with a mesh object.
-Each set of effects compiles once and is cached on disk (``microg.sim.cache``).
+Each set of effects compiles once and is cached on disk (``microg.skeleton.cache``).
 
 A step in which an object would turn more than ``MAX_TURN`` is cut into as many parts as that
 takes (a hard impact can spin a light bar to hundreds of rad/s, which a contact linearised over a
@@ -115,7 +115,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
         for world in range(reals.shape[0]):
             s = unpack(reals[world], flags[world], counts[world], n)
             interval = start_frame(s, times[world])
-            take_hands(p, s, present[world], track[world], points[world], widths[world], interval)
+            take_hands(s, present[world], track[world], points[world], widths[world], interval)
             due = steps_due(s, p.dt)
             while s.counter[COUNT_STEPS] < due:
                 parts = parts_of_step(s, p.dt)

@@ -103,8 +103,6 @@ class Scene:
     angular_integrator: str = "midpoint"
     resting_tolerance: float = 1e-3
     """|v| below this (m/s) classifies a contact as resting (Eq. 8)."""
-    jump_distance: float = 0.10
-    """A hand that moves this far (m) between two frames starts a new track (no velocity)."""
     soft_hand: SoftHandParameters = field(default_factory=SoftHandParameters)
     table: TableParameters | None = None
 
@@ -132,7 +130,7 @@ class Scene:
             raise SceneError(f"{where}: gravity = {list(self.gravity)}: must be three finite numbers (m/s^2)")
         if gravity.any() and "gravity" not in self.effects:
             raise SceneError(f"{where}: gravity = {list(self.gravity)} but effects does not name 'gravity'")
-        for name in ("tracking_rate", "penetration_stiffness", "resting_tolerance", "jump_distance"):
+        for name in ("tracking_rate", "penetration_stiffness", "resting_tolerance"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 
 from .compliant import add_compliant_contact
-from .hand import SLOTS
+from microg.skeleton import SLOTS
 from .vec import cell, kernel, mat_vec, row
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from numba import types
 from numba.experimental import structref
 
-from .hand import SLOTS
+from microg.skeleton import SLOTS
 from .vec import kernel
 
 CLOCK_TIME, CLOCK_START, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_DRIFT = 0, 1, 2, 3, 4
@@ -30,7 +30,7 @@ buffer too."""
 COUNT_STEPS, COUNT_FRAMES = 0, 1
 """Indices into ``counter``: physics steps taken, hand frames taken; ``counter`` opens ``counts``."""
 POINTS = 26
-"""A hand's palm and 25 joints: what the jump rule compares (``hand.is_jump``)."""
+"""A hand's palm and 25 joints: what a frame gives the physics per side (``world.HandFrames``)."""
 
 REALS, FLAGS, COUNTS = 0, 1, 2
 FIELDS: tuple[tuple[str, int, tuple], ...] = (
@@ -45,7 +45,6 @@ FIELDS: tuple[tuple[str, int, tuple], ...] = (
     ("hand_to", REALS, ("K", 3)),
     ("hand_velocity", REALS, ("K", 3)),
     ("radius", REALS, ("K",)),
-    ("reference", REALS, (2, POINTS, 3)),
     ("anchor", REALS, ("K", "N", 3)),
     ("normal", REALS, ("K", "N", 3)),
     ("depth", REALS, ("K", "N")),
@@ -138,8 +137,6 @@ def unpack(reals, flags, counts, n):
     r += 3 * k
     s.radius = reals[r:r + k]
     r += k
-    s.reference = reals[r:r + 2 * POINTS * 3].reshape((2, POINTS, 3))
-    r += 2 * POINTS * 3
     s.anchor = reals[r:r + 3 * k * n].reshape((k, n, 3))
     r += 3 * k * n
     s.normal = reals[r:r + 3 * k * n].reshape((k, n, 3))
@@ -173,13 +170,13 @@ PARAMS = StructType([(name, _array(types.int64 if name == "shape" else types.flo
                     for name in ("shape", "half_size", "mass", "inertia", "restitution", "static_friction",
                                  "dynamic_friction", "gravity")]
                    + [(name, types.float64) for name in (
-                       "penetration_stiffness", "resting_tolerance", "dt", "jump_distance", "soft_stiffness",
+                       "penetration_stiffness", "resting_tolerance", "dt", "soft_stiffness",
                        "soft_damping", "soft_slip_velocity", "table_height", "table_stiffness", "table_damping",
                        "table_slip_velocity")] + [("angular_method", types.int64)])
 """What the kernels read of the model (``world.Model``): per-object arrays, then scalars."""
 PARAMS_PER_OBJECT = 10
 """Reals per object in the model buffer: half size (3), mass, inertia (3), restitution, mu, phi."""
-SCALARS = ("penetration_stiffness", "resting_tolerance", "dt", "jump_distance", "soft_stiffness", "soft_damping",
+SCALARS = ("penetration_stiffness", "resting_tolerance", "dt", "soft_stiffness", "soft_damping",
            "soft_slip_velocity", "table_height", "table_stiffness", "table_damping", "table_slip_velocity")
 """The model buffer's scalars after gravity, in order."""
 SCALAR_COUNT = len(SCALARS)
@@ -210,9 +207,9 @@ def unpack_params(reals, ints, n):
     p.dynamic_friction = reals[9 * n:10 * n]
     p.gravity = reals[10 * n:10 * n + 3]
     g = reals[10 * n + 3:]
-    p.penetration_stiffness, p.resting_tolerance, p.dt, p.jump_distance = g[0], g[1], g[2], g[3]
-    p.soft_stiffness, p.soft_damping, p.soft_slip_velocity = g[4], g[5], g[6]
-    p.table_height, p.table_stiffness, p.table_damping, p.table_slip_velocity = g[7], g[8], g[9], g[10]
+    p.penetration_stiffness, p.resting_tolerance, p.dt = g[0], g[1], g[2]
+    p.soft_stiffness, p.soft_damping, p.soft_slip_velocity = g[3], g[4], g[5]
+    p.table_height, p.table_stiffness, p.table_damping, p.table_slip_velocity = g[6], g[7], g[8], g[9]
     p.angular_method = ints[1]
     return p
 

@@ -9,7 +9,7 @@
 ``make_world`` validates the scene once and compiles (or loads from the cache) the step for exactly
 the effects the scene names (``pipeline.specialise``). ``step`` takes one hand frame (already
 filtered: ``microg.hands.filter``) and advances the world to the frame's timestamp in one compiled
-call: the frame intake (new tracks by ``hand.is_jump``, the phalanx slots) and every physics step
+call: the frame intake (a new track where a hand appears or its track id changes, the phalanx slots) and every physics step
 of ``scene.dt`` that fits, with the hand moving linearly from the previous frame to this one.
 
 Copy on step: the world's state is three flat buffers (``state``); ``step`` copies them (three
@@ -30,7 +30,7 @@ from typing import Callable, NamedTuple, Sequence
 import numpy as np
 
 from .bodies import SHAPES, SceneError
-from .hand import N_BONES, N_DIGITS, SIDES, HandFrame
+from microg.skeleton import N_BONES, N_DIGITS, SIDES, HandFrame
 from .mesh import pack_meshes
 from .pipeline import specialise
 from .scene import Scene
@@ -149,7 +149,7 @@ def make_model(scene: Scene) -> Model:
     gravity = np.asarray(scene.gravity, dtype=np.float64)
     table, soft = scene.table, scene.soft_hand
     scalars = {"penetration_stiffness": scene.penetration_stiffness, "resting_tolerance": scene.resting_tolerance,
-               "dt": scene.dt, "jump_distance": scene.jump_distance, "soft_stiffness": soft.stiffness,
+               "dt": scene.dt, "soft_stiffness": soft.stiffness,
                "soft_damping": soft.damping, "soft_slip_velocity": soft.slip_velocity,
                "table_height": table.height if table else 0.0, "table_stiffness": table.stiffness if table else 0.0,
                "table_damping": table.damping if table else 0.0,
@@ -177,7 +177,7 @@ def initial_data(model: Model) -> Data:
     data.orientation[:] = [p.orientation for p in objects]
     data.velocity[:] = [p.velocity for p in objects]
     data.angular_velocity[:] = [p.angular_velocity for p in objects]
-    for name in ("hand_position", "hand_previous", "hand_from", "hand_to", "reference"):
+    for name in ("hand_position", "hand_previous", "hand_from", "hand_to"):
         getattr(data, name)[:] = np.nan
     return data
 

@@ -13,11 +13,11 @@ from .export import export_study, hand_frames, questionnaire_table, read_tables,
 from .inputs import InputError, ScriptedInputs, open_inputs, participant_plan
 from .protocol import Protocol, ProtocolError, load_protocol
 from .questionnaire import RatingError, TerminalRater, parse_rating
-from .session import SimulationClock, WallClock, resume_session, run_session, run_task, task_world
+from .session import Outputs, SimulationClock, WallClock, resume_session, run_session, run_task, task_world
 from .store import Store, StoreError, create_study, open_study, plan_tasks
 
 __all__ = [
-    "InputError", "Participant", "ParticipantError", "Protocol", "ProtocolError",
+    "InputError", "Outputs", "Participant", "ParticipantError", "Protocol", "ProtocolError",
     "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TerminalRater",
     "WallClock", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
     "hand_frames", "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",

@@ -28,8 +28,7 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 
 from microg import __version__
-from microg.sim import BONES, DIGITS
-from microg.sim.hand import SIDES
+from microg.skeleton import BONES, DIGITS, SIDES
 
 from . import framelog
 from .export import run_list

@@ -66,7 +66,7 @@ def _run_session(session_id: int) -> str:
     store.lock_session(session_id)
     try:
         return run_session(store, session_id, _inputs(store, session.participant_id), clock=SimulationClock(),
-                           rater=ModelRater(store, session_id, session.seed), progress=False)
+                           rater=ModelRater(store, session_id, session.seed))
     finally:
         store.unlock_session(session_id)
 

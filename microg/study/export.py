@@ -25,7 +25,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
-from microg.sim import HandFrame
+from microg.skeleton import HandFrame
 
 from . import framelog
 from .store import DATABASE, FINAL_RUN, Store, StoreError, open_study

@@ -23,8 +23,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from microg.sim import BONES, DIGITS, SIDES, Hand, HandFrame
-from microg.sim.hand import BONES_PER_HAND, N_BONES, N_DIGITS
+from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
 from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
 
 STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL
@@ -105,7 +104,7 @@ def frames_of(moments: Sequence[Moment]) -> np.ndarray:
         for field in ("joints", "widths", "palm_position", "palm_orientation"):
             frames[field][rows, side] = _rows([getattr(h, field) for h in hands])
         rendered = _rows([moments[i].after.rendered for i in rows])
-        frames["rendered"][rows, side] = rendered[:, side * BONES_PER_HAND:(side + 1) * BONES_PER_HAND]
+        frames["rendered"][rows, side] = rendered[:, side_slots(side)]
     return frames
 
 

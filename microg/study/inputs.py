@@ -13,7 +13,7 @@ from typing import Callable, Protocol as Interface
 
 from microg.hands.source import HandSource
 from microg.participant.plan import TaskPlan
-from microg.sim import HandFrame
+from microg.skeleton import HandFrame
 
 from .protocol import Protocol
 from .store import PlannedTask

@@ -17,7 +17,7 @@ import json
 
 import numpy as np
 
-from microg.sim import BONES, DIGITS, SIDES
+from microg.skeleton import BONES, DIGITS, SIDES
 
 NETWORK_NOTICE = (
     "--lsl: the session's LSL streams are open to the network, as LSL does by default: announced on UDP port 16571 "
@@ -48,19 +48,23 @@ def _describe(info, tags: dict[str, str]) -> None:
 
 
 class MarkerOutlet:
-    """An LSL outlet of type ``Markers``; call it with an event kind and its data."""
+    """An LSL outlet of type ``Markers`` (the session's ``Markers``): each event the session logs,
+    stamped with the event's own time on LSL's clock. The event happened ``clock.now() - event.t``
+    seconds before it is sent (it is sent once committed), so the stamp does not carry the commit's
+    or a thread switch's delay."""
 
-    def __init__(self, tags: dict[str, str], name: str = MARKERS_NAME, source_id: str = "microg-markers"):
+    def __init__(self, tags: dict[str, str], clock, name: str = MARKERS_NAME, source_id: str = "microg-markers"):
         try:
             import pylsl
         except ImportError:
             raise ImportError("LSL markers need pylsl: pip install 'microg[lsl]'") from None
         info = pylsl.StreamInfo(name, "Markers", 1, pylsl.IRREGULAR_RATE, "string", source_id)
         _describe(info, tags)
-        self._outlet = pylsl.StreamOutlet(info)
+        self._outlet, self._local_clock, self.clock = pylsl.StreamOutlet(info), pylsl.local_clock, clock
 
-    def __call__(self, kind: str, data: dict) -> None:
-        self._outlet.push_sample([json.dumps({"kind": kind, **data}, sort_keys=True)])
+    def mark(self, event) -> None:
+        stamp = self._local_clock() - (self.clock.now() - event.t)
+        self._outlet.push_sample([json.dumps({"kind": event.kind, **event.data}, sort_keys=True)], stamp)
 
 
 JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
@@ -91,7 +95,8 @@ def mocap_sample(moment) -> np.ndarray:
 
 
 class MocapOutlet:
-    """An LSL outlet of type ``MoCap`` at the tracking rate; call it with each frame's ``Moment``."""
+    """An LSL outlet of type ``MoCap`` at the tracking rate: a ``FrameSink`` of the session, one
+    sample per frame's ``Moment``."""
 
     def __init__(self, rate: float, tags: dict[str, str], name: str = MOCAP_NAME, source_id: str = "microg-mocap"):
         try:
@@ -109,5 +114,5 @@ class MocapOutlet:
         _describe(info, tags)
         self._outlet = pylsl.StreamOutlet(info)
 
-    def __call__(self, moment) -> None:
+    def take(self, moment) -> None:
         self._outlet.push_sample(mocap_sample(moment).tolist())

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from microg.participant.ratings import Experience, RatingModel
-from microg.sim.hand import BONES_PER_HAND, SIDES
+from microg.skeleton import SIDES, side_slots
 
 from . import framelog
 from .protocol import Item, Questionnaire, TaskPhase
@@ -22,7 +22,7 @@ def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
         tracked = frames["tracked"][:, side]
         centres = 0.5 * (frames["joints"][:, side, :, 1:] + frames["joints"][:, side, :, :-1]).reshape(len(frames), -1, 3)
         sunk = np.linalg.norm(frames["rendered"][:, side] - centres, axis=-1)
-        touching = framelog.touching_slots(frames["touching"])[:, side * BONES_PER_HAND:(side + 1) * BONES_PER_HAND]
+        touching = framelog.touching_slots(frames["touching"])[:, side_slots(side)]
         penetration += (1e3 * sunk[touching & tracked[:, None]]).astype(np.float64).tolist()
         palm = frames["palm_position"][:, side].astype(np.float64)
         t = frames["t"]
@@ -53,7 +53,7 @@ def experience(store: Store, session_id: int, interaction: str) -> Experience:
     times = [r["time_s"] for r in rows if r["status"] == "completed"]
     return Experience(
         tasks=len(rows),
-        drops_per_task=float(np.mean([r["attempts"] or 0 for r in rows])),
+        attempts_per_task=float(np.mean([r["attempts"] or 0 for r in rows])),
         not_completed=1.0 - len(times) / len(rows),
         time_s=float(np.mean(times)) if times else float("nan"),
         penetration_mm=float(np.mean(penetration)) if penetration else 0.0,

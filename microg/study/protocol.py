@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from microg.hands.filter import FILTER_WINDOW
+from microg.hands.guard import GuardConfig
 from microg.paths import OBJECTS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
@@ -42,8 +43,7 @@ PHASES_INFO = ("orientation", "instructions")
 """Timeline phases that show text and log their start and end."""
 ORDER_SCHEMES = ("latin_square", "permutation")
 BALANCING = ("gender", "none")
-SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_integrator", "resting_tolerance",
-                 "jump_distance")
+SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_integrator", "resting_tolerance")
 """Physics settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
 LABEL = re.compile(r"[A-Za-z0-9]+")
 """What a name must be when it becomes a BIDS label or a file name part (ASCII letters and digits)."""
@@ -154,6 +154,8 @@ class Protocol:
     scene_options: dict
     filter_window: int
     """F of the window filter on the tracked hand (Eq. 1, ``microg.hands.filter``)."""
+    jump_distance: float
+    """How far (m) a hand may move between two frames before the tracking guard calls it a jump."""
     total_participants: int
     balance: str
     age_range: tuple[int, int] | None
@@ -234,6 +236,11 @@ class Protocol:
     def tracking_rate(self) -> float:
         """Nominal hand-frame rate (Hz): the protocol's scene option, else the physics' default."""
         return float(self.scene_options.get("tracking_rate", Scene.tracking_rate))
+
+    @property
+    def guard(self) -> GuardConfig:
+        """The tracking guard's settings for this protocol: its frame rate and jump distance."""
+        return GuardConfig(nominal_rate=self.tracking_rate, jump_distance=self.jump_distance)
 
     @property
     def sha256(self) -> str:
@@ -458,8 +465,9 @@ class _Reader:
 # ---------------------------------------------------------------- one reader per section
 
 
-def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None, dict, int]:
-    """``[scene]``: gravity, table height, physics options, the window filter's F."""
+def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None, dict, int, float]:
+    """``[scene]``: gravity, table height, physics options, and hand tracking's window filter F and
+    jump distance."""
     scene = top.table("scene")
     gravity = scene.vector("gravity")
     table_height = scene.raw("table_height", "none")
@@ -469,8 +477,9 @@ def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None,
         raise scene.fail("table_height", table_height, 'must be a height (m) or "none"')
     options = {key: scene.raw(key) for key in SCENE_OPTIONS if key in scene.data}
     filter_window = scene.integer("filter_window", FILTER_WINDOW)
+    jump_distance = scene.number("jump_distance", GuardConfig.jump_distance, unit="m")
     scene.done()
-    return gravity, None if table_height is None else float(table_height), options, filter_window
+    return gravity, None if table_height is None else float(table_height), options, filter_window, jump_distance
 
 
 def _read_participants(top: _Reader) -> tuple[_Reader, int, str, tuple[int, int] | None]:
@@ -772,7 +781,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     top.text("description", "")
     seed = top.integer("seed", None, minimum=0)
     duration = top.number("duration_minutes", unit=" (minutes)")
-    gravity, table_height, options, filter_window = _read_scene(top)
+    gravity, table_height, options, filter_window, jump_distance = _read_scene(top)
     people, total, balance, age_range = _read_participants(top)
     groups = _read_groups(top, people, total)
     objects, order = _read_objects(top, sources, files, meshes)
@@ -792,7 +801,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     top.done()
     protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
                         gravity=gravity, table_height=table_height, scene_options=options,
-                        filter_window=filter_window, total_participants=total, balance=balance, age_range=age_range,
+                        filter_window=filter_window, jump_distance=jump_distance, total_participants=total, balance=balance, age_range=age_range,
                         groups=groups, objects=objects, order=order, task=task, training=training, phases=phases,
                         questionnaire=questionnaire, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
                         resolved=resolved, dataset=dataset)

@@ -32,7 +32,7 @@ from microg.sim import INTERACTION_MODELS
 from . import framelog
 from .assignment import Participant
 from .protocol import SCENE_OPTIONS, ProtocolError, protocol_from_resolved
-from .session import SimulationClock, TaskResult, guarded, run_task, task_world
+from .session import EventLog, SimulationClock, run_task, task_world
 from .store import Event, Store, StoreError, create_study, derived_seed, open_study
 
 FOLDER = "resimulated"
@@ -104,10 +104,8 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, inte
             store.end_run(run_id, "skipped", clock.now(), reason="the original run logged no frames")
             continue
         frames = framelog.hand_frames(framelog.read(original.db, runs[task.index].id))
-        world = task_world(store.protocol, task)
-        source = guarded(ReplaySource(frames, f"{INPUT}:run {runs[task.index].id}"), world.model.scene)
+        source = ReplaySource(frames, f"{INPUT}:run {runs[task.index].id}")
         run_id = store.begin_run(new.id, task, source.description, derived_seed(new.seed, task.index), clock.now())
-        result: TaskResult = run_task(store, new.id, run_id, world, source, store.protocol.task, clock,
-                                      batch=store.protocol.frame_batch, filter_window=store.protocol.filter_window)
-        del result
+        run_task(log=EventLog(store, new.id, clock), run_id=run_id, world=task_world(store.protocol, task),
+                 source=source, protocol=store.protocol)
     store.finish_session(new.id, clock.now())

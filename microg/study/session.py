@@ -9,11 +9,13 @@ again from its start.
 
 Each task gets its own world holding only the task's object at its start pose, under the
 protocol's gravity and the phase's interaction model; with a ``table_height`` the object stands
-on a table (the physics' ``table`` effect) and falls back onto it when dropped. Frames come from
-the task's hand source; each one steps the physics, then the task's state machine
-(``microg.task.stages``); an object that leaves the workspace while not held (drifting away in
-microgravity, or off the table) goes back to its start, as the researcher would put it back.
-Events are committed as they happen, frames every ``frame_batch``.
+on a table (the physics' ``table`` effect) and falls back onto it when dropped. One frame goes
+one way (``run_task``), as in the paper's Fig. 2: the task's hand source, the tracking guard and
+the window filter (``microg.hands.tracking``), the physics (``microg.sim.step``), the task's rules
+and respawn (``microg.task.play``), then what the frame feeds, each a ``FrameSink``: the run's log
+(events committed as they happen, frames every ``frame_batch``), the participant's page, LSL's
+MoCap stream, the progress bar. Every event the session logs goes through one call
+(``EventLog``): committed, then sent as an LSL marker stamped with its own time.
 
 Clocks are injected: ``WallClock`` for live sessions, ``SimulationClock`` (which advances with
 the frames' timestamps) otherwise. Task times always come from the frames' timestamps.
@@ -23,24 +25,19 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Protocol as Interface
+from typing import Protocol as Interface, Sequence
 
 from tqdm import tqdm
 
-from microg.hands.filter import FILTER_WINDOW, HandFilter
-from microg.sim import Scene, World, make_world
-from microg.task import COMPLETED, Moment, TaskRules, TaskState, play
+from microg.hands.tracking import Tracking
+from microg.sim import World, make_world
+from microg.task import COMPLETED, Moment, TaskRules, play
 
 from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
 from .questionnaire import Rater
 from .store import Event, PlannedTask, Store, derived_seed
-
-Markers = Callable[[str, dict], None]
-"""Receives task and stage events as they happen (e.g. an LSL marker outlet): called right when the
-session's clock is read for the event, before the event is committed, so that a marker's own time
-(LSL's) is the event's and not the disk's."""
 
 
 class Clock(Interface):
@@ -88,7 +85,7 @@ def make_clock(kind: str, start: float = 0.0) -> Clock:
 class Operator(Interface):
     """The researcher's side of a session."""
 
-    def show(self, phase: Phase) -> None:
+    def present(self, phase: Phase) -> None:
         """Present an orientation or instructions phase (returns when it is over)."""
 
     def ready(self, task: PlannedTask) -> bool:
@@ -101,7 +98,7 @@ class Operator(Interface):
 class Unattended:
     """No researcher at the keyboard (replayed and simulated sessions): run everything."""
 
-    def show(self, phase: Phase) -> None:
+    def present(self, phase: Phase) -> None:
         pass
 
     def ready(self, task: PlannedTask) -> bool:
@@ -109,6 +106,56 @@ class Unattended:
 
     def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
         pass
+
+
+class FrameSink(Interface):
+    """What a frame feeds (the run's log, the participant's page, LSL's MoCap stream, a progress
+    bar): it takes each frame's ``Moment`` as the physics and the task's rules made it."""
+
+    def take(self, moment: Moment) -> None: ...
+
+
+class Markers(Interface):
+    """Receives every event the session logs, once it is committed (an LSL marker outlet,
+    ``microg.study.lsl.MarkerOutlet``, which stamps the marker with the event's own time)."""
+
+    def mark(self, event: Event) -> None: ...
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a session feeds besides its log: every frame's moment to ``sinks`` (the participant's
+    page, LSL's MoCap stream), every event to ``markers``, and a progress bar when ``progress``."""
+
+    sinks: tuple[FrameSink, ...] = ()
+    markers: Markers | None = None
+    progress: bool = False
+
+
+@dataclass(frozen=True)
+class EventLog:
+    """The one way a session logs an event: committed to the store, then sent as a marker."""
+
+    store: Store
+    session_id: int
+    clock: Clock
+    markers: Markers | None = None
+
+    def emit(self, kind: str, data: dict, run_id: int | None = None) -> None:
+        """Log one event now."""
+        self.commit([Event(self.clock.now(), kind, data)], run_id)
+
+    def commit(self, events: list[Event], run_id: int | None = None) -> None:
+        """Log events in one transaction."""
+        if events:
+            self.store.log(self.session_id, events, run_id)
+            self.mark(events)
+
+    def mark(self, events: Sequence[Event]) -> None:
+        """Send events the store committed itself (a run's start and end) as markers."""
+        if self.markers:
+            for event in events:
+                self.markers.mark(event)
 
 
 @dataclass(frozen=True)
@@ -129,67 +176,78 @@ def task_world(protocol: Protocol, task: PlannedTask) -> World:
     return make_world(protocol.scene(task.object, task.interaction))
 
 
-def guarded(source, scene: Scene):
-    """``source`` behind the tracking guard (``microg.hands.guard``), which drops incomplete
-    hands and stale frames and bridges tracking glitches before the physics sees them; it expects
-    the scene's frame rate and detects jumps as the scene's physics does."""
-    from microg.hands.guard import GuardConfig, TrackingGuard
+class RunLog:
+    """A ``FrameSink``: what a run logs of its frames. The session's clock moves on by each frame's
+    interval, the task's events are committed as they happen, and the frames every ``batch``
+    (``framelog``), so a crash loses at most one batch of frames and never an event."""
 
-    return TrackingGuard(source, GuardConfig(nominal_rate=float(scene.tracking_rate),
-                                             jump_distance=float(scene.jump_distance)))
+    def __init__(self, log: EventLog, run_id: int, batch: int):
+        self.log, self.run_id, self.batch = log, run_id, batch
+        self.logged, self.pending, self.last = 0, [], None
+
+    def take(self, moment: Moment) -> None:
+        t = moment.frame.timestamp
+        self.log.clock.elapse(0.0 if self.last is None else t - self.last.frame.timestamp)
+        self.last = moment
+        now = self.log.clock.now()
+        self.log.commit([Event(now, e.kind, dict(e.data, frame_t=e.t)) for e in moment.events], self.run_id)
+        self.pending.append(moment)
+        if len(self.pending) == self.batch:
+            self.log.store.add_frames(self.run_id, self.logged, framelog.frames_of(self.pending))
+            self.logged, self.pending = self.logged + self.batch, []
+
+    def end(self, status: str, *, time_s: float | None, attempts: int | None, reason: str | None,
+            events: list[Event] = ()) -> None:
+        """Close the run with its last frames, its result and ``events`` (then the end event)."""
+        self.log.mark(self.log.store.end_run(self.run_id, status, self.log.clock.now(), time_s=time_s,
+                                             attempts=attempts, reason=reason, events=list(events),
+                                             frames=(self.logged, framelog.frames_of(self.pending))))
 
 
-def run_task(store: Store, session_id: int, run_id: int, world: World, source, rules: TaskRules, clock: Clock,
-             markers: Markers | None = None, batch: int = 64, on_moment: Callable[[Moment], None] | None = None,
-             filter_window: int = FILTER_WINDOW) -> TaskResult:
-    """Play one task (``microg.task.play``) from ``source`` until it completes, times out or the
-    source ends; log every frame and event. ``on_moment`` sees each frame's outcome as it happens
-    (the participant's display, a progress bar).
+class TaskProgress:
+    """A ``FrameSink``: the task's frame count and rate on the session's progress bar."""
+
+    def __init__(self, bar, label: str):
+        self.bar, self.label, self.frames, self.started = bar, label, 0, time.monotonic()
+
+    def take(self, moment: Moment) -> None:
+        self.frames += 1
+        if self.frames % 110 == 0:
+            rate = self.frames / max(time.monotonic() - self.started, 1e-9)
+            self.bar.set_postfix_str(f"{self.label}: {self.frames} frames, {rate:.0f} fps")
+
+
+def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Protocol,
+             rules: TaskRules | None = None, sinks: Sequence[FrameSink] = ()) -> TaskResult:
+    """Play one task from ``source`` until it completes, times out or the source ends; log every
+    frame and event, and feed every frame to ``sinks``. ``rules``: the protocol's task unless given.
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
-    state, logged, last_t = TaskState(), 0, None
-    pending: list[Moment] = []
-    smooth = HandFilter(filter_window, 1.0 / world.model.scene.tracking_rate)
+    rules = rules or protocol.task
+    run = RunLog(log, run_id, protocol.frame_batch)
+    tracked = Tracking(source, protocol.guard, protocol.filter_window)  # hands: guard, window filter (Eq. 1)
     try:
-        for moment in play(world, source, rules, smooth):
-            state, t = moment.state, moment.frame.timestamp
-            clock.elapse(0.0 if last_t is None else t - last_t)
-            last_t = t
-            events = [Event(clock.now(), e.kind, dict(e.data, frame_t=e.t)) for e in moment.events]
-            if events:
-                if markers:
-                    for event in events:
-                        markers(event.kind, event.data)
-                store.log(session_id, events, run_id)
-            pending.append(moment)
-            if len(pending) == batch:
-                store.add_frames(run_id, logged, framelog.frames_of(pending))
-                logged, pending = logged + batch, []
-            if on_moment:
-                on_moment(moment)
+        for moment in play(world, tracked, rules):  # sim: step (Eqs. 2-20); task: stages, respawn
+            run.take(moment)                        # study: the run's events and frames
+            for sink in sinks:                      # view: the participant's page; LSL; progress
+                sink.take(moment)
     except BaseException as error:
-        store.end_run(run_id, "interrupted", clock.now(), attempts=state.drops,
-                      frames=(logged, framelog.frames_of(pending)),
-                      reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
+        run.end("interrupted", time_s=None, attempts=run.last.state.attempts if run.last else 0,
+                reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
         raise
     finally:
-        source.close()
-    frames = logged + len(pending)
-    if state.finished:
+        tracked.close()
+    state = run.last.state if run.last else None
+    if state is not None and state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
-        result = TaskResult(status, state.completion_time, state.drops, frames)
+        result = TaskResult(status, state.completion_time, state.attempts, run.logged + len(run.pending))
         reason = None if status == COMPLETED else f"not completed within task.timeout_s = {rules.timeout_s:g} s"
     else:
-        result = TaskResult("aborted", None, state.drops, frames)
+        result = TaskResult("aborted", None, state.attempts if state else 0, run.logged + len(run.pending))
         reason = f"the hand source ({source.description}) ended before the task did"
-    counts = getattr(source, "counts", None)
-    ended = clock.now()
-    if markers:
-        markers("task_end", {"status": result.status, "time_s": result.time_s, "attempts": result.attempts})
-    store.end_run(run_id, result.status, ended, time_s=result.time_s, attempts=result.attempts,
-                  reason=reason, frames=(logged, framelog.frames_of(pending)),
-                  events=[Event(ended, "tracking_guard", counts.as_dict())] if counts is not None else [])
+    run.end(result.status, time_s=result.time_s, attempts=result.attempts, reason=reason,
+            events=[Event(log.clock.now(), "tracking_guard", tracked.counts.as_dict())])
     return result
 
 
@@ -197,17 +255,16 @@ def run_task(store: Store, session_id: int, run_id: int, world: World, source, r
 
 
 def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, operator: Operator | None = None,
-                rater: Rater | None = None, markers: Markers | None = None, progress: bool = True,
-                on_moment: Callable[[Moment], None] | None = None) -> str:
+                rater: Rater | None = None, outputs: Outputs = Outputs()) -> str:
     """Run (or carry on) a session to its end; returns the session's status (``completed``, or
-    ``incomplete`` when a task was aborted or skipped: ``Store.finish_session``). ``on_moment``
-    sees every frame's outcome as the physics computes it (the participant's display)."""
+    ``incomplete`` when a task was aborted or skipped: ``Store.finish_session``)."""
     operator = operator or Unattended()
     protocol = store.protocol
     session = store.session(session_id)
     if session.status != "running":
         raise ValueError(f"session {session_id} is {session.status}; only a running session can go on")
     store.commit_for(session.simulated)
+    log = EventLog(store, session_id, clock, outputs.markers)
     participant = store.participant(session.participant_id)
     tasks = store.tasks(session_id)
     task_phases = {p.name for p in protocol.phases}
@@ -215,68 +272,48 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
     bar = tqdm(total=len(tasks), initial=len(finished), unit="task", desc=f"{participant.id} ({participant.group})",
-               disable=not progress, leave=True)
+               disable=not outputs.progress, leave=True)
     try:
         for phase in protocol.phases_for(participant.group):
             if phase.name in ended_phases:
                 continue
             if phase.name not in started_phases:
-                now = clock.now()
-                if markers:
-                    markers("phase_start", {"phase": phase.name})
-                store.log(session_id, [Event(now, "phase_start", {"phase": phase.name})])
+                log.emit("phase_start", {"phase": phase.name})
             if phase.name == "questionnaire":
                 _questionnaire(store, session_id, rater, clock, protocol)
             elif phase.name == "training" or phase.name in task_phases:
                 for task in tasks:
                     if task.phase == phase.name and task.index not in finished:
-                        _run_planned(store, session, task, inputs, clock, operator, markers, bar, on_moment)
+                        _run_planned(log, session, task, inputs, operator, outputs.sinks, bar)
                         finished.add(task.index)
                         bar.update(1)
             else:
-                operator.show(phase)
-            now = clock.now()
-            if markers:
-                markers("phase_end", {"phase": phase.name})
-            store.log(session_id, [Event(now, "phase_end", {"phase": phase.name})])
+                operator.present(phase)
+            log.emit("phase_end", {"phase": phase.name})
     finally:
         bar.close()
     return store.finish_session(session_id, clock.now())
 
 
-def _run_planned(store: Store, session, task: PlannedTask, inputs: Inputs, clock: Clock, operator: Operator,
-                 markers: Markers | None, bar, on_moment: Callable[[Moment], None] | None) -> TaskResult:
+def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, operator: Operator,
+                 sinks: Sequence[FrameSink], bar) -> TaskResult:
+    store, clock = log.store, log.clock
     protocol = store.protocol
     seed = derived_seed(session.seed, task.index)
-    label = f"{task.phase} {task.object_code} ({task.interaction})"
     if not operator.ready(task):
         run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
-        store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator")
+        log.mark(store.events(session.id, run_id))
+        log.mark(store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator"))
         operator.finished(task, "skipped", None)
         return TaskResult("skipped", None, None, 0)
     hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
     world = task_world(protocol, task)
-    source = guarded(inputs.open(participant_plan(protocol, task, hand, session.participant_id), seed),
-                     world.model.scene)
-    now = clock.now()
-    if markers:
-        markers("task_start", {"task": task.index, "phase": task.phase, "interaction": task.interaction,
-                               "object": task.object})
-    run_id = store.begin_run(session.id, task, source.description, seed, now)
-    started = time.monotonic()
-
-    frames = 0
-
-    def show(moment: Moment) -> None:
-        nonlocal frames
-        frames += 1
-        if frames % 110 == 0:
-            bar.set_postfix_str(f"{label}: {frames} frames, {frames / max(time.monotonic() - started, 1e-9):.0f} fps")
-        if on_moment:
-            on_moment(moment)
-
-    result = run_task(store, session.id, run_id, world, source, protocol.task, clock, markers, protocol.frame_batch,
-                      show, protocol.filter_window)
+    source = inputs.open(participant_plan(protocol, task, hand, session.participant_id), seed)
+    run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
+    log.mark(store.events(session.id, run_id))
+    progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")
+    result = run_task(log=log, run_id=run_id, world=world, source=source, protocol=protocol,
+                      sinks=(*sinks, progress))
     operator.finished(task, result.status, result.time_s)
     return result
 
@@ -294,15 +331,14 @@ def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Cl
                 store.save_answer(session_id, phase.interaction, item.name, rating, rater.source, clock.now())
 
 
-def resume_session(store: Store, session_id: int, inputs: Inputs, **options) -> str:
-    """Mark runs cut off by a crash as interrupted, log the resume with its provenance, run on."""
+def resume_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, operator: Operator | None = None,
+                   rater: Rater | None = None, outputs: Outputs = Outputs()) -> str:
+    """Mark runs cut off by a crash as interrupted, log the resume with its provenance (its marker
+    is where the markers' clock line breaks: ``microg.study.xdf``), run on."""
     from microg import __version__
 
-    clock = options["clock"]
     interrupted = store.interrupt_open_runs(session_id, clock.now())
-    if options.get("markers"):  # where the markers' clock line breaks (``microg.study.xdf``)
-        options["markers"]("session_resume", {"interrupted_runs": interrupted})
-    store.log(session_id, [Event(clock.now(), "session_resume", {
-        "interrupted_runs": interrupted, "input": inputs.spec, "microg_version": __version__})])
-    return run_session(store, session_id, inputs, **options)
+    EventLog(store, session_id, clock, outputs.markers).emit("session_resume", {
+        "interrupted_runs": interrupted, "input": inputs.spec, "microg_version": __version__})
+    return run_session(store, session_id, inputs, clock=clock, operator=operator, rater=rater, outputs=outputs)
 

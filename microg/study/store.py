@@ -494,15 +494,16 @@ class Store:
 
     def end_run(self, run_id: int, status: str, t: float, *, time_s: float | None = None,
                 attempts: int | None = None, reason: str | None = None, frames: tuple[int, np.ndarray] = (0, ()),
-                events: list[Event] = ()) -> None:
-        """Close a run: its last frames, its result and its end event in one transaction."""
+                events: list[Event] = ()) -> list[Event]:
+        """Close a run: its last frames, its result and its end event in one transaction; returns the
+        events it logged (``events``, then the end event)."""
         with self.transaction() as db:
-            self._end_run(db, run_id, status, t, time_s=time_s, attempts=attempts, reason=reason, frames=frames,
-                          events=events)
+            return self._end_run(db, run_id, status, t, time_s=time_s, attempts=attempts, reason=reason,
+                                 frames=frames, events=events)
 
     def _end_run(self, db: sqlite3.Connection, run_id: int, status: str, t: float, *, time_s: float | None = None,
                  attempts: int | None = None, reason: str | None = None, frames: tuple[int, np.ndarray] = (0, ()),
-                 events: list[Event] = ()) -> None:
+                 events: list[Event] = ()) -> list[Event]:
         if status not in RUN_STATUSES or status == "running":
             raise ValueError(f"end_run(status = {status!r}): must be one of {RUN_STATUSES[:-2] + ('interrupted',)}")
         session_id, = db.execute("SELECT session_id FROM task_runs WHERE id = ?", (run_id,)).fetchone()
@@ -511,8 +512,10 @@ class Store:
         db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
                    "frames = ?, ended_wall = ? WHERE id = ?",
                    (status, reason, t, time_s, attempts, count, utc_now(), run_id))
-        self._insert_events(db, session_id, run_id, list(events) + [Event(t, "task_end", {
-            "status": status, "time_s": time_s, "attempts": attempts, "reason": reason})])
+        logged = list(events) + [Event(t, "task_end", {
+            "status": status, "time_s": time_s, "attempts": attempts, "reason": reason})]
+        self._insert_events(db, session_id, run_id, logged)
+        return logged
 
     def _open_runs(self, session_id: int) -> list[int]:
         return [r.id for r in self.runs(session_id) if r.status == "running"]

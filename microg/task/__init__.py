@@ -1,6 +1,6 @@
 """The pick-and-place task (paper, section 4.3), written once: its stages, holds, drops and places.
 
-    for moment in play(world, source, rules, smooth):   # one frame each
+    for moment in play(world, tracked, rules):   # one frame each (tracked: microg.hands.tracking)
         moment.state.stage, moment.events
 
 ``rules`` (the numbers, from a protocol), ``observation`` (what the task and a participant see
@@ -13,8 +13,8 @@ from .play import Moment, play
 from .respawn import inside_workspace, respawn
 from .rules import TaskRules
 from .stages import COMPLETED, FINAL, MAINTENANCE, MANIPULATION, RELEASE, TIMEOUT, TaskDisplay, TaskEvent, TaskState, \
-    advance, shown
+    advance, displayed
 
 __all__ = ["COMPLETED", "FINAL", "MAINTENANCE", "MANIPULATION", "Moment", "Observation", "RELEASE", "TIMEOUT",
            "TaskDisplay", "TaskEvent", "TaskRules", "TaskState", "advance", "inside_workspace", "observe", "play",
-           "respawn", "shown"]
+           "respawn", "displayed"]

@@ -2,7 +2,7 @@
 
 ``advance(state, observation, rules)`` takes what the world shows at one frame and returns the new
 state and the events that happened. It is a pure function, so a live, replayed or simulated
-participant drives the same rules, and a test can script the observations. ``shown(state, t)`` is
+participant drives the same rules, and a test can script the observations. ``displayed(state, t)`` is
 what the task shows the participant at that moment: the stage, the current place, its light and
 its timer.
 
@@ -57,7 +57,8 @@ class TaskState:
     held: bool = False
     grasp_since: float | None = None
     loose_since: float | None = None
-    drops: int = 0
+    attempts: int = 0
+    """Drops so far: holds lost before the release stage (the paper's attempts)."""
 
     @property
     def finished(self) -> bool:
@@ -89,7 +90,7 @@ class TaskDisplay(NamedTuple):
     timer_s: float = 0.0
 
 
-def shown(state: TaskState, t: float) -> TaskDisplay:
+def displayed(state: TaskState, t: float) -> TaskDisplay:
     """What the task shows at time ``t`` in ``state``."""
     return TaskDisplay(state.stage, state.place, state.lit_since is not None, state.place_timer(t))
 
@@ -110,7 +111,7 @@ def advance(state: TaskState, obs: Observation, rules: TaskRules) -> tuple[TaskS
     state = _update_hold(state, obs, rules, events)
     if state.stage == RELEASE and not state.held:
         events.append(TaskEvent(t, "completed", {"time_s": state.loose_since - state.started,
-                                                 "attempts": state.drops}))
+                                                 "attempts": state.attempts}))
         return replace(state, stage=COMPLETED, ended=state.loose_since, loose_since=None), events
     if state.stage == MANIPULATION and state.held:
         state = replace(state, stage=MAINTENANCE)
@@ -149,10 +150,10 @@ def _update_hold(state: TaskState, obs: Observation, rules: TaskRules, events: l
     if state.lit_since is not None:
         events.append(TaskEvent(t, "place_dark", {"place": state.place, "lit_s": t - state.lit_since}))
     events.append(TaskEvent(t, "drop", {"since": since, "stage": state.stage, "place": state.place,
-                                        "attempts": state.drops + 1}))
+                                        "attempts": state.attempts + 1}))
     if state.stage == MAINTENANCE:
         events.append(TaskEvent(t, "stage", {"stage": MANIPULATION, "place": state.place}))
-    return replace(state, stage=MANIPULATION, drops=state.drops + 1, lit_since=None, loose_since=None)
+    return replace(state, stage=MANIPULATION, attempts=state.attempts + 1, lit_since=None, loose_since=None)
 
 
 def _update_place(state: TaskState, obs: Observation, rules: TaskRules, events: list[TaskEvent]) -> TaskState:

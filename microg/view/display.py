@@ -1,10 +1,11 @@
 """The participant's view: a page the session serves itself, fed every frame as the physics computes it.
 
     with ParticipantDisplay(protocol) as display:          # serves http://127.0.0.1:PORT/
-        run_session(..., on_moment=display.show, operator=DisplayOperator(display, operator),
+        run_session(..., outputs=Outputs(sinks=(display,)), operator=DisplayOperator(display, operator),
                     rater=DisplayRater(display, on_rejected))
 
-The session thread hands each frame's outcome to ``show`` (never through the database); the
+The display is one of the session's frame sinks: the session thread hands each frame's outcome
+to ``take`` (never through the database); the
 server thread keeps only the newest frame and sends it to each page as soon as the page can take
 it, so a slow browser skips frames and never falls behind. Everything else the participant sees
 (the instructions, a "get ready" before each task, the completion cue, the questionnaire) goes
@@ -38,6 +39,7 @@ from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
+from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Item, Phase, Protocol, Questionnaire, TaskPhase, Viewpoint
 from microg.study.questionnaire import RatingError, parse_rating
 from microg.study.store import PlannedTask
@@ -167,7 +169,7 @@ class ParticipantDisplay:
         self.deliver_events()
         self._publish("timeline", {"kind": "done", "task": task.index, "status": status, "time_s": time_s})
 
-    def show(self, moment: Moment) -> None:
+    def take(self, moment: Moment) -> None:
         """One frame's outcome: the rendered hand with its highlight, the object, the places, the
         timers; kept as the newest frame and sent to each page as soon as it can take it. With
         hands from the page, ``read`` is when the page read the newest of them (its own clock)."""
@@ -175,25 +177,25 @@ class ParticipantDisplay:
         after, state, display = moment.after, moment.state, moment.observation.display
         rendered = after.rendered
         hands = []
-        for side in range(2):
-            hand = moment.frame.hand(("left", "right")[side])
+        for side, name in enumerate(SIDES):
+            hand = moment.frame.hand(name)
             if hand is None:
                 continue
             values = HandValues(hand.joints, hand.widths, hand.palm_position, hand.palm_orientation,
-                                rendered[side * 20:(side + 1) * 20])
+                                rendered[side_slots(side)])
             bones = rendered_bones(values)
             drawn = bones.drawn
             hands.append({"side": side, "start": np.round(bones.start[drawn], 5).tolist(),
                           "end": np.round(bones.end[drawn], 5).tolist(),
                           "radius": np.round(bones.radius[drawn], 5).tolist(),
-                          "touching": moment.observation.touching[side * 20:(side + 1) * 20][drawn].tolist()})
+                          "touching": moment.observation.touching[side_slots(side)][drawn].tolist()})
         t = moment.frame.timestamp
         message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": now_ms(),
                    "object": np.round(np.concatenate([after.position, after.orientation]), 6).tolist(),
                    "hands": hands, "stage": display.stage, "place": display.place, "lit": display.lit,
                    "place_timer": round(display.timer_s, 3),
                    "task_timer": round(t - state.started, 3) if state.started is not None else 0.0,
-                   "attempts": state.drops, "held": state.held}
+                   "attempts": state.attempts, "held": state.held}
         if self.hands is not None:
             message["read"] = self.hands.last_read
         self._frame = json.dumps(message)
@@ -406,9 +408,9 @@ class DisplayOperator:
     def __init__(self, display: ParticipantDisplay, operator):
         self.display, self.operator = display, operator
 
-    def show(self, phase: Phase) -> None:
+    def present(self, phase: Phase) -> None:
         self.display.phase(phase)
-        self.operator.show(phase)
+        self.operator.present(phase)
 
     def ready(self, task: PlannedTask) -> bool:
         self.display.get_ready(task)

@@ -20,7 +20,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from microg.sim.hand import MIN_PHALANX_LENGTH
+from microg.skeleton import MIN_PHALANX_LENGTH
 
 from .scene import PALETTE, TRACKED_THINNER, Camera, Capsules, FrameScene, TaskLayout, bone_colours, hud_lines, \
     ring_mesh, z_to_direction

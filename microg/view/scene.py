@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microg.sim.hand import BONES_PER_HAND
+from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Protocol
 
 HAND_MODES = ("rendered", "tracked", "both")
@@ -115,7 +115,7 @@ def world_scene(t: float, object_position, object_orientation, joints: np.ndarra
     untracked), the rendered phalanx centres (40, 3) and the phalanges in contact (40,), in slot
     order. There is no task: no places, no task timer, no attempts."""
     hands = [HandValues(joints[side], widths[side], np.full(3, np.nan), np.full(4, np.nan),
-                        rendered[side * BONES_PER_HAND:(side + 1) * BONES_PER_HAND]) for side in range(2)]
+                        rendered[side_slots(side)]) for side in range(len(SIDES))]
     return FrameScene(t=t, stage="", place=0, place_lit=False, place_timer=0.0, held=held, attempts=0,
                       object_position=np.asarray(object_position, dtype=np.float64),
                       object_orientation=np.asarray(object_orientation, dtype=np.float64),

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microg.sim import SLOTS
+from microg.skeleton import SLOTS
 from microg.study.store import SessionRecord, Store, StoreError
 
 from .scene import HAND_MODES, PALETTE, TRACKED_OPACITY, TRACKED_THINNER, Capsules, FrameScene, TaskLayout, \

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microg.skeleton import SIDES
 from microg.study import framelog
 from microg.study.store import SessionRecord, Store, StoreError, open_study
 
@@ -151,7 +152,7 @@ class Track:
         """What frame ``index`` shows."""
         f = self.frames[index]
         t, place, lit = float(f["t"]), int(f["place"]), bool(f["place_lit"])
-        hands = [hand_values(f, side) for side in range(2)]
+        hands = [hand_values(f, side) for side in range(len(SIDES))]
         return FrameScene(
             t=t - self.start, stage=framelog.STAGES[f["stage"]], place=place, place_lit=lit,
             place_timer=float(f["place_timer"]), held=bool(f["held"]),

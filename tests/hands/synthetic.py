@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from microg.sim import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame
 
 RATE = 110.0
 KNUCKLE_X = np.array([-0.045, -0.025, 0.0, 0.02, 0.038])
@@ -62,12 +62,25 @@ class ListSource:
         self.closed = True
 
 
-def run_guard(frames, config=None):
-    """The frames a TrackingGuard passes, and its final counts."""
-    from microg.hands import GuardConfig, TrackingGuard
+class Guarded:
+    """``source`` through hand tracking (``microg.hands.Tracking``) with a window of one frame (no
+    smoothing): the frames the tracking guard admits, one per ``next_frame``, for tests of the guard."""
 
-    guard = TrackingGuard(ListSource(frames), config or GuardConfig())
+    def __init__(self, source, config=None):
+        from microg.hands import GuardConfig, Tracking
+
+        self.tracking = Tracking(source, config or GuardConfig(), window=1)
+        self.source, self.guard = source, self.tracking.guard
+
+    def next_frame(self, observation=None):
+        frame = self.tracking.next_frame(observation)
+        return None if frame is None else frame.admitted
+
+
+def run_guard(frames, config=None):
+    """The frames the tracking guard passes, and its final counts."""
+    guarded = Guarded(ListSource(frames), config)
     out = []
-    while (frame := guard.next_frame()) is not None:
+    while (frame := guarded.next_frame()) is not None:
         out.append(frame)
-    return out, guard.counts
+    return out, guarded.guard.counts

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from microg.sim import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame
 from microg.hands import load_recording
 from microg.hands.filter_report import filter_report
 from tests.hands.synthetic import WIDTHS

@@ -7,11 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from microg.sim import HandFrame
-from microg.hands import GuardConfig, TrackingGuard
-from microg.sim.hand import displacement
+from microg.skeleton import HandFrame, displacement
+from microg.hands import GuardConfig, Tracking
 from microg.hands.source import HandSource
-from tests.hands.synthetic import RATE, ListSource, run_guard, sweep, with_joints, with_nan
+from tests.hands.synthetic import RATE, Guarded, ListSource, run_guard, sweep, with_joints, with_nan
 
 PERIOD = 1 / RATE
 
@@ -116,16 +115,16 @@ def test_a_one_frame_glitch_is_bridged_and_never_reaches_the_world():
     frames = list(true)
     frames[5] = moved(frames[5], (0.15, 0, 0))
     config = GuardConfig(confirm_frames=3)
-    guard = TrackingGuard(ListSource(frames), config)
-    out = [guard.next_frame() for _ in range(5)]
-    assert guard.state.slots == ()  # nothing waits before the glitch
-    out.append(guard.next_frame())  # reads the glitch, waits, then the next frame decides it
-    assert len(guard.source.frames) == 3  # it read exactly one frame past the glitch
-    out += [guard.next_frame() for _ in range(4)]
-    assert guard.next_frame() is None
+    guarded = Guarded(ListSource(frames), config)
+    out = [guarded.next_frame() for _ in range(5)]
+    assert guarded.guard.state.slots == ()  # nothing waits before the glitch
+    out.append(guarded.next_frame())  # reads the glitch, waits, then the next frame decides it
+    assert len(guarded.source.frames) == 3  # it read exactly one frame past the glitch
+    out += [guarded.next_frame() for _ in range(4)]
+    assert guarded.next_frame() is None
     # on the line from before to after the glitch: for this steady sweep, where the hand really was
     assert all(same_hand(o.hands[0], t.hands[0], 1) for o, t in zip(out, true))
-    counts = guard.counts
+    counts = guarded.guard.counts
     assert (counts.jumps, counts.jumps_rejected, counts.jumps_accepted, counts.bridged_hands) == (1, 1, 0, 1)
 
 
@@ -186,16 +185,16 @@ def test_dropped_frames_are_counted_and_the_arrived_frames_pass_as_they_are():
     assert (counts.gaps, counts.bridged_hands, counts.new_tracks) == (2, 0, 1)
 
 
-def test_the_guard_shows_the_observation_to_its_source_and_closes_it():
+def test_hand_tracking_shows_the_observation_to_its_source_and_closes_it():
     frames = sweep((0, 0.2, 0), (0.1, 0, 0), 2)
     source = ListSource(frames)
-    guard = TrackingGuard(source)
-    assert isinstance(guard, HandSource)
+    tracked = Tracking(source)
+    assert isinstance(tracked, HandSource)
     observation = object()
-    guard.next_frame(observation)
+    tracked.next_frame(observation)
     assert source.observations == [observation]
-    guard.close()
-    assert source.closed and guard.description == "list"
+    tracked.close()
+    assert source.closed and tracked.description == "list"
 
 
 def test_frames_still_waiting_when_the_source_ends_are_passed_without_the_undecided_hand():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from microg.participant.scripted import probe_hand
-from microg.sim import HandFrame
+from microg.skeleton import HandFrame
 from microg.hands.lsl import CHANNELS, STREAM_TYPE, describe_channels, frame_of, sample_of
 from microg.study.export import run_frames, trials_table
 from microg.study.inputs import open_inputs, participant_plan
@@ -55,7 +55,7 @@ def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F
     thread = threading.Thread(target=publish, daemon=True)
     thread.start()
     try:
-        status = run_session(store, store.session_of("P01").id, inputs, clock=SimulationClock(), progress=False)
+        status = run_session(store, store.session_of("P01").id, inputs, clock=SimulationClock())
     finally:
         inputs.close()
     assert status == "completed"

@@ -10,9 +10,9 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from microg.sim import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame
 from microg.hands import (RecordingError, RecordingInfo, RecordingWriter, ReplaySource, load_recording,
-                                 open_source, read_recording, record, write_recording)
+                          open_source, read_recording, record, write_recording)
 from microg.hands.recording import UNKNOWN
 from microg.hands.source import HandSource
 REPOSITORY = Path(__file__).resolve().parents[2]

@@ -16,7 +16,7 @@ from PIL import Image
 
 from microg.cli import main
 from microg.participant import demos
-from microg.participant.demos import DEMOS, count_drops, run_demo
+from microg.participant.demos import DEMOS, count_attempts, run_demo
 
 MODEL = "impulse_penetration"
 
@@ -42,7 +42,7 @@ def test_a_grasp_holds_through_its_hold_window_and_the_object_goes_where_the_han
     result = paper(name)
     start, end = result.demo.hold
     assert result.grasped[result.window(start, end)].all()
-    assert result.drops == 0
+    assert result.attempts == 0
     carried = hand_centre(result.demo, end) - hand_centre(result.demo, start)
     moved = result.position[result.index_at(end)] - result.position[result.index_at(start)]
     assert np.linalg.norm(carried) >= 0.09
@@ -128,10 +128,10 @@ def test_the_released_object_keeps_the_velocity_it_had_when_the_fingers_let_go()
 def test_a_hold_ends_only_after_the_grace_and_a_drop_is_a_hold_lost_in_the_window():
     t = np.arange(0.0, 3.0, 0.01)
     flicker = (t > 0.5) & ~((t > 1.0) & (t < 1.1))  # a 0.1 s break: contacts flicker
-    assert count_drops(t, flicker, until=3.0) == 0
+    assert count_attempts(t, flicker, until=3.0) == 0
     lost = (t > 0.5) & ~((t > 1.0) & (t < 1.5))  # gone 0.5 s: dropped, then picked up again
-    assert count_drops(t, lost, until=3.0) == 1
-    assert count_drops(t, lost, until=0.9) == 0  # lost after the script let go: a release
+    assert count_attempts(t, lost, until=3.0) == 1
+    assert count_attempts(t, lost, until=0.9) == 0  # lost after the script let go: a release
 
 
 def test_sim_demo_runs_pinch_carry_by_default_and_keeps_options_to_the_demos_they_fit():
@@ -140,13 +140,13 @@ def test_sim_demo_runs_pinch_carry_by_default_and_keeps_options_to_the_demos_the
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
     assert lines[0].startswith("pinch-carry: thumb and index pinch the cube")
-    assert lines[-1].startswith("not held at the end, 0 drops")
+    assert lines[-1].startswith("not held at the end, 0 attempts")
     result = run(main, ["sim", "demo", "lift", "--gravity", "1"])
     assert result.exit_code == 1 and "gravity is for pinch-carry only" in result.output
 
 
 GALLERY = ["nudge", "pinch"]
-COLUMNS = ["demo", "interaction", "grasped", "drops", "peak_object_speed_m_s", "deepest_penetration_mm"]
+COLUMNS = ["demo", "interaction", "grasped", "attempts", "peak_object_speed_m_s", "deepest_penetration_mm"]
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from microg.hands.filter import FILTER_WINDOW, HandFilter
+from microg.hands.guard import GuardConfig
+from microg.hands.tracking import Tracking
 from microg.participant import VETERAN, SimulatedParticipant, TaskPlan
 from microg.participant.bench import EARTH, PLACES, START, ZERO_G, bench_plan, bench_rules, \
     bench_world, run_trial
@@ -146,8 +147,8 @@ def test_after_a_forced_drop_the_participant_grasps_the_object_again(gravity):
     assert grasped(world)[0]
     world = knocked_out(world)
     knocked_at = world.time
-    world = run(participant, world, lambda p, w: p.state.drops == 1)
-    assert participant.state.drops == 1 and world.time - knocked_at < 1.0
+    world = run(participant, world, lambda p, w: p.state.attempts == 1)
+    assert participant.state.attempts == 1 and world.time - knocked_at < 1.0
     world = run(participant, world,
                 lambda p, w: grasped(w)[0] and p.state.action == "carry" or w.time > knocked_at + 8.0)
     assert grasped(world)[0], "the participant took hold of the cube again"
@@ -163,12 +164,12 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
     plan = bench_plan("cube", EARTH)
     participant = SimulatedParticipant(plan, "veteran", 2)
     world = bench_world(plan, "impulse_penetration")
-    smooth = HandFilter(FILTER_WINDOW, 1.0 / world.model.scene.tracking_rate)
+    tracked = Tracking(participant, GuardConfig(nominal_rate=world.model.scene.tracking_rate))
     shown_places, own_places = [], []
-    for moment in play(world, participant, plan.rules, smooth):
+    for moment in play(world, tracked, plan.rules):
         own_places.append(participant.state.place)
         shown_places.append(moment.observation.display.place)
-    assert moment.state.stage == COMPLETED and moment.state.drops == 0
+    assert moment.state.stage == COMPLETED and moment.state.attempts == 0
     # own_places[i] was decided on the display of frame i - 1.
     for i in range(1, len(own_places)):
         if own_places[i] > own_places[i - 1]:
@@ -182,7 +183,7 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
 def test_the_bench_plays_the_task_by_its_rules():
     plan = bench_plan("cube", ZERO_G, time_limit_s=60.0)
     result = run_trial(SimulatedParticipant(plan, "veteran", 4, time_limit_s=70.0), "impulse_penetration")
-    assert result.completed and result.places_done == 3 and result.drops == 0
+    assert result.completed and result.places_done == 3 and result.attempts == 0
     assert 3 * plan.rules.hold_s < result.completion_time < 60.0
     # Frames come at the tracker's 115 Hz (a few missing), until the release was judged.
     assert 100 * result.completion_time < result.frames < 120 * (result.completion_time + 1.0)

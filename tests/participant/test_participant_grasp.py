@@ -12,8 +12,8 @@ from microg.sim import load_object
 from microg.sim.bodies import SHAPES
 from microg.sim.contact import closest_surface_point
 from microg.participant.grasp import plan_grasp
-from microg.sim.hand import bone_centres
-from microg.participant.skeleton import RADII, local_joints
+from microg.skeleton import bone_centres
+from microg.participant.anatomy import RADII, local_joints
 from microg.sim.rotation import quat_from_euler_deg
 
 OBJECTS = ("cube", "flat_cuboid", "long_cuboid", "ball")

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from microg.sim import HandFrame, HandFrames, SceneError, World, make_batch, step, step_batch
+from microg.skeleton import HandFrame
+from microg.sim import HandFrames, SceneError, World, make_batch, step, step_batch
 from microg.participant.scripted import probe_hand
 from tests.physics import placed, world_of
 

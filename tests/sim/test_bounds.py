@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from microg.participant.scripted import probe_hand
-from microg.sim import Hand, HandFrame, SceneError, make_batch, step, step_batch
+from microg.skeleton import Hand, HandFrame
+from microg.sim import SceneError, make_batch, step, step_batch
 from microg.sim.world import MAX_INTERVAL
 from tests.physics import placed, world_of
 

@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 import microg
-from microg.sim.cache import COMPILED
+from microg.skeleton.cache import COMPILED
 
 PACKAGE = Path(microg.__file__).parent
 

@@ -7,8 +7,9 @@ import numba
 import numpy as np
 import pytest
 
-from microg.sim import (INTERACTION_MODELS, Hand, HandFrame, Material, ObjectSpec, PlacedObject, Scene, SceneError,
-                        TableParameters, compose_scene, load_object, load_scene, make_world, step)
+from microg.skeleton import Hand, HandFrame
+from microg.sim import (INTERACTION_MODELS, Material, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters,
+                        compose_scene, load_object, load_scene, make_world, step)
 from microg.sim.pipeline import specialise
 from tests.physics import drive, placed, world_of
 

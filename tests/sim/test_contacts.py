@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from microg.sim import ObjectSpec, PlacedObject, grasped, highlighted, rendered_phalanges, slot, touching
+from microg.skeleton import slot
+from microg.sim import ObjectSpec, PlacedObject, grasped, highlighted, rendered_phalanges, touching
 from microg.sim.rotation import quat_to_matrix
 from microg.sim.probe import detect_contacts
 from tests.physics import drive, placed, world_of

@@ -12,7 +12,8 @@ import pytest
 from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
-from microg.sim import HandFrame, Material, ObjectSpec, PlacedObject, kinetic_energy, step
+from microg.skeleton import HandFrame
+from microg.sim import Material, ObjectSpec, PlacedObject, kinetic_energy, step
 from microg.sim.rotation import quat_normalize
 from microg.participant.scripted import probe_hand
 from tests.physics import world_of

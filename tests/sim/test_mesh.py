@@ -11,8 +11,8 @@ import pytest
 import trimesh
 
 from microg.participant.scripted import probe_hand
-from microg.sim import HandFrame, Material, ObjectSpec, PlacedObject, SceneError, load_object, rendered_phalanges, step
-from microg.sim.hand import slot
+from microg.skeleton import HandFrame, slot
+from microg.sim import Material, ObjectSpec, PlacedObject, SceneError, load_object, rendered_phalanges, step
 from microg.sim.mesh import VHACD, parts_cache_folder
 from microg.sim.rotation import quat_from_euler_deg, quat_to_matrix
 from tests.meshes import L_ARMS, L_DEPTH, L_THICKNESS, l_bracket, mesh_object, write_obj

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from microg.sim import Material, ObjectSpec, PlacedObject, grasped, slot
+from microg.skeleton import slot
+from microg.sim import Material, ObjectSpec, PlacedObject, grasped
 from microg.sim.probe import contact_forces
 from tests.physics import drive, placed, world_of
 

@@ -13,7 +13,7 @@ def field_sums(reals, flags, counts, n):
     return np.array([
         s.clock.sum(), s.position.sum(), s.orientation.sum(), s.velocity.sum(), s.angular_velocity.sum(),
         s.hand_position.sum(), s.hand_previous.sum(), s.hand_from.sum(), s.hand_to.sum(), s.hand_velocity.sum(),
-        s.radius.sum(), s.reference.sum(), s.anchor.sum(), s.normal.sum(), s.depth.sum(), s.normal_velocity.sum(),
+        s.radius.sum(), s.anchor.sum(), s.normal.sum(), s.depth.sum(), s.normal_velocity.sum(),
         s.impulse.sum(), s.valid.sum(), s.fresh.sum(), s.present.sum(), s.active.sum(), s.ghost.sum(),
         s.onset.sum(), s.sliding.sum(), s.counter.sum(), s.track_id.sum()], dtype=np.float64)
 

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from microg.sim import TableParameters, slot
+from microg.skeleton import slot
+from microg.sim import TableParameters
 from microg.sim.probe import contact_forces, detect_contacts
 from tests.physics import coast, placed, world_of
 

@@ -37,7 +37,7 @@ def main(study_dir: str) -> None:
         made.append(Reporting(pinch_keyframes(plan), len(made)))
         return made[-1]
 
-    run_session(store, session.id, ScriptedInputs(make), clock=SimulationClock(), progress=False)
+    run_session(store, session.id, ScriptedInputs(make), clock=SimulationClock())
     print("done", flush=True)
 
 

@@ -9,7 +9,7 @@ import time
 import numpy as np
 
 from microg.participant.scripted import probe_hand
-from microg.sim import HandFrame
+from microg.skeleton import HandFrame
 from microg.sim.rotation import quat_to_matrix
 
 RATE = 110.0
@@ -103,7 +103,7 @@ def gated_session(folder, gate, waiting=None) -> threading.Thread:
             every = store.protocol.frame_batch
             inputs = ScriptedInputs(lambda plan, seed: Gated(pinch_keyframes(plan), gate, every, waiting))
             session = store.create_session("P01", "scripted", simulated=True, clock="simulation")
-            run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+            run_session(store, session.id, inputs, clock=SimulationClock())
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()

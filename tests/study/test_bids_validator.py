@@ -42,9 +42,9 @@ def exported(tmp_path_factory) -> Path:
             store.add_participant(Participant(pid, "female", 24, "right", True))
             session = store.create_session(pid, "scripted", True, "simulation")
             run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
-                        rater=answers("7", "6", "3", "4"), progress=False)
+                        rater=answers("7", "6", "3", "4"))
         assert {p.group for p in store.participants()} == {"V", "B"}
-    export_study(folder / "study", folder / "export", progress=False)
+    export_study(folder / "study", folder / "export")
     return folder / "export" / "bids"
 
 

@@ -66,8 +66,7 @@ def test_sigkill_mid_task_loses_no_finished_task_and_at_most_one_frame_batch(mak
         session = store.session_of("P01")
         assert store.db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
         before = trials_table(store).iloc[0]
-        status = resume_session(store, session.id, scripted_inputs(), clock=SimulationClock(store.last_time(session.id)),
-                                progress=False)
+        status = resume_session(store, session.id, scripted_inputs(), clock=SimulationClock(store.last_time(session.id)))
         assert status == "completed"
         runs = store.runs(session.id)
         later = [(i, 1, "completed") for i in range(2, len(store.tasks(session.id)))]

@@ -28,8 +28,7 @@ def study(tmp_path_factory):
     store = create_study(tmp_path_factory.mktemp("export") / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1)
     record = store.add_participant(Participant("P01", "female", 24, "right", True))
     session = store.create_session("P01", "scripted", True, "simulation")
-    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"),
-                progress=False)
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     yield store, record
     store.close()
 

@@ -13,16 +13,10 @@ from microg.cli import main
 from microg.study import framelog
 from microg.study.assignment import Participant
 from microg.study.inputs import ScriptedInputs
-from microg.study.lsl import (
-    MARKERS_NAME,
-    MOCAP_NAME,
-    MarkerOutlet,
-    MocapOutlet,
-    session_tags,
-)
+from microg.study.lsl import MARKERS_NAME, MOCAP_NAME, MarkerOutlet, MocapOutlet, session_tags
 from microg.study.protocol import load_protocol
-from microg.study.session import WallClock, make_clock, resume_session, run_session
-from microg.study.store import create_study
+from microg.study.session import Outputs, WallClock, make_clock, resume_session, run_session
+from microg.study.store import Event, create_study
 from microg.study.xdf import XdfError, line_up
 
 from .conftest import PROTOCOLS
@@ -33,7 +27,27 @@ pytest.importorskip("pyxdf")
 pytestmark = pytest.mark.slow
 
 RESIDUAL_MS = 5.0
-"""Markers leave within this of the logged time: one machine, one monotonic clock, no network."""
+"""Markers carry their event's own time: within this of the logged time on one machine, one
+monotonic clock, no network, however late the marker is pushed."""
+
+
+class Sent:
+    """The session's markers: each one sent on ``outlet`` and its kind kept; ``crash_on`` raises
+    ``Crash`` once, after sending the first marker of that kind (its event already committed)."""
+
+    def __init__(self, outlet: MarkerOutlet, crash_on: str | None = None):
+        self.outlet, self.crash_on, self.kinds, self.crashed_at = outlet, crash_on, [], None
+
+    def mark(self, event: Event) -> None:
+        self.kinds.append(event.kind)
+        self.outlet.mark(event)
+        if event.kind == self.crash_on and self.crashed_at is None:
+            self.crashed_at = time.monotonic()
+            raise Crash
+
+
+class Crash(Exception):
+    """Stands in for the session's process dying."""
 
 
 @pytest.fixture(scope="module")
@@ -48,19 +62,14 @@ def recorded(tmp_path_factory):
     session = store.create_session("P01", "scripted", True, "wall")
     tags = session_tags(store, session.id)
     ids = [f"microg-test-{kind}-{uuid.uuid4().hex}" for kind in ("markers", "mocap")]
-    outlet = MarkerOutlet(tags, source_id=ids[0])
+    clock = WallClock()
+    sent = Sent(MarkerOutlet(tags, clock, source_id=ids[0]))
     mocap = MocapOutlet(store.protocol.tracking_rate, tags, source_id=ids[1])
     path = tmp_path / "session.xdf"
     recorder = XdfRecorder(path, ids)
-    sent = []
-
-    def markers(kind, data):
-        sent.append(kind)
-        outlet(kind, data)
-
     inputs = ScriptedInputs(lambda plan, seed: ScriptedPinch(pinch_keyframes(plan)), clock="wall")
-    run_session(store, session.id, inputs, clock=WallClock(), markers=markers, on_moment=mocap, progress=False)
-    recorder.wait_for(ids[0], len(sent))
+    run_session(store, session.id, inputs, clock=clock, outputs=Outputs(sinks=(mocap,), markers=sent))
+    recorder.wait_for(ids[0], len(sent.kinds))
     recorder.wait_for(ids[1], sum(framelog.count(store.db, run.id) for run in store.runs(session.id)))
     recorder.close()
     yield store, session.id, path
@@ -71,7 +80,7 @@ def test_an_xdf_of_the_session_lines_up_with_its_log(recorded):
     store, session_id, path = recorded
     lineup, = line_up(store, path)
     events = store.events(session_id)
-    sent_kinds = {"phase_start", "phase_end", "task_start", "task_end"}
+    sent_kinds = {"phase_start", "phase_end", "task_start", "task_end", "tracking_guard"}
     stage = {e.kind for e in events if "frame_t" in e.data}
     logged = [(e.kind, e.t) for e in events if e.kind in sent_kinds | stage]
     markers = lineup.markers
@@ -141,20 +150,17 @@ def test_an_xdf_that_does_not_belong_says_why(recorded, make_study, tmp_path):
 
     few = tmp_path / "few.xdf"
     ids = [f"microg-test-markers-{uuid.uuid4().hex}"]
-    markers = MarkerOutlet(session_tags(store, session_id), source_id=ids[0])
+    clock = WallClock()
+    markers = MarkerOutlet(session_tags(store, session_id), clock, source_id=ids[0])
     recorder = XdfRecorder(few, ids)
     first = store.events(session_id)[0]
-    markers(first.kind, first.data)
-    markers("phase_start", {"phase": "no such phase"})
+    markers.mark(first)
+    markers.mark(Event(clock.now(), "phase_start", {"phase": "no such phase"}))
     recorder.wait_for(ids[0], 2)
     recorder.close()
     with pytest.raises(XdfError, match=f"{few}: 1 of the 2 markers .* \\(participant P01, session 1\\) match the "
                                        "study log's events"):
         line_up(store, few)
-
-
-class Crash(Exception):
-    """Stands in for the session's process dying."""
 
 
 def test_a_session_resumed_after_a_crash_lines_up_part_by_part(tmp_path):
@@ -166,31 +172,24 @@ def test_a_session_resumed_after_a_crash_lines_up_part_by_part(tmp_path):
     store.add_participant(Participant("P01", "female", 24, "right", True))
     session = store.create_session("P01", "scripted", True, "wall")
     ids = [f"microg-test-markers-{uuid.uuid4().hex}"]
-    outlet = MarkerOutlet(session_tags(store, session.id), source_id=ids[0])
+    first = WallClock()
+    sent = Sent(MarkerOutlet(session_tags(store, session.id), first, source_id=ids[0]), crash_on="place_lit")
     recorder = XdfRecorder(tmp_path / "resumed.xdf", ids)
-    sent, crash_at = [], []
-
-    def markers(kind, data):
-        sent.append(kind)
-        outlet(kind, data)
-        if kind == "task_end" and not crash_at:  # dies as the first task ends, before its end is logged
-            crash_at.append(time.monotonic())
-            raise Crash
-
     inputs = ScriptedInputs(lambda plan, seed: ScriptedPinch(pinch_keyframes(plan)), clock="wall")
-    with pytest.raises(Crash):
-        run_session(store, session.id, inputs, clock=WallClock(), markers=markers, progress=False)
-    while time.monotonic() - crash_at[0] < 0.5:  # the crash and the restart take real time: LSL's clock runs on
+    with pytest.raises(Crash):  # dies in the first task, its first place just lit (and logged)
+        run_session(store, session.id, inputs, clock=first, outputs=Outputs(markers=sent))
+    while time.monotonic() - sent.crashed_at < 0.5:  # the crash and the restart take real time: LSL's clock runs on
         time.sleep(0.05)
-    resume_session(store, session.id, inputs, clock=make_clock("wall", store.last_time(session.id)),
-                   markers=markers, progress=False)
-    recorder.wait_for(ids[0], len(sent))
+    again = make_clock("wall", store.last_time(session.id))
+    sent.outlet.clock = again
+    resume_session(store, session.id, inputs, clock=again, outputs=Outputs(markers=sent))
+    recorder.wait_for(ids[0], len(sent.kinds))
     recorder.close()
 
     lineup, = line_up(store, tmp_path / "resumed.xdf")
     markers = lineup.markers
-    assert list(markers[~markers.matched].index) == [sent.index("task_end")]  # sent as it died, never logged
-    assert "session_resume" in set(markers[markers.matched].kind) and len(lineup.fit.starts) == 2
+    assert markers.matched.all()  # a marker goes out once its event is logged: none is lost with a crash
+    assert "session_resume" in set(markers.kind) and len(lineup.fit.starts) == 2
     assert lineup.fit.max_residual_ms < RESIDUAL_MS, lineup.markers.residual_ms.describe()
     assert lineup.fit.offsets[1] - lineup.fit.offsets[0] > 0.5 - RESIDUAL_MS / 1e3  # the time the crash took
     runs = store.runs(session.id)

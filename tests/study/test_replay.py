@@ -9,7 +9,7 @@ from click.testing import CliRunner
 from microg.cli import main
 from microg.hands.align import Alignment, find_alignment, parse_alignment
 from microg.paths import LEAP_RECORDINGS
-from microg.sim import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame
 from microg.study.store import open_study
 
 from .conftest import PROTOCOLS
@@ -102,7 +102,7 @@ def test_a_bad_manifest_is_named_with_its_key_and_value(tmp_path, entries, messa
 def test_the_mocap_stream_on_lsl_carries_the_logged_poses(make_study):
     pylsl = pytest.importorskip("pylsl")
     from microg.study.lsl import MOCAP_CHANNELS, MocapOutlet, session_tags
-    from microg.study.session import SimulationClock, run_session
+    from microg.study.session import Outputs, SimulationClock, run_session
     from microg.study import framelog
 
     from .conftest import scripted_inputs
@@ -120,7 +120,7 @@ def test_the_mocap_stream_on_lsl_carries_the_logged_poses(make_study):
         channel = channel.next_sibling()
     assert labels == list(MOCAP_CHANNELS) and info.type() == "MoCap"
     inlet.open_stream()
-    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), on_moment=outlet, progress=False)
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), outputs=Outputs(sinks=(outlet,)))
     received, _ = inlet.pull_chunk(timeout=5.0, max_samples=100_000)
     logged = np.concatenate([framelog.read(store.db, run.id) for run in store.runs(session.id)])
     assert len(received) == len(logged)

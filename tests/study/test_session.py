@@ -15,8 +15,9 @@ from microg.sim.rotation import quat_to_matrix
 from microg.study import framelog
 from microg.study.export import hand_frames, run_frames, trials_table
 from microg.study.inputs import ScriptedInputs, participant_plan
-from microg.study.session import Unattended, SimulationClock, guarded, resume_session, run_session, run_task, task_world
-from microg.study.store import StoreError, create_study, open_study
+from microg.study.session import (EventLog, SimulationClock, Unattended, resume_session, run_session, run_task,
+                                  task_world)
+from microg.study.store import Event, StoreError, create_study, open_study
 
 from .conftest import answers, scripted_inputs
 from .scripted import RATE, ScriptedPinch, pinch_keyframes
@@ -28,9 +29,8 @@ def one_task(store, task_index=0, rules=None, **script):
     task = store.tasks(session.id)[task_index]
     source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task), **script))
     run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
-    world = task_world(store.protocol, task)
-    result = run_task(store, session.id, run_id, world, guarded(source, world.model.scene),
-                      rules or store.protocol.task, SimulationClock(), batch=store.protocol.frame_batch)
+    result = run_task(log=EventLog(store, session.id, SimulationClock()), run_id=run_id,
+                      world=task_world(store.protocol, task), source=source, protocol=store.protocol, rules=rules)
     return result, run_id, source
 
 
@@ -38,8 +38,7 @@ def test_a_session_walks_the_timeline_and_each_task_ends_when_the_hand_lets_go(m
     store, record = make_study("tiny")
     session = store.create_session("P01", "scripted", True, "simulation")
     inputs = scripted_inputs()
-    status = run_session(store, session.id, inputs, clock=SimulationClock(), rater=answers("7", "6", "3", "4"),
-                         progress=False)
+    status = run_session(store, session.id, inputs, clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     assert status == "completed" and store.session(session.id).status == "completed"
 
     phases = [e.data["phase"] for e in store.events(session.id) if e.kind == "phase_start"]
@@ -65,8 +64,7 @@ def test_only_a_live_session_waits_for_the_disk_at_each_commit(make_study, simul
     store, _ = make_study("tiny")
     session = store.create_session("P01", "scripted", simulated, "simulation")
     assert store.db.execute("PRAGMA synchronous").fetchone()[0] == 2
-    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"),
-                progress=False)
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     assert store.db.execute("PRAGMA synchronous").fetchone()[0] == synchronous
 
 
@@ -117,7 +115,7 @@ def test_a_source_that_ends_early_aborts_the_task(make_study):
             return None if self.index >= 50 else super().next_frame(observation)
 
     inputs = ScriptedInputs(lambda plan, seed: Short(pinch_keyframes(plan)))
-    status = run_session(store, session.id, inputs, clock=SimulationClock(), progress=False)
+    status = run_session(store, session.id, inputs, clock=SimulationClock())
     trials = trials_table(store)
     assert (trials.status == "aborted").all() and not trials.completed.any() and trials.time_s.isna().all()
     tasks = len(store.tasks(session.id))
@@ -133,7 +131,7 @@ def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study
     assert result.status == "completed"
     task = store.tasks(store.session_of("P01").id)[0]
     world, positions = task_world(store.protocol, task), []
-    smooth = HandFilter(store.protocol.filter_window, 1 / store.protocol.tracking_rate)
+    smooth = HandFilter(store.protocol.filter_window, 1 / store.protocol.tracking_rate).smooth
     for frame in hand_frames(store, run_id):
         world = step(world, smooth(frame))
         positions.append(world.data.position[0].copy())
@@ -178,7 +176,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
         return Failing(keys, 100) if len(calls) == last + 1 else ScriptedPinch(keys)
 
     with pytest.raises(RuntimeError, match="tracker unplugged"):
-        run_session(store, session.id, ScriptedInputs(breaking), clock=SimulationClock(), progress=False)
+        run_session(store, session.id, ScriptedInputs(breaking), clock=SimulationClock())
     runs = store.runs(session.id)
     assert [r.status for r in runs] == ["completed"] * last + ["interrupted"]
     kept = store.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames WHERE run_id = ?", (runs[-1].id,)).fetchone()[0]
@@ -186,8 +184,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
     assert "tracker unplugged" in store.db.execute("SELECT reason FROM task_runs WHERE id = ?",
                                                    (runs[-1].id,)).fetchone()[0]
 
-    status = resume_session(store, session.id, scripted_inputs(), clock=SimulationClock(store.last_time(session.id)),
-                            progress=False)
+    status = resume_session(store, session.id, scripted_inputs(), clock=SimulationClock(store.last_time(session.id)))
     assert status == "completed"
     runs = store.runs(session.id)
     assert [(r.task_index, r.run, r.status) for r in runs] == \
@@ -205,7 +202,7 @@ def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
         def ready(self, task):
             return task.index != 0
 
-    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), operator=SkipFirst(), progress=False)
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), operator=SkipFirst())
     first = trials_table(store).iloc[0]
     assert first.status == "skipped" and not first.completed
     assert np.isnan(first.time_s) and first.attempts is pd.NA
@@ -214,7 +211,7 @@ def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
 def test_the_log_never_changes_what_it_holds(make_study):
     store, _ = make_study("tiny")
     session = store.create_session("P01", "scripted", True, "simulation")
-    run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), progress=False)
+    run_session(store, session.id, scripted_inputs(), clock=SimulationClock())
     attempts = [
         "UPDATE events SET kind = 'x'", "DELETE FROM events", "DELETE FROM frames",
         "UPDATE frames SET count = 1", "UPDATE task_runs SET time_s = 1.0", "UPDATE task_runs SET status = 'running'",
@@ -243,7 +240,8 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     pylsl = pytest.importorskip("pylsl")
     from microg.study.lsl import MarkerOutlet
 
-    outlet = MarkerOutlet({}, name="microg-test", source_id="microg-test-markers")
+    clock = SimulationClock()
+    outlet = MarkerOutlet({}, clock, name="microg-test", source_id="microg-test-markers")
     streams = pylsl.resolve_byprop("source_id", "microg-test-markers")  # waits until the stream is seen
     inlet = pylsl.StreamInlet(streams[0])
     inlet.open_stream()
@@ -252,14 +250,14 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     task = store.tasks(session.id)[0]
     source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task)))
     run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
-    run_task(store, session.id, run_id, task_world(store.protocol, task), source, store.protocol.task,
-             SimulationClock(), markers=outlet)
-    outlet("end_of_test", {})  # a last marker: everything before it has arrived once it has
+    run_task(log=EventLog(store, session.id, clock, outlet), run_id=run_id, world=task_world(store.protocol, task),
+             source=source, protocol=store.protocol)
+    outlet.mark(Event(clock.now(), "end_of_test", {}))  # a last marker: everything before it has arrived once it has
     received = []
     while not received or json.loads(received[-1])["kind"] != "end_of_test":
         received.append(inlet.pull_sample()[0][0])  # waits for the next marker
     kinds = [json.loads(m)["kind"] for m in received[:-1]]
-    logged = [e.kind for e in store.events(session.id, run_id) if e.kind not in ("task_start", "tracking_guard")]
+    logged = [e.kind for e in store.events(session.id, run_id) if e.kind != "task_start"]  # the test logged it
     assert kinds == logged
 
 
@@ -269,6 +267,6 @@ def test_withdrawing_a_participant_ends_their_unfinished_session_as_aborted(make
     store.withdraw("P01", "felt unwell")
     assert store.session(session.id).status == "aborted"
     with pytest.raises(ValueError, match="only a running session"):
-        run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), progress=False)
+        run_session(store, session.id, scripted_inputs(), clock=SimulationClock())
     trials = trials_table(store)
     assert trials.withdrawn.all() and (trials.status == "not_run").all()

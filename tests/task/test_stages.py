@@ -41,7 +41,7 @@ CLEAN = [(0.5, False, START), (0.5, True, START)] + [visit(k, 3.2) for k in rang
 
 def test_a_clean_run_completes_with_no_attempts_and_its_time_runs_to_the_release():
     state, events = play(CLEAN)
-    assert state.stage == COMPLETED and state.drops == 0
+    assert state.stage == COMPLETED and state.attempts == 0
     # the grasp ends at 0.5 + 0.5 + 3 x 3.2 = 10.6 s; the first frame was at 0
     assert state.completion_time == pytest.approx(10.6, abs=1e-6)
     assert kinds(events).count("place_done") == 3
@@ -74,7 +74,7 @@ def test_a_drop_adds_an_attempt_resets_the_place_and_the_task_goes_on():
     script = [(0.5, True, START), visit(0, 3.2), visit(1, 1.5), (1.0, False, PLACES[1]), (0.5, True, PLACES[1]),
               visit(1, 3.2), visit(2, 3.2), (0.5, False, PLACES[2])]
     state, events = play(script)
-    assert state.stage == COMPLETED and state.drops == 1
+    assert state.stage == COMPLETED and state.attempts == 1
     drop = next(e for e in events if e.kind == "drop")
     assert drop.data["since"] == pytest.approx(0.5 + 3.2 + 1.5) and drop.data["place"] == 1
     assert kinds(events).count("place_done") == 3
@@ -84,7 +84,7 @@ def test_a_drop_adds_an_attempt_resets_the_place_and_the_task_goes_on():
 def test_a_grasp_that_flickers_off_for_less_than_the_grace_is_not_a_drop():
     flicker = [(0.5, True, START), visit(0, 1.0), (0.2, False, PLACES[0]), visit(0, 3.2)]
     state, events = play(flicker)
-    assert state.drops == 0 and "drop" not in kinds(events)
+    assert state.attempts == 0 and "drop" not in kinds(events)
     assert state.place == 1  # the timer ran through the flicker: 1.0 + 0.2 + 3.2 >= 3
 
 
@@ -95,7 +95,7 @@ def test_letting_go_after_the_last_place_is_the_release_not_a_drop():
 
 def test_a_touch_too_short_to_be_a_hold_and_then_nothing_is_no_attempt():
     state, _ = play([(0.05, True, START), (1.0, False, START)])
-    assert state.drops == 0 and state.stage == MANIPULATION and not state.held
+    assert state.attempts == 0 and state.stage == MANIPULATION and not state.held
 
 
 def test_a_timeout_ends_the_task_as_not_completed():

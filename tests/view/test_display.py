@@ -14,7 +14,7 @@ from PIL import Image
 from microg.study import framelog
 from microg.study.inputs import PacedInputs
 from microg.study.protocol import load_protocol
-from microg.study.session import SimulationClock, Unattended, run_session
+from microg.study.session import Outputs, SimulationClock, Unattended, run_session
 from microg.study.store import Event, open_study
 from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
 
@@ -42,7 +42,7 @@ def session_with_display(folder, display: ParticipantDisplay) -> threading.Threa
 
             run_session(store, session.id, PacedInputs(scripted_inputs(), speed=1.0), clock=SimulationClock(),
                         operator=DisplayOperator(display, Unattended()), rater=DisplayRater(display, rejected),
-                        on_moment=display.show, progress=False)
+                        outputs=Outputs(sinks=(display,)))
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()

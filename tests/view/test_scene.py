@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from microg.paths import protocol_file
-from microg.sim import Hand, slot
+from microg.skeleton import Hand, slot
 from microg.study.protocol import load_protocol
 from microg.study import framelog
 from microg.study.framelog import touching_slots

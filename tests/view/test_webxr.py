@@ -17,7 +17,6 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from microg.bench import display as bench
-from microg.cli.session import _event_logger
 from microg.hands import load_recording
 from microg.hands.webxr import XR_JOINTS, WebXRSource, hand_from_webxr
 from microg.study import framelog
@@ -25,7 +24,7 @@ from microg.study.assignment import Participant
 from microg.study.export import export_study, read_tables, run_frames, run_list
 from microg.study.inputs import open_inputs
 from microg.study.protocol import load_protocol
-from microg.study.session import WallClock, run_session
+from microg.study.session import EventLog, Outputs, WallClock, run_session
 from microg.study.store import Event, create_study, open_study
 from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
 from tests.study.conftest import PROTOCOLS
@@ -181,7 +180,7 @@ def play(driver, keys: list[dict]) -> None:
 class StageOneOnly:
     """The researcher runs the first phase's cube only (training and stage2 skipped)."""
 
-    def show(self, phase) -> None:
+    def present(self, phase) -> None:
         pass
 
     def ready(self, task) -> bool:
@@ -211,14 +210,14 @@ def session_in_background(folder, display: ParticipantDisplay, failures: list) -
                 inputs = open_inputs("webxr", webxr=display.hands)
                 session = store.create_session("P01", inputs.spec, inputs.simulated, inputs.clock)
                 clock = WallClock()
-                display.on_event = _event_logger(store, session.id, clock)
+                display.on_event = EventLog(store, session.id, clock).emit
 
                 def rejected(item, phase, text, message):
                     store.log(session.id, [Event(clock.now(), "answer_rejected", {"answer": text})])
 
                 try:
                     run_session(store, session.id, inputs, clock=clock, operator=DisplayOperator(display, StageOneOnly()),
-                                rater=DisplayRater(display, rejected), on_moment=display.show, progress=False)
+                                rater=DisplayRater(display, rejected), outputs=Outputs(sinks=(display,)))
                 finally:
                     inputs.close()
         except BaseException as error:  # the test reports it

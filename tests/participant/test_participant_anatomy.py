@@ -5,10 +5,10 @@ import pytest
 from scipy.optimize import least_squares
 
 from microg.paths import LEAP_RECORDINGS
-from microg.sim import Hand
+from microg.skeleton import Hand
 from microg.participant import calibration
 from microg.participant.noise import FrameTiming, TrackingNoiseLevels
-from microg.participant.skeleton import (
+from microg.participant.anatomy import (
     DIGIT_WIDTHS,
     KNUCKLES,
     LOWER,

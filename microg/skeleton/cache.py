@@ -7,12 +7,13 @@ Compiling ahead of time at install was the other choice; we cache instead becaus
 specialised for the effects a scene names (any of 2^9 compositions, each compiled only when a
 scene asks for it), and numba's ahead-of-time compiler is deprecated.
 
-``use_user_cache`` runs when ``microg.sim`` is imported, before any kernel is defined: unless the
+``use_user_cache`` runs when ``microg.skeleton`` (the ground floor every compiled room imports) is
+imported, before any kernel is defined: unless the
 user set ``NUMBA_CACHE_DIR``, the cache goes to the platform's user cache directory
 (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%``
 on Windows) under ``microg/numba/<stamp>``; if that cannot be written, to the temporary directory.
 The stamp is a hash of the sources of every room with compiled code (``COMPILED``: the physics,
-the hand filter and guard, the simulated participant): numba checks a cached function against its
+the hand vocabulary's jump rule, the hand filter and guard, the simulated participant): numba checks a cached function against its
 own file only, not against the kernels it calls in other files, so an upgrade (or an edit) that
 changed a kernel would otherwise run the old compiled step. A new stamp compiles afresh.
 """
@@ -37,7 +38,7 @@ def user_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 
 
-COMPILED = ("hands", "participant", "sim")
+COMPILED = ("hands", "participant", "sim", "skeleton")
 """The rooms of ``microg`` that hold compiled kernels (numba), whose sources the stamp covers."""
 
 

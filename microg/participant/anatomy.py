@@ -33,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from microg.sim.hand import N_BONES, SIDES, Hand
+from microg.skeleton import N_BONES, SIDES, Hand
 from microg.sim.rotation import quat_to_matrix
 
 KNUCKLES = np.array([[-26.1, -0.9, 54.6], [-26.7, 2.1, -15.4], [-1.4, 3.0, -21.0],

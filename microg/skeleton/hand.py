@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -38,6 +39,11 @@ MIN_PHALANX_LENGTH = 1e-4
 def slot(side: str, digit: int, bone: int) -> int:
     """Index of a bone in the physics' phalanx arrays."""
     return SIDES.index(side) * BONES_PER_HAND + digit * N_BONES + bone
+
+
+def side_slots(side: int) -> slice:
+    """The slots of one hand's bones (side 0: left, 1: right), in digit-major order."""
+    return slice(side * BONES_PER_HAND, (side + 1) * BONES_PER_HAND)
 
 
 def slot_name(index: int) -> str:
@@ -254,3 +260,12 @@ class HandFrame:
         return self.timestamp == other.timestamp and self.hands == other.hands
 
     __hash__ = None
+
+
+class TrackedFrame(NamedTuple):
+    """One frame out of hand tracking (``microg.hands.tracking``): the frame the tracking guard
+    admitted (what a session logs as the tracked hand) and the same frame after the window filter
+    (Eq. 1: what the physics steps with)."""
+
+    admitted: HandFrame
+    smoothed: HandFrame
