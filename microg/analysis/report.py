@@ -174,7 +174,7 @@ def report_sections(analysis: StudyAnalysis) -> dict:
                 ("Assumption checks", r.assumptions_table(a, name, dv)),
             ],
         }  # fmt: skip
-        if r.interaction_significant(a, name, dv):
+        if r.crossed_effect_significant(a, name, dv):
             block["tables"][4:4] = [
                 (f"Simple effects of {a.within} in each {a.group}", r.simple_effects_table(a, name, dv)),
                 (f"Pairs of {a.within} in each {a.group} (Bonferroni over all of them)",

@@ -93,7 +93,7 @@ def anova_paragraph(analysis: StudyAnalysis, interaction: str, dv: str) -> str:
         _posthoc_sentences(a, interaction, dv, significant[a.within],
                            significant[a.group] or significant[group_by_within])
     )
-    if interaction_significant(a, interaction, dv):
+    if crossed_effect_significant(a, interaction, dv):
         text.extend(_simple_effect_sentences(a, interaction, dv))
     return " ".join(text + _count_sentences(a, interaction, dv))
 
@@ -103,10 +103,11 @@ def assumptions_paragraph(analysis: StudyAnalysis, interaction: str, dv: str) ->
     return " ".join(_assumption_sentences(analysis, interaction, dv))
 
 
-def interaction_significant(analysis: StudyAnalysis, interaction: str, dv: str) -> bool:
-    """Whether the interaction's p (as read: corrected where sphericity is violated) is below alpha."""
-    chosen = analysis.table("corrections", interaction, dv)
-    return bool(chosen["p"].iloc[2] < analysis.alpha)
+def crossed_effect_significant(analysis: StudyAnalysis, interaction: str, dv: str) -> bool:
+    """Whether the crossed effect (the ``group:within`` term of the ANOVA with this interaction model)
+    is significant: its p as read (corrected where sphericity is violated) below alpha."""
+    chosen = analysis.table("corrections", interaction, dv).set_index("source")
+    return bool(chosen.loc[f"{analysis.group}:{analysis.within}", "p"] < analysis.alpha)
 
 
 def comparison_paragraph(analysis: StudyAnalysis, dv: str) -> str:

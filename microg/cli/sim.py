@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from microg.participant.demos import DEMOS, DemoResult, run_demo
+from microg.participant.demos import DEMOS, DemoRun, run_demo
 from microg.sim import INTERACTION_MODELS, SceneError
 from microg.view import HAND_MODES
 
@@ -124,14 +124,14 @@ def _demo_names(text: str) -> list[str]:
     return names
 
 
-def _summary_line(result: DemoResult) -> str:
+def _summary_line(result: DemoRun) -> str:
     summary = result.summary()
     return (f"{'held' if summary['grasped'] else 'not held'} at the end, {summary['attempts']} attempts (drops), peak object "
             f"speed {summary['peak_object_speed_m_s']:.3f} m/s, deepest penetration "
             f"{summary['deepest_penetration_mm']:.1f} mm")
 
 
-def _draw(results: dict[str, DemoResult], out: Path, hands: str, size: tuple[int, int],
+def _draw(results: dict[str, DemoRun], out: Path, hands: str, size: tuple[int, int],
           fps: float) -> tuple[Path, Path]:
     """The demo's strip (a row per model, a column per key moment) and its animation (the models
     side by side), framed by one camera that sees the object and the hand in every run."""
@@ -153,7 +153,7 @@ def _draw(results: dict[str, DemoResult], out: Path, hands: str, size: tuple[int
     return strip, animation
 
 
-def _scene(result: DemoResult, i: int):
+def _scene(result: DemoRun, i: int):
     """Frame ``i`` of a demo as the view draws it."""
     from microg.view.scene import world_scene
 

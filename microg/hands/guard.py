@@ -120,7 +120,7 @@ class GuardCounts:
 
 
 @dataclass(frozen=True, eq=False)
-class Slot:
+class Pending:
     """One output frame in the making: per side, the decided hand (None: absent) or, while
     undecided, the raw hand seen there."""
 
@@ -128,10 +128,10 @@ class Slot:
     hands: tuple[Hand | None, Hand | None]
     decided: tuple[bool, bool]
 
-    def decide(self, side: int, hand: Hand | None) -> Slot:
+    def decide(self, side: int, hand: Hand | None) -> Pending:
         hands, decided = list(self.hands), list(self.decided)
         hands[side], decided[side] = hand, True
-        return Slot(self.time, tuple(hands), tuple(decided))
+        return Pending(self.time, tuple(hands), tuple(decided))
 
 
 NOTHING_DELIVERED = np.zeros((N_DIGITS, N_BONES + 1), dtype=bool)
@@ -155,7 +155,7 @@ class SideState(NamedTuple):
 
 class GuardState(NamedTuple):
     last_time: float | None = None
-    """Output timestamp of the latest slot."""
+    """Output timestamp of the latest frame."""
     offset: float = 0.0
     """Added to source timestamps; changes only when the clock is re-anchored."""
     stale_run: int = 0
@@ -164,7 +164,7 @@ class GuardState(NamedTuple):
     """The most recent intervals between arrived frames (s), for the typical period."""
     next_track: int = 1
     sides: tuple[SideState, SideState] = (SideState(), SideState())
-    slots: tuple[Slot, ...] = ()
+    pending: tuple[Pending, ...] = ()
     """Frames waiting for a side's decision, oldest first."""
     counts: GuardCounts = GuardCounts()
 
@@ -235,33 +235,33 @@ def _count_gap(config: GuardConfig, state: GuardState, t: float) -> GuardState:
 
 
 def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) -> GuardState:
-    """Decide this side's open slots, given the raw hand in the newest slot."""
-    slots = list(state.slots)
+    """Decide this side's undecided pending frames, given the raw hand in the newest one."""
+    pending = list(state.pending)
     memory = state.sides[side]
-    open_slots = [i for i, slot in enumerate(slots) if not slot.decided[side]]
-    current, earlier = open_slots[-1], open_slots[:-1]
-    now, hand = slots[current].time, slots[current].hands[side]
+    undecided = [i for i, frame in enumerate(pending) if not frame.decided[side]]
+    current, earlier = undecided[-1], undecided[:-1]
+    now, hand = pending[current].time, pending[current].hands[side]
     counts, next_track = state.counts, state.next_track
 
     def settle(decisions: dict[int, Hand | None], memory: SideState) -> GuardState:
         for i, decided in decisions.items():
-            slots[i] = slots[i].decide(side, decided)
+            pending[i] = pending[i].decide(side, decided)
         sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
-        return state._replace(slots=tuple(slots), sides=sides, counts=counts, next_track=next_track)
+        return state._replace(pending=tuple(pending), sides=sides, counts=counts, next_track=next_track)
 
     complete, delivered = (False, None) if hand is None else completeness(hand, memory.delivered)
     if hand is not None and not complete:
         counts, hand = counts.add(hands_incomplete=1), None
     if hand is None:
-        return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
+        return settle(dict.fromkeys(undecided), SideState(delivered=memory.delivered))
     last = memory.last
 
     def new_track(starts: list[int], **increments: int) -> GuardState:
         nonlocal counts, next_track
         counts = counts.add(new_tracks=1, **increments)
         track, next_track = next_track, next_track + 1
-        decisions = dict.fromkeys(open_slots)
-        decisions.update({i: slots[i].hands[side].renumbered(track) for i in starts})
+        decisions = dict.fromkeys(undecided)
+        decisions.update({i: pending[i].hands[side].renumbered(track) for i in starts})
         return settle(decisions, SideState(decisions[current], now, hand.track_id, False, delivered))
 
     if restart or last is None or hand.track_id != memory.source_id:
@@ -269,30 +269,30 @@ def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) ->
     if not hand_jumped(hand, last, config.jump_distance):
         out = hand.renumbered(last.track_id)
         counts = counts.add(bridged_hands=len(earlier), jumps_rejected=int(memory.holding))
-        decisions = {i: bridge(last, memory.last_time, out, now, slots[i].time) for i in earlier}
+        decisions = {i: bridge(last, memory.last_time, out, now, pending[i].time) for i in earlier}
         return settle(decisions | {current: out}, SideState(out, now, hand.track_id, False, delivered))
-    raw = [slots[i].hands[side] for i in open_slots]
+    raw = [pending[i].hands[side] for i in undecided]
     streak = 1
     while streak < len(raw) and raw[-streak - 1] is not None and \
             not hand_jumped(raw[-streak], raw[-streak - 1], config.jump_distance):
         streak += 1
     if streak >= config.confirm_frames:
-        return new_track(open_slots[-streak:], jumps_accepted=1)
+        return new_track(undecided[-streak:], jumps_accepted=1)
     counts = counts.add(jumps=int(not memory.holding))
-    if len(open_slots) > config.max_hold:
+    if len(undecided) > config.max_hold:
         counts = counts.add(jumps_lost=1)
-        return settle(dict.fromkeys(open_slots), SideState(delivered=memory.delivered))
+        return settle(dict.fromkeys(undecided), SideState(delivered=memory.delivered))
     return settle({}, memory._replace(holding=True, delivered=delivered))
 
 
 def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """Pass on the oldest slots that every side has decided."""
+    """Pass on the oldest pending frames that every side has decided."""
     ready = 0
-    while ready < len(state.slots) and all(state.slots[ready].decided):
+    while ready < len(state.pending) and all(state.pending[ready].decided):
         ready += 1
-    frames = tuple(HandFrame(slot.time, tuple(h for h in slot.hands if h is not None))
-                   for slot in state.slots[:ready])
-    return state._replace(slots=state.slots[ready:], counts=state.counts.add(frames_out=ready)), frames
+    frames = tuple(HandFrame(frame.time, tuple(h for h in frame.hands if h is not None))
+                   for frame in state.pending[:ready])
+    return state._replace(pending=state.pending[ready:], counts=state.counts.add(frames_out=ready)), frames
 
 
 def admit(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
@@ -304,7 +304,7 @@ def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
     """``decided``'s outcome for the usual frame, computed directly: nothing waiting, the clock
     moving on by less than ``max_gap``, each side absent as before or the same complete track
     moving less than a jump. None for any other frame (``decided`` handles it)."""
-    if state.slots or state.last_time is None:
+    if state.pending or state.last_time is None:
         return None
     t = frame.timestamp + state.offset
     interval = t - state.last_time
@@ -330,20 +330,20 @@ def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
     gap = int(interval > config.gap_factor * period(config, intervals))
     counts = state.counts.add(frames_in=1, frames_out=1, gaps=gap)
     state = GuardState(last_time=t, offset=state.offset, stale_run=0, stale_raw=state.stale_raw, intervals=intervals,
-                       next_track=state.next_track, sides=tuple(sides), slots=(), counts=counts)
+                       next_track=state.next_track, sides=tuple(sides), pending=(), counts=counts)
     return state, (HandFrame.made(t, tuple(hands)),)
 
 
 def decided(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """The guard's step for any frame, through the slots that wait for each side's decision."""
+    """The guard's step for any frame, through the pending that wait for each side's decision."""
     state = state._replace(counts=state.counts.add(frames_in=1))
     state, t, restart = _time(config, state, frame.timestamp)
     if t is None:
         return state, ()
     if not restart:
         state = _count_gap(config, state, t)
-    slot = Slot(t, tuple(frame.hand(name) for name in SIDES), (False, False))
-    state = state._replace(last_time=t, slots=state.slots + (slot,))
+    waiting = Pending(t, tuple(frame.hand(name) for name in SIDES), (False, False))
+    state = state._replace(last_time=t, pending=state.pending + (waiting,))
     for side in range(len(SIDES)):
         state = _decide(config, state, side, restart)
     return _release(state)
@@ -351,9 +351,9 @@ def decided(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[G
 
 def finish(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
     """The source has ended: hands still waiting for a decision are marked lost; pass the rest."""
-    slots = tuple(Slot(s.time, tuple(h if d else None for h, d in zip(s.hands, s.decided)), (True, True))
-                  for s in state.slots)
-    return _release(state._replace(slots=slots))
+    pending = tuple(Pending(s.time, tuple(h if d else None for h, d in zip(s.hands, s.decided)), (True, True))
+                    for s in state.pending)
+    return _release(state._replace(pending=pending))
 
 
 class Guard:

@@ -1,6 +1,6 @@
-"""A test bench for simulated participants: pick-and-place trials against the real physics.
+"""A test bench for simulated participants: pick-and-place runs against the real physics.
 
-Each trial is the task every session plays (``microg.task.play``: hand tracking's guard and window
+Each run is the task every session plays (``microg.task.play``: hand tracking's guard and window
 filter, the physics, the task's rules and display, a lost object put back), with the bench's own layout: the object
 starts in front of the device and the places lie on an arc 10-15 cm away, about as far as the
 paper's Fig. 9 suggests. Under gravity the object starts on the physics' table (its bottom face on
@@ -56,7 +56,7 @@ def bench_world(plan: TaskPlan, interaction: str) -> World:
 
 
 @dataclass(frozen=True)
-class TrialResult:
+class BenchRun:
     completed: bool
     completion_time: float
     """From the task's first frame until the object was let go after the last place (s, the task's
@@ -87,7 +87,7 @@ class _Timed:
         self.source.close()
 
 
-def run_trial(participant: SimulatedParticipant, interaction: str) -> TrialResult:
+def run_once(participant: SimulatedParticipant, interaction: str) -> BenchRun:
     """Play the participant's task once on a fresh world, until the task ends or the participant stops."""
     plan = participant.plan
     world = bench_world(plan, interaction)
@@ -98,7 +98,7 @@ def run_trial(participant: SimulatedParticipant, interaction: str) -> TrialResul
         state, frames = moment.state, frames + 1
     spent = time.perf_counter() - began
     completion = state.completion_time
-    return TrialResult(completion is not None, math.nan if completion is None else completion, state.place,
+    return BenchRun(completion is not None, math.nan if completion is None else completion, state.place,
                        state.attempts, frames, source.seconds, spent - source.seconds)
 
 
@@ -112,13 +112,13 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     cells = list(itertools.product(args.skills, args.objects, args.interactions, ("earth", "zero_g")))
     rows = []
-    with tqdm(total=len(cells) * args.seeds, unit="trial") as bar:
+    with tqdm(total=len(cells) * args.seeds, unit="run") as bar:
         for skill, name, interaction, gravity in cells:
             plan = bench_plan(name, EARTH if gravity == "earth" else ZERO_G, args.time_limit)
             results = []
             for seed in range(args.seeds):
                 participant = SimulatedParticipant(plan, skill, seed, time_limit_s=args.time_limit + 10.0)
-                results.append(run_trial(participant, interaction))
+                results.append(run_once(participant, interaction))
                 bar.update()
             done = [r for r in results if r.completed]
             frames = sum(r.frames for r in results)

@@ -31,7 +31,7 @@ NOISE_BAND_HZ = 5.0
 
 
 @dataclass(frozen=True)
-class Recording:
+class RecordedHand:
     """One right hand through a recording, SI units, hand-frame basis per frame."""
 
     name: str
@@ -47,7 +47,7 @@ class Recording:
     """(T, 5) m."""
 
 
-def load_recording(path: Path) -> Recording:
+def load_recording(path: Path) -> RecordedHand:
     """Read a LeapJS v2 recording with one right hand in every frame."""
     with gzip.open(path, "rt") as stream:
         frames = json.load(stream)["frames"]
@@ -64,18 +64,18 @@ def load_recording(path: Path) -> Recording:
         joints.append([[p[k] for k in ("mcpPosition", "pipPosition", "dipPosition", "tipPosition")] for p in digits])
         widths.append([p["width"] for p in digits])
     time = (np.array(time, dtype=np.float64) - time[0]) * 1e-6
-    return Recording(path.name, time, np.array(palm) * 1e-3, np.array(basis), np.array(joints) * 1e-3,
+    return RecordedHand(path.name, time, np.array(palm) * 1e-3, np.array(basis), np.array(joints) * 1e-3,
                      np.array(widths) * 1e-3)
 
 
-def load_all(folder: Path) -> list[Recording]:
+def load_all(folder: Path) -> list[RecordedHand]:
     missing = [name for name in RECORDINGS if not (folder / name).exists()]
     if missing:
         raise FileNotFoundError(f"{folder}: missing recordings {missing}")
     return [load_recording(folder / name) for name in RECORDINGS]
 
 
-def measure_skeleton(recordings: list[Recording]) -> dict[str, np.ndarray]:
+def measure_skeleton(recordings: list[RecordedHand]) -> dict[str, np.ndarray]:
     """Medians over every frame: phalanx lengths (5, 3), widths (5,), knuckles in the hand frame (5, 3)."""
     joints = np.concatenate([r.joints for r in recordings])
     palm = np.concatenate([r.palm for r in recordings])
@@ -86,7 +86,7 @@ def measure_skeleton(recordings: list[Recording]) -> dict[str, np.ndarray]:
             "knuckles": np.median(knuckles, axis=0)}
 
 
-def measure_frame_intervals(recordings: list[Recording]) -> dict[str, float]:
+def measure_frame_intervals(recordings: list[RecordedHand]) -> dict[str, float]:
     """Intervals as k whole periods plus jitter: the period, the jitter SD, P(k = 2), P(k = 3)."""
     intervals = np.concatenate([np.diff(r.time) for r in recordings])
     period = float(np.median(intervals))
@@ -108,7 +108,7 @@ def _band_rms(values: np.ndarray, time: np.ndarray, cutoff: float) -> np.ndarray
     return np.sqrt(np.mean(high ** 2, axis=0)).reshape(values.shape[1:])
 
 
-def measure_still_noise(recording: Recording) -> dict[str, float]:
+def measure_still_noise(recording: RecordedHand) -> dict[str, float]:
     """Tracking noise of a still hand above ``NOISE_BAND_HZ``: palm position (m, per axis),
     palm rotation (rad, per axis) and digit flexion (rad) from the resting fingers' tips."""
     palm = _band_rms(recording.palm, recording.time, NOISE_BAND_HZ)

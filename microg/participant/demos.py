@@ -92,7 +92,7 @@ class Demo:
 
 
 @dataclass(frozen=True, eq=False)
-class DemoResult:
+class DemoRun:
     """A demo as it ran: the object's state and the hand's at every hand frame (F frames)."""
 
     demo: Demo
@@ -412,7 +412,7 @@ def make_demo(name: str, interaction: str = "impulse_penetration", **options) ->
     return DEMOS[name](interaction, **options)
 
 
-def run_demo(name: str, interaction: str = "impulse_penetration", **options) -> DemoResult:
+def run_demo(name: str, interaction: str = "impulse_penetration", **options) -> DemoRun:
     """Run demo ``name`` (``DEMOS``) under ``interaction`` and record every hand frame.
 
     Parameters
@@ -427,7 +427,7 @@ def run_demo(name: str, interaction: str = "impulse_penetration", **options) -> 
 
     Returns
     -------
-    DemoResult
+    DemoRun
         The object's state, the tracked and rendered hand, contacts and grasp at every frame.
     """
     demo = make_demo(name, interaction, **options)
@@ -439,7 +439,7 @@ def run_demo(name: str, interaction: str = "impulse_penetration", **options) -> 
         world = step(world, HandFrame(float(t), (hand,)))
         frames.append(_record(world, hand))
     columns = {key: np.array([frame[key] for frame in frames]) for key in frames[0]}
-    return DemoResult(demo, interaction, times, **columns)
+    return DemoRun(demo, interaction, times, **columns)
 
 
 def _record(world: World, hand: Hand) -> dict[str, object]:

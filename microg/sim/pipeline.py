@@ -1,6 +1,6 @@
 """The physics step, compiled for a scene's effects: one compiled call per frame for a whole batch.
 
-``specialise(effects)`` returns the compiled ``advance``: for each world of a batch it takes the
+``specialise(effects)`` returns the compiled ``step_worlds``: for each world of a batch it takes the
 hand frame (``hand_path.take_hands``), then runs as many physics steps of ``dt`` as fit up to the
 frame's timestamp. A step moves the hand, then runs for each object, with its rotation computed
 once, the paper's sequence: contacts (Eqs. 2-8), impulses at the onsets (Eqs. 9-15), the friction
@@ -8,7 +8,7 @@ cone (Eqs. 19-20), the penetration springs (Eqs. 16-18), the compliant contacts,
 velocity update and the pose update. Objects never touch each other, so one object's step needs
 nothing of another's.
 
-The effects are compile-time constants of ``advance`` (its closure): numba prunes the branches of
+The effects are compile-time constants of ``step_worlds`` (its closure): numba prunes the branches of
 the effects a scene does not name before it types the function, so their kernels are not in the
 machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
 The mesh kernels (``mesh_contact``) are compiled in the same way only for a scene with a mesh object.
@@ -87,7 +87,7 @@ def end_step(s, h):
 
 @lru_cache(maxsize=None)
 def specialise(effects: frozenset[str], meshes: bool = False):
-    """The compiled ``advance(params, ints, reals, flags, counts, times, present, track, points, widths)``
+    """The compiled ``step_worlds(params, ints, reals, flags, counts, times, present, track, points, widths)``
     for exactly these effects (module docstring), and for mesh objects when ``meshes``: only then
     are the mesh kernels compiled in (the contact kernels get None for the meshes otherwise, see
     ``contact``); state buffers have a leading world axis."""
@@ -104,7 +104,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
     gyroscopic = "gyroscopic" in effects
 
     @entry
-    def advance(params, ints, reals, flags, counts, times, present, track, points, widths):
+    def step_worlds(params, ints, reals, flags, counts, times, present, track, points, widths):
         n = ints[0]
         p = unpack_params(params, ints, n)
         if meshes:
@@ -153,4 +153,4 @@ def specialise(effects: frozenset[str], meshes: bool = False):
                     end_part(s, h)
                 end_step(s, p.dt)
 
-    return advance
+    return step_worlds

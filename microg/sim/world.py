@@ -65,7 +65,7 @@ class Model:
     resting_tolerance: float
     angular_method: int
     dt: float
-    advance: Callable
+    step_worlds: Callable
     """The compiled step for this scene's effects (``pipeline.specialise``)."""
 
     @property
@@ -165,7 +165,7 @@ def make_model(scene: Scene) -> Model:
                  static_friction=static_friction, dynamic_friction=dynamic_friction, gravity=gravity,
                  penetration_stiffness=float(scene.penetration_stiffness),
                  resting_tolerance=float(scene.resting_tolerance), angular_method=method, dt=scene.dt,
-                 advance=specialise(scene.effects, scene.has_meshes))
+                 step_worlds=specialise(scene.effects, scene.has_meshes))
 
 
 def initial_data(model: Model) -> Data:
@@ -239,8 +239,8 @@ def _late(timestamp: float, frame_time: float, frames_seen: int) -> None:
                          "pass frames through the tracking guard (it re-anchors the clock) or start a new world")
 
 
-def _advance(model: Model, buffers, frames: HandFrames) -> None:
-    model.advance(model.params, model.ints, *buffers, frames.timestamp, frames.present, frames.track_id,
+def _step_worlds(model: Model, buffers, frames: HandFrames) -> None:
+    model.step_worlds(model.params, model.ints, *buffers, frames.timestamp, frames.present, frames.track_id,
                   frames.points, frames.widths)
 
 
@@ -249,7 +249,7 @@ def step(world: World, frame: HandFrame) -> World:
     data = world.data
     _late(frame.timestamp, float(data.reals[CLOCK_FRAME]), int(data.counts[COUNT_FRAMES]))
     buffers = (data.reals[None].copy(), data.flags[None].copy(), data.counts[None].copy())
-    _advance(world.model, buffers, HandFrames.stack((frame,)))
+    _step_worlds(world.model, buffers, HandFrames.stack((frame,)))
     return World(world.model, Data(data.n_objects, buffers[0][0], buffers[1][0], buffers[2][0]))
 
 
@@ -301,5 +301,5 @@ def step_batch(batch: Batch, frames: HandFrames | Sequence[HandFrame]) -> Batch:
         i = int(np.argmax(wrong))
         _late(float(frames.timestamp[i]), float(batch.reals[i, CLOCK_FRAME]), 1)
     buffers = (batch.reals.copy(), batch.flags.copy(), batch.counts.copy())
-    _advance(batch.model, buffers, frames)
+    _step_worlds(batch.model, buffers, frames)
     return Batch(batch.model, *buffers)

@@ -9,7 +9,7 @@ The command line (``microg study init``, ``microg participant add``, ``microg se
 """
 
 from .assignment import Participant, ParticipantError, assign_group, assign_order, balanced_latin_square, paper_sample
-from .export import export_study, hand_frames, questionnaire_table, read_tables, run_frames, trials_table
+from .export import export_study, questionnaire_table, read_tables, run_frames, run_hand_frames, trials_table
 from .inputs import InputError, ScriptedInputs, open_inputs, participant_plan
 from .protocol import Protocol, ProtocolError, load_protocol
 from .questionnaire import RatingError, TerminalRater, parse_rating
@@ -20,7 +20,8 @@ __all__ = [
     "InputError", "Outputs", "Participant", "ParticipantError", "Protocol", "ProtocolError",
     "RatingError", "ScriptedInputs", "SimulationClock", "Store", "StoreError", "TerminalRater",
     "WallClock", "assign_group", "assign_order", "balanced_latin_square", "create_study", "export_study",
-    "hand_frames", "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",
-    "plan_tasks", "questionnaire_table", "read_tables", "resume_session", "run_frames", "run_session", "run_task",
+    "load_protocol", "open_inputs", "open_study", "paper_sample", "parse_rating", "participant_plan",
+    "plan_tasks", "questionnaire_table", "read_tables", "resume_session", "run_frames", "run_hand_frames", "run_session",
+    "run_task",
     "task_world", "trials_table",
 ]

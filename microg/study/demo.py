@@ -35,7 +35,7 @@ from .store import FINAL_RUN, Store, StoreError, create_study, open_study
 
 
 @dataclass(frozen=True)
-class DemoResult:
+class DemoStudy:
     study: Path
     report: Path
     tables: Path
@@ -77,7 +77,7 @@ def _tasks_finished(store: Store) -> int:
 
 
 def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: str | Path = "paper",
-             jobs: int | None = None, overwrite: bool = False, progress: bool = True) -> DemoResult:
+             jobs: int | None = None, overwrite: bool = False, progress: bool = True) -> DemoStudy:
     """Run a whole simulated study into ``out`` (see the module docstring) and return where things are."""
     started = time.monotonic()
     out = Path(out)
@@ -128,4 +128,4 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     export_study(study_dir, tables, frames=False, bids=False, progress=False)
     report = write_report(tables / "trials.csv", tables / "questionnaire.csv", out / "report",
                           title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}")
-    return DemoResult(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)
+    return DemoStudy(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)

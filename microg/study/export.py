@@ -97,8 +97,9 @@ def run_frames(store: Store, run_id: int) -> pd.DataFrame:
     return framelog.frame_table(framelog.read(store.db, run_id))
 
 
-def hand_frames(store: Store, run_id: int) -> list[HandFrame]:
-    """The hand frames of a task run exactly as the physics received them (``framelog.hand_frames``)."""
+def run_hand_frames(store: Store, run_id: int) -> list[HandFrame]:
+    """The hand frames of a task run as hand tracking admitted them, before the window filter
+    (``framelog.hand_frames``): filtered again, they step the physics as the run did."""
     return framelog.hand_frames(framelog.read(store.db, run_id))
 
 

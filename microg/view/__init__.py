@@ -15,9 +15,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from .scene import HAND_MODES, FrameScene, TaskLayout, default_camera, task_layout
-from .track import Moment, Track, find_run, find_session, key_moments, open_readonly, read_track
+from .track import KeyMoment, Track, find_run, find_session, key_moments, open_readonly, read_track
 
-__all__ = ["HAND_MODES", "FrameScene", "Moment", "TaskLayout", "Track", "default_camera", "export_task", "find_run",
+__all__ = ["HAND_MODES", "FrameScene", "KeyMoment", "TaskLayout", "Track", "default_camera", "export_task", "find_run",
            "find_session", "key_moments", "open_readonly", "read_track", "serve", "task_layout"]
 
 
@@ -61,6 +61,6 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
     camera = default_camera(layout, aspect=size[0] / size[1])
     if suffix in ANIMATION_FORMATS:
         return write_animation(track, layout, camera, out, hands, size, fps, speed, progress)
-    moments = ([Moment(f"{t:g} s", track.index_at(t)) for t in seconds] if seconds
+    moments = ([KeyMoment(f"{t:g} s", track.index_at(t)) for t in seconds] if seconds
                else key_moments(track, len(layout.places)))
     return write_strip(track, layout, camera, moments, out, hands, size, title)

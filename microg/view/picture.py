@@ -24,7 +24,7 @@ from microg.skeleton import MIN_PHALANX_LENGTH
 
 from .scene import PALETTE, TRACKED_THINNER, Camera, Capsules, FrameScene, TaskLayout, bone_colours, hud_lines, \
     ring_mesh, z_to_direction
-from .track import Moment, Track
+from .track import KeyMoment, Track
 
 STRIP_FORMATS = (".png", ".pdf", ".svg")
 ANIMATION_FORMATS = (".gif", ".webp")
@@ -147,7 +147,7 @@ def _title(track: Track) -> str:
             f"{run.interaction}: {result}, {run.attempts if run.attempts is not None else 0} attempts")
 
 
-def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[Moment], out: Path,
+def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[KeyMoment], out: Path,
                 hands: str = "rendered", size: tuple[int, int] = (480, 360), title: bool = True) -> Path:
     """An image strip, one panel per moment, each with its label above and the heads-up display
     (stage, task timer, place timer, attempts) under it."""

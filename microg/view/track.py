@@ -170,30 +170,30 @@ def read_track(store: Store, run: RunInfo) -> Track:
 
 
 @dataclass(frozen=True)
-class Moment:
+class KeyMoment:
     """A frame worth a picture, and what happens there."""
 
     label: str
     index: int
 
 
-def key_moments(track: Track, n_places: int) -> list[Moment]:
+def key_moments(track: Track, n_places: int) -> list[KeyMoment]:
     """The task's key moments, as in the paper's Figs. 7 and 9: the start, the pick-up (the first
     frame held), each place just before it is done (the last frame it is lit), and the end
     (released, timed out or cut off). Moments the run never reached are left out."""
     frames = track.frames
     if not len(frames):
         return []
-    moments = [Moment("start", 0)]
+    moments = [KeyMoment("start", 0)]
     held = np.flatnonzero(frames["held"])
     if len(held):
-        moments.append(Moment("picked up", int(held[0])))
+        moments.append(KeyMoment("picked up", int(held[0])))
     for k in range(n_places):
         lit = np.flatnonzero((frames["place"] == k) & frames["place_lit"])
         if len(lit):
-            moments.append(Moment(f"place {k + 1}", int(lit[-1])))
+            moments.append(KeyMoment(f"place {k + 1}", int(lit[-1])))
     last = len(frames) - 1
     end = {"completed": "released", "timeout": "timed out"}.get(framelog.STAGES[frames["stage"][-1]], "last frame")
     if all(m.index != last for m in moments):
-        moments.append(Moment(end, last))
+        moments.append(KeyMoment(end, last))
     return moments

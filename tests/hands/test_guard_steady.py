@@ -18,7 +18,7 @@ def same_state(a: GuardState, b: GuardState) -> bool:
                 and (x.last_time == y.last_time or (np.isnan(x.last_time) and np.isnan(y.last_time)))
                 for x, y in zip(a.sides, b.sides))
     return (sides and a.last_time == b.last_time and a.offset == b.offset and a.intervals == b.intervals
-            and a.stale_run == b.stale_run and a.next_track == b.next_track and a.slots == b.slots
+            and a.stale_run == b.stale_run and a.next_track == b.next_track and a.pending == b.pending
             and a.counts.as_dict() == b.counts.as_dict())
 
 

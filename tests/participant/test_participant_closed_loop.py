@@ -10,7 +10,7 @@ from microg.hands.guard import GuardConfig
 from microg.hands.tracking import Tracking
 from microg.participant import VETERAN, SimulatedParticipant, TaskPlan
 from microg.participant.bench import EARTH, PLACES, START, ZERO_G, bench_plan, bench_rules, \
-    bench_world, run_trial
+    bench_world, run_once
 from microg.participant.noise import TrackingNoiseLevels
 from microg.sim import World, grasped, step
 from microg.task import COMPLETED, observe, play
@@ -182,7 +182,7 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
 
 def test_the_bench_plays_the_task_by_its_rules():
     plan = bench_plan("cube", ZERO_G, time_limit_s=60.0)
-    result = run_trial(SimulatedParticipant(plan, "veteran", 4, time_limit_s=70.0), "impulse_penetration")
+    result = run_once(SimulatedParticipant(plan, "veteran", 4, time_limit_s=70.0), "impulse_penetration")
     assert result.completed and result.places_done == 3 and result.attempts == 0
     assert 3 * plan.rules.hold_s < result.completion_time < 60.0
     # Frames come at the tracker's 115 Hz (a few missing), until the release was judged.

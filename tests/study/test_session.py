@@ -13,7 +13,7 @@ from microg.hands.filter import HandFilter
 from microg.sim import step
 from microg.sim.rotation import quat_to_matrix
 from microg.study import framelog
-from microg.study.export import hand_frames, run_frames, trials_table
+from microg.study.export import run_frames, run_hand_frames, trials_table
 from microg.study.inputs import ScriptedInputs, participant_plan
 from microg.study.session import (EventLog, SimulationClock, Unattended, resume_session, run_session, run_task,
                                   task_world)
@@ -132,7 +132,7 @@ def test_the_stored_hand_frames_simulate_the_logged_run_again_exactly(make_study
     task = store.tasks(store.session_of("P01").id)[0]
     world, positions = task_world(store.protocol, task), []
     smooth = HandFilter(store.protocol.filter_window, 1 / store.protocol.tracking_rate).smooth
-    for frame in hand_frames(store, run_id):
+    for frame in run_hand_frames(store, run_id):
         world = step(world, smooth(frame))
         positions.append(world.data.position[0].copy())
     logged = run_frames(store, run_id)[["px", "py", "pz"]].to_numpy()
