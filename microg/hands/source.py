@@ -27,6 +27,21 @@ class HandSource(Protocol):
     def close(self) -> None: ...
 
 
+class Borrowed:
+    """A view of a source that stays open when the view is closed: a live tracker serves every task
+    of a session, each task closing its own view."""
+
+    def __init__(self, source: HandSource):
+        self._source = source
+        self.description = source.description
+
+    def next_frame(self, observation=None) -> HandFrame | None:
+        return self._source.next_frame(observation)
+
+    def close(self) -> None:
+        pass
+
+
 class Paced:
     """``source`` with its frames handed out no faster than their timestamps say: ``speed`` times
     real time from the first frame on (a recording or a simulated participant, watched live)."""

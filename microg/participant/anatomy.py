@@ -150,14 +150,11 @@ def posed_hand(joints: np.ndarray, palm_position: np.ndarray, palm_orientation: 
     which it makes read-only).
 
     Such a hand is valid by construction (the skeleton's bones and widths, posed), so it is not
-    checked again at every frame: like ``Hand.renumbered``, it is a copy of a checked hand with its
-    own read-only arrays, at a tenth of the cost of ``Hand(...)``.
+    checked again at every frame: a ``Hand.checked_copy`` of the checked skeleton (one of the three
+    places ``Hand`` names), with its own read-only arrays.
     """
     joints.setflags(write=False)
     palm_position.setflags(write=False)
     palm_orientation.setflags(write=False)
-    fields = _CHECKED[side].__dict__.copy()
-    fields.update(joints=joints, palm_position=palm_position, palm_orientation=palm_orientation, track_id=track_id)
-    hand = object.__new__(Hand)
-    object.__setattr__(hand, "__dict__", fields)
-    return hand
+    return _CHECKED[side].checked_copy(joints=joints, palm_position=palm_position, palm_orientation=palm_orientation,
+                                       track_id=track_id)

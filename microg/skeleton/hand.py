@@ -115,7 +115,14 @@ def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
 class Hand:
     """One tracked hand, in metres, in the tracker's frame (y up). Construction refuses what no real
     hand can be (infinite values, bones wider than ``MAX_BONE_WIDTH``, points farther than
-    ``MAX_REACH``, a palm orientation that is not a unit quaternion), naming the field and value."""
+    ``MAX_REACH``, a palm orientation that is not a unit quaternion), naming the field and value.
+
+    The checks are skipped in three places only, each a copy of a checked hand (``checked_copy``)
+    made every frame, where a profile of a session showed the checks cost more than the rest of the
+    step: the tracking guard renumbering a track (``renumbered``), the window filter's smoothed
+    joints (``with_joints``: weighted means of checked joints) and the simulated participant's
+    posed hand (``microg.participant.anatomy.posed_hand``: its checked skeleton, posed). A checked
+    ``Hand(...)`` costs about 50 times the copy (some 100 us against 2-5 us a hand here)."""
 
     side: str
     joints: np.ndarray
@@ -188,21 +195,24 @@ class Hand:
         """(26, 3) palm and joints: the points a jump is measured on."""
         return np.vstack([self.palm_position, self.joints.reshape(-1, 3)])
 
-    def renumbered(self, track_id: int) -> Hand:
-        """The same hand under another track id. It shares the (read-only, already validated) arrays,
-        so renumbering costs no validation: the tracking guard does it every frame."""
+    def checked_copy(self, **fields) -> Hand:
+        """This hand with ``fields`` replaced, without the checks: only for the three callers the
+        class docstring names, whose new fields are valid by construction (read-only float64
+        arrays of the same shapes, derived from checked hands)."""
         hand = object.__new__(Hand)
-        hand.__dict__.update(self.__dict__, track_id=track_id)
+        hand.__dict__.update(self.__dict__, **fields)
         return hand
 
+    def renumbered(self, track_id: int) -> Hand:
+        """The same hand under another track id, sharing its read-only arrays (a ``checked_copy``)."""
+        return self.checked_copy(track_id=track_id)
+
     def with_joints(self, joints: np.ndarray) -> Hand:
-        """The same hand with other joint positions of the same shape, e.g. filtered ones (a weighted
-        mean of this track's checked joints): it costs no validation, like ``renumbered``."""
+        """The same hand with other joint positions of the same shape, e.g. the window filter's
+        weighted mean of this track's checked joints (a ``checked_copy``)."""
         joints = np.asarray(joints, dtype=np.float64)
         joints.setflags(write=False)
-        hand = object.__new__(Hand)
-        hand.__dict__.update(self.__dict__, joints=joints)
-        return hand
+        return self.checked_copy(joints=joints)
 
     def moved(self, offset: np.ndarray) -> Hand:
         """The same hand translated by ``offset`` (m)."""
@@ -242,7 +252,8 @@ class HandFrame:
     @classmethod
     def made(cls, timestamp: float, hands: tuple[Hand, ...]) -> HandFrame:
         """A frame without the checks, for the code that makes one every frame in order by
-        construction: a finite float time, at most one hand per side, left first."""
+        construction (the guard, the window filter, the simulated participant): a finite float
+        time, at most one hand per side, left first. The checks cost about twice the frame."""
         frame = object.__new__(cls)
         frame.__dict__.update(timestamp=timestamp, hands=hands)
         return frame

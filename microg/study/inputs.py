@@ -11,9 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Callable, Protocol as Interface
 
-from microg.hands.source import HandSource
+from microg.hands.source import Borrowed, HandSource
 from microg.participant.plan import TaskPlan
-from microg.skeleton import HandFrame
 
 from .protocol import Protocol
 from .store import PlannedTask
@@ -49,20 +48,6 @@ class Inputs(Interface):
     def close(self) -> None: ...
 
 
-class _Borrowed:
-    """A view of a source that stays open after the task (the live tracker serves every task)."""
-
-    def __init__(self, source: HandSource):
-        self._source = source
-        self.description = source.description
-
-    def next_frame(self, observation=None) -> HandFrame | None:
-        return self._source.next_frame(observation)
-
-    def close(self) -> None:
-        pass
-
-
 class LiveInputs:
     clock = "wall"
     simulated = False
@@ -74,7 +59,7 @@ class LiveInputs:
     def open(self, plan: TaskPlan, seed: int) -> HandSource:
         if self._source is None:
             self._source = _open_tracking(self.spec)
-        return _Borrowed(self._source)
+        return Borrowed(self._source)
 
     def close(self) -> None:
         if self._source is not None:

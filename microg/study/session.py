@@ -313,7 +313,7 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, oper
     log.mark(store.events(session.id, run_id))
     progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")
     result = run_task(log=log, run_id=run_id, world=world, source=source, protocol=protocol,
-                      sinks=(*sinks, progress))
+                      sinks=(progress, *sinks))
     operator.finished(task, result.status, result.time_s)
     return result
 
