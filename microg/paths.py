@@ -18,6 +18,8 @@ def _shipped(name: str) -> Path:
 
 PROTOCOLS = _shipped("protocols")
 OBJECTS = PROTOCOLS / "objects"
+POPULATIONS = PROTOCOLS / "populations"
+"""Populations of simulated participants (``microg.participant.population``)."""
 DATA = _shipped("data")
 LEAP_RECORDINGS = DATA / "leap-v2-recordings"
 """Four real Leap Motion recordings in LeapJS v2 JSON (see the README beside them)."""

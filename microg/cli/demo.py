@@ -17,18 +17,22 @@ from .common import clear_errors
               help="Seed of the study: who is enrolled with which demographics, and every session.")
 @click.option("--protocol", default="paper", show_default=True,
               help="A shipped protocol name (paper, paper-microgravity, mallet-microgravity) or a protocol file.")
+@click.option("--profile", type=click.Path(dir_okay=False, exists=True), default=None,
+              help="A population file (PROFILE.toml, microg participant calibrate writes one) that every group's "
+                   "simulated participants are drawn from; default: each group's simulated_profile.")
 @click.option("--jobs", type=click.IntRange(1), default=None, help="Worker processes (default: one per core).")
 @click.option("--overwrite", is_flag=True, help="Replace what is in --out.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @clear_errors
-def demo(out: str, participants: int, seed: int, protocol: str, jobs: int | None, overwrite: bool,
-         quiet: bool) -> None:
+def demo(out: str, participants: int, seed: int, protocol: str, profile: str | None, jobs: int | None,
+         overwrite: bool, quiet: bool) -> None:
     """Run a complete simulated study: enrol participants with the paper's demographics, run every
     session (simulated hands, real session runner and physics, logged to SQLite), answer the
     questionnaires with the rating model (marked simulated), export the tables, write the report."""
     from microg.study.demo import run_demo
 
-    result = run_demo(out, participants, seed, protocol, jobs, overwrite, progress=not quiet)
+    result = run_demo(out, participants, seed, protocol, profile=profile, jobs=jobs, overwrite=overwrite,
+                      progress=not quiet)
     click.echo(f"{result.participants} simulated participants, {result.tasks} tasks in "
                f"{result.seconds / 60:.1f} min")
     click.echo(f"study (SQLite log store): {result.study}")

@@ -123,7 +123,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
     with contextlib.ExitStack() as stack:
         display = stack.enter_context(_display(store, options, kind)) if shown else None
-        inputs = open_inputs(spec, store.protocol.group(record.group).simulated_profile,
+        inputs = open_inputs(spec, store.protocol.group(record.group),
                              webxr=None if display is None else display.hands, align=options.align)
         stack.callback(inputs.close)
         if shown and kind not in LIVE:

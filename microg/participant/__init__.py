@@ -1,18 +1,24 @@
 """The simulated participant: a seeded motor model that plays the pick-and-place task in closed
-loop with the physics and delivers Leap-shaped hand frames (see ``participant``); the rating model
-that answers the questionnaire for it (``ratings``)."""
+loop with the physics and delivers Leap-shaped hand frames (see ``participant``); the population
+each participant's parameters are drawn from (``population``); the rating model that answers the
+questionnaire for it (``ratings``)."""
 
 from .participant import SimulatedParticipant
 from .plan import TaskPlan
-from .skill import BEGINNER, PROFILES, VETERAN, SkillProfile, practised, skill_profile
+from .population import Population, PopulationError, default_population, read_population
+from .skill import BEGINNER, PROFILES, VETERAN, SkillProfile, person_skill, skill_profile
 
 __all__ = [
     "BEGINNER",
     "PROFILES",
+    "Population",
+    "PopulationError",
     "VETERAN",
     "SimulatedParticipant",
     "SkillProfile",
     "TaskPlan",
-    "practised",
+    "default_population",
+    "person_skill",
+    "read_population",
     "skill_profile",
 ]

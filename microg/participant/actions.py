@@ -128,6 +128,9 @@ class Player:
     streams: Streams
     mirror: float
     """-1.0 for a left hand, 1.0 for a right (the skeleton is a right hand's)."""
+    caution: float
+    """Every movement with this object takes this many times longer (1 + ``shape_caution`` x the log
+    of its elongation: the cube 1, the flat and long cuboids more)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -216,12 +219,21 @@ class Seen(NamedTuple):
 
 # -- helpers every action shares ------------------------------------------------------------
 
-def pause(player: Player) -> float:
-    """Reaction time plus hesitation before a new movement (s)."""
+def pause(player: Player, extra_s: float = 0.0) -> float:
+    """Reaction time plus hesitation before a new movement (s), plus an exponential pause of mean
+    ``extra_s`` (a new object, a drop)."""
     skill = player.skill
+    draws = player.streams.decisions
+    extra = draws.exponential(extra_s) if extra_s > 0 else 0.0
     if skill.hesitation_s == 0:
-        return skill.reaction_s
-    return skill.reaction_s + player.streams.decisions.exponential(skill.hesitation_s)
+        return skill.reaction_s + extra
+    return skill.reaction_s + draws.exponential(skill.hesitation_s) + extra
+
+
+def _movement_time(player: Player, distance: float, tolerance: float) -> float:
+    """Fitts' law with the participant's constants, slowed by its caution with this object (s)."""
+    skill = player.skill
+    return player.caution * movement_time(distance, tolerance, skill.movement_intercept, skill.movement_slope)
 
 
 def _enter(s: ParticipantState, action: str, t: float, **changes) -> ParticipantState:
@@ -278,9 +290,8 @@ def _destination(s: ParticipantState) -> np.ndarray:
 
 
 def _carry_time(player: Player, distance: float) -> float:
-    skill = player.skill
-    tolerance = skill.place_accept * player.plan.rules.place_radius
-    return skill.carry_slowdown * movement_time(distance, tolerance, skill.movement_intercept, skill.movement_slope)
+    tolerance = player.skill.place_accept * player.plan.rules.place_radius
+    return player.skill.carry_slowdown * _movement_time(player, distance, tolerance)
 
 
 def _squeeze_depth(s: ParticipantState, seen: Seen) -> float:
@@ -307,7 +318,7 @@ def _check_drop(s: ParticipantState, seen: Seen, displaced: bool) -> tuple[Parti
         return (s if s.released_since is None else s.changed(released_since=None)), False
     since = seen.t if s.released_since is None else s.released_since
     if seen.t - since >= DROP_CONFIRM_S:
-        return _begin_retry(s.changed(attempts=s.attempts + 1, released_since=None), seen.t), True
+        return _begin_retry(s.changed(attempts=s.attempts + 1, released_since=None), seen.t, dropped=True), True
     return s.changed(released_since=since), False
 
 
@@ -344,8 +355,7 @@ def _begin_reach(s: ParticipantState, seen: Seen) -> ParticipantState:
     grasp = Grasp(template, orientation, player.streams.decisions.normal(0.0, skill.aim_sd, 3))
     closure = -skill.preshape_margin
     target = _grasp_pose(grasp, closure, seen, approach=True)
-    duration = movement_time(_distance(target.position, s.pose.position), skill.preshape_margin,
-                             skill.movement_intercept, skill.movement_slope)
+    duration = _movement_time(player, _distance(target.position, s.pose.position), skill.preshape_margin)
     return _enter(s, REACH, t, grasp=grasp, closure=closure, movement=Movement(s.pose, target, t, duration))
 
 
@@ -360,13 +370,16 @@ def _begin_carry(s: ParticipantState, seen: Seen, delay: float) -> ParticipantSt
     return _enter(s, CARRY, seen.t, movement=Movement(start, end, seen.t + delay, duration))
 
 
-def _begin_retry(s: ParticipantState, t: float) -> ParticipantState:
-    """Open the hand and back off, then reach for the object again where it is."""
-    start, template, margin = s.pose, s.grasp.template, s.player.skill.preshape_margin
+def _begin_retry(s: ParticipantState, t: float, dropped: bool = False) -> ParticipantState:
+    """Open the hand and back off, then reach for the object again where it is; after a drop the
+    hand first stays where it is for a pause (``drop_pause_s``)."""
+    player = s.player
+    start, template, margin = s.pose, s.grasp.template, player.skill.preshape_margin
     back = start.position + quat_to_matrix(start.orientation) @ template.approach
     end = Pose(back, start.orientation, template.posture(-margin))
+    wait = pause(player, player.skill.drop_pause_s) - player.skill.reaction_s if dropped else 0.0
     return _enter(s, RETRY, t, closure=-margin,
-                  movement=Movement(start, end, t, OPEN_S + s.player.skill.reaction_s))
+                  movement=Movement(start, end, t + wait, OPEN_S + player.skill.reaction_s))
 
 
 def _begin_open(s: ParticipantState, t: float) -> ParticipantState:
@@ -397,9 +410,7 @@ def reach(s: ParticipantState, seen: Seen) -> ParticipantState:
     pose = movement.at(t)
     if movement.progress(t) < 1.0:
         return s.changed(pose=pose, movement=movement)
-    skill = s.player.skill
-    duration = movement_time(_length(s.grasp.template.approach), skill.preshape_margin,
-                             skill.movement_intercept, skill.movement_slope)
+    duration = _movement_time(s.player, _length(s.grasp.template.approach), s.player.skill.preshape_margin)
     descent = Movement(pose, _grasp_pose(s.grasp, s.closure, seen, approach=False), t, duration)
     return _enter(s, DESCEND, t, pose=pose, movement=descent)
 
@@ -547,7 +558,7 @@ def follow_display(s: ParticipantState, seen: Seen) -> ParticipantState | None:
     if display.stage in FINAL:
         return _enter(s, DONE, seen.t)
     if display.stage == MANIPULATION and s.action in HOLDING and seen.t - s.since > s.player.skill.reaction_s:
-        return _begin_retry(s.changed(attempts=s.attempts + 1), seen.t)
+        return _begin_retry(s.changed(attempts=s.attempts + 1), seen.t, dropped=True)
     return None
 
 

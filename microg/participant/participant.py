@@ -32,6 +32,8 @@ over. Without one it judges everything from the scene and its own clock.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
@@ -65,10 +67,13 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     side = SIDES.index(plan.hand)
     slots = side_slots(side)
     thumb = SLOT_DIGIT[slots] == 0
+    extents = np.asarray(plan.object.half_extents, dtype=np.float64)
+    caution = 1.0 + skill.shape_caution * math.log(float(extents.max() / extents.min()))
     player = Player(plan, skill, timing, float(time_limit_s), home, slots, thumb, ~thumb, streams,
-                    -1.0 if plan.hand == "left" else 1.0)
+                    -1.0 if plan.hand == "left" else 1.0, caution)
     pose = Pose(home, np.array([1.0, 0.0, 0.0, 0.0]), REST.copy())
-    return ParticipantState(player, pose, tremor, jitter, go_at=pause(player))
+    first_reach = pause(player, skill.new_object_pause_s if plan.first_with_object else 0.0)
+    return ParticipantState(player, pose, tremor, jitter, go_at=first_reach)
 
 
 def perceive(player: Player, observation: Observation, t: float, dt: float) -> Seen:

@@ -24,7 +24,9 @@ class TaskPlan:
     user than the object). ``release_position``: where to carry the object after the last place
     before letting go (None: let go at the last place). ``tasks_done``: tasks this participant did
     before this one in the session (its practice). ``participant`` and ``phase`` name the task in
-    the study (empty outside one).
+    the study (empty outside one). ``participant_seed`` is the participant's own seed (a session's),
+    from which a participant drawn from a population gets its parameters, the same in every task;
+    ``first_with_object``: no earlier task of the session had this object.
     """
 
     object: ObjectSpec
@@ -37,6 +39,8 @@ class TaskPlan:
     release_position: Point | None = None
     participant: str = ""
     phase: str = ""
+    participant_seed: int = 0
+    first_with_object: bool = True
 
     def __post_init__(self) -> None:
         if self.hand not in SIDES:

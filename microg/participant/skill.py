@@ -1,36 +1,36 @@
-"""Skill profiles: how fast, how accurately and how steadily a simulated participant moves.
+"""Skill: how fast, how accurately and how steadily a simulated participant moves in one task.
 
-The two profiles follow the paper's groups: a *veteran* trained with the interaction model before the test,
-a *beginner* did not. Where a number comes from the motor-control literature it says so; where it
-is a modelling choice it says that too. Nothing here is tuned to make an interaction model look
-good: both profiles run every model with the same numbers.
+A ``SkillProfile`` holds one person's motor parameters at one moment of practice. A study's
+simulated participants each draw their own from a population (``population``: every parameter's
+mean and spread between people, in a profile file) and practice moves them along the power law of
+practice task by task (``population.practise``); ``person_skill`` makes the profile for one task.
+The two fixed profiles ``VETERAN`` and ``BEGINNER`` (every participant the same) remain for
+benches and tests. What each parameter means, its unit and where its value comes from is in
+``population.PARAMETERS`` and docs/simulated-participant.md; nothing here is tuned to make an
+interaction model look good: every model is played with the same numbers.
 
-- Movement time, Fitts' law T = a + b log2(D / W + 1): reaches of 10-20 cm to targets a few cm
-  wide take 0.5-0.8 s for the veteran, in the range of prehension times for such distances
-  (Jeannerod 1984: 0.6-1 s for 20-30 cm); the beginner's slope is higher, as mid-air Leap pointing
-  is about twice as slow as with a mouse for the untrained (Bachmann et al. 2015). Carrying a held
-  object is slower than reaching (``carry_slowdown``; a modelling choice).
-- Aim: endpoint error SD per axis; reaching endpoints scatter by a few millimetres when trained
-  (van Beers et al. 2004: SD 3-8 mm for 10-20 cm reaches); the beginner's doubled.
-- Reaction and hesitation before each new movement: simple visual reaction about 0.25 s; the
-  beginner adds longer, exponentially distributed pauses (a modelling choice).
-- Tremor: RMS per axis, 50 um (a steady, trained hand) and 100 um (Becker et al. 2008 mean under
-  strain); see ``noise``.
-- Grip: the pre-shape opens ``preshape_margin`` beyond each face (the measured hand cannot open
-  much more than 12 mm around a 6 cm cube); closing speed per side; the grip is sized for the
-  expected load with a safety margin of 1.4 (grip force 20-40 % above the slip limit, Johansson and
-  Westling 1984), through the participant's belief of how stiff a pressed phalanx is; the
-  veteran's belief is calibrated by training (10 % error), the beginner's is not (40 %).
+- Movement time, Fitts' law T = a + b log2(D / W + 1), carrying slower than reaching
+  (``carry_slowdown``), and more slowly still with an elongated object (``shape_caution``).
+- Aim: endpoint error SD per axis (van Beers et al. 2004: SD 3-8 mm for 10-20 cm reaches).
+- Reaction and hesitation before each new movement (simple visual reaction about 0.25 s), an
+  extra pause before the first reach for an object not handled before in the session
+  (``new_object_pause_s``) and after a drop (``drop_pause_s``).
+- Tremor: RMS per axis (Becker et al. 2008); see ``noise``.
+- Grip: the pre-shape opens ``preshape_margin`` beyond each face; closing speed per side; the grip
+  is sized for the expected load with a safety margin (grip force 20-40 % above the slip limit,
+  Johansson and Westling 1984), through the participant's belief of how stiff a pressed phalanx is.
 - Holding: the participant times the hold on its own clock (Weber fraction of interval timing
-  about 0.05-0.15, Grondin 2010) and holds ``hold_margin_s`` longer than required, about three
-  clock SDs so a hold is rarely cut short.
+  about 0.05-0.15, Grondin 2010) and holds ``hold_margin_s`` longer than required.
 - Placement: the object must be within ``place_accept`` of the place radius before the
   participant starts holding; otherwise it makes a corrective sub-movement.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from .population import Population, practise
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,12 @@ class SkillProfile:
     """Coefficient of variation of the internal clock over one hold."""
     place_accept: float
     """Fraction of the place radius the object must be within before holding starts."""
+    shape_caution: float = 0.0
+    """Extra movement time per unit of log elongation (longest over shortest extent) of the object."""
+    new_object_pause_s: float = 0.0
+    """Mean of an extra pause before the first reach for an object not handled before (s)."""
+    drop_pause_s: float = 0.0
+    """Mean of an extra pause before reaching again after a drop (s)."""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -91,35 +97,18 @@ BEGINNER = SkillProfile(
 
 PROFILES: dict[str, SkillProfile] = {p.name: p for p in (VETERAN, BEGINNER)}
 
-PRACTICE_EXPONENT = 0.4
-"""Power law of practice: what separates a novice from a trained user shrinks as (1 + n)^-0.4
-after n tasks done (exponents of 0.2-0.6 are typical for perceptual-motor tasks, Newell and
-Rosenbloom 1981; the middle of that range, not fitted to anything)."""
-
-
-def practised(tasks_done: int) -> SkillProfile:
-    """The skill of someone new to the interaction model after ``tasks_done`` tasks with it: the beginner's
-    profile at 0, moving toward the veteran's (the trained asymptote) along the power law of practice.
-
-    A study whose simulated participants all play this profile gets any difference between trained
-    and untrained groups from the practice the training gave, not from a label."""
-    if not isinstance(tasks_done, int) or tasks_done < 0:
-        raise ValueError(f"tasks_done = {tasks_done!r}: must be a whole number >= 0")
-    remaining = (1.0 + tasks_done) ** -PRACTICE_EXPONENT
-    values = {}
-    for f in fields(SkillProfile):
-        if f.name != "name":
-            trained, novice = getattr(VETERAN, f.name), getattr(BEGINNER, f.name)
-            values[f.name] = trained + remaining * (novice - trained)
-    return replace(BEGINNER, name=f"practised:{tasks_done}", **values)
-
 
 def skill_profile(name: str) -> SkillProfile:
-    """The profile called ``name`` (``veteran``, ``beginner`` or ``practised:N``); the error lists the known ones."""
-    kind, _, count = name.partition(":")
-    if kind == "practised" and count.isdigit():
-        return practised(int(count))
+    """The fixed profile called ``name`` (``veteran`` or ``beginner``); the error lists them."""
     try:
         return PROFILES[name]
     except KeyError:
-        raise ValueError(f"skill = {name!r}: unknown profile (known: {sorted(PROFILES)}, practised:N)") from None
+        raise ValueError(f"skill = {name!r}: unknown profile (known: {sorted(PROFILES)})") from None
+
+
+def person_skill(population: Population, participant_seed: int, tasks_done: int) -> SkillProfile:
+    """The skill of the participant whose seed is ``participant_seed``, drawn from ``population``,
+    after ``tasks_done`` tasks of practice."""
+    values = practise(population.draw(participant_seed), tasks_done)
+    return SkillProfile(name=f"{Path(population.where).stem}:{participant_seed}:{tasks_done}",
+                        **{f.name: values[f.name] for f in fields(SkillProfile) if f.name != "name"})

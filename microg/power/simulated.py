@@ -52,7 +52,7 @@ def simulated_trials(protocol: Protocol, n_per_group: int, study_seed: int) -> p
             store.add_participant(Participant(f"S{number + 1:03d}", ("female", "male")[number % 2],
                                               int(rng.integers(youngest, oldest + 1)), "right", True))
         for record in store.participants():
-            inputs = open_inputs("simulated", sized.group(record.group).simulated_profile)
+            inputs = open_inputs("simulated", sized.group(record.group))
             session = store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
             run_session(store, session.id, inputs, clock=SimulationClock())
         return trials_table(store)

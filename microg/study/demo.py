@@ -44,8 +44,9 @@ class DemoStudy:
     seconds: float
 
 
-def _inputs(store, participant_id: str):
-    return open_inputs("simulated", store.protocol.group(store.participant(participant_id).group).simulated_profile)
+def _inputs(store, participant_id: str, spec: str = "simulated"):
+    """The simulated participant's inputs: the group's profile, unless ``spec`` names another."""
+    return open_inputs(spec, store.protocol.group(store.participant(participant_id).group))
 
 
 _worker_store: Store | None = None
@@ -65,8 +66,8 @@ def _run_session(session_id: int) -> str:
     session = store.session(session_id)
     store.lock_session(session_id)
     try:
-        return run_session(store, session_id, _inputs(store, session.participant_id), clock=SimulationClock(),
-                           rater=ModelRater(store, session_id, session.seed))
+        return run_session(store, session_id, _inputs(store, session.participant_id, session.input),
+                           clock=SimulationClock(), rater=ModelRater(store, session_id, session.seed))
     finally:
         store.unlock_session(session_id)
 
@@ -76,9 +77,12 @@ def _tasks_finished(store: Store) -> int:
                             FINAL_RUN).fetchone()[0]
 
 
-def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: str | Path = "paper",
-             jobs: int | None = None, overwrite: bool = False, progress: bool = True) -> DemoStudy:
-    """Run a whole simulated study into ``out`` (see the module docstring) and return where things are."""
+def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: str | Path = "paper", *,
+             profile: str | Path | None = None, jobs: int | None = None, overwrite: bool = False,
+             progress: bool = True) -> DemoStudy:
+    """Run a whole simulated study into ``out`` (see the module docstring) and return where things are.
+    ``profile``: a population file every group's simulated participants are drawn from (default:
+    each group's ``simulated_profile``)."""
     started = time.monotonic()
     out = Path(out)
     if out.exists() and any(out.iterdir()):
@@ -98,8 +102,9 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             store.add_participant(person)
         ids = [p.id for p in store.participants()]
         sessions = []
+        spec = "simulated" if profile is None else f"simulated:{Path(profile).resolve()}"
         for participant_id in ids:
-            inputs = _inputs(store, participant_id)
+            inputs = _inputs(store, participant_id, spec)
             sessions.append(store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock).id)
         planned = {session_id: len(store.tasks(session_id)) for session_id in sessions}
         total_tasks = sum(planned.values())

@@ -14,24 +14,23 @@ from typing import Callable, Protocol as Interface
 from microg.hands.source import Borrowed, HandSource
 from microg.participant.plan import TaskPlan
 
-from .protocol import Protocol
+from microg.participant import Population, PopulationError, SkillProfile
+
+from .protocol import PRACTICE, Group, Protocol, simulated_player
 from .store import PlannedTask
-
-
-PRACTICE = "practice"
-"""The simulated profile whose skill grows with the tasks done (see ``SimulatedInputs``)."""
 
 
 class InputError(ValueError):
     """An ``--input`` that cannot be opened; the message says what is missing."""
 
 
-def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right", participant: str = "") -> TaskPlan:
+def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right", participant: str = "", *,
+                     participant_seed: int = 0, first_with_object: bool = True) -> TaskPlan:
     """The one place that turns a protocol's task into what its player knows of it."""
     start, _ = protocol.start_pose(task.object)
     return TaskPlan(object=protocol.object(task.object).spec, start=start, rules=protocol.task,
                     gravity=protocol.gravity, hand=hand, tasks_done=task.index, participant=participant,
-                    phase=task.phase)
+                    phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object)
 
 
 class Inputs(Interface):
@@ -68,20 +67,22 @@ class LiveInputs:
 
 
 class SimulatedInputs:
-    """A simulated participant (``microg.participant``) plays each task. Profile ``practice``
-    starts every participant new to the interaction model and lets each task done (training included) improve
-    the skill by the power law of practice; ``veteran`` and ``beginner`` are fixed skills."""
+    """A simulated participant (``microg.participant``) plays each task. From a population (the
+    default one for ``practice``, or a profile file), each participant draws their own parameters,
+    from their own seed, and each task done (training included) improves them by the power law of
+    practice; ``veteran`` and ``beginner`` are fixed skills, the same for everyone."""
 
     clock = "simulation"
     simulated = True
 
-    def __init__(self, spec: str, profile: str):
-        self.spec, self.profile = spec, profile
+    def __init__(self, spec: str, player: Population | SkillProfile):
+        self.spec, self.player = spec, player
 
     def open(self, plan: TaskPlan, seed: int) -> HandSource:
-        from microg.participant import SimulatedParticipant
+        from microg.participant import SimulatedParticipant, person_skill
 
-        skill = f"practised:{plan.tasks_done}" if self.profile == PRACTICE else self.profile
+        skill = (person_skill(self.player, plan.participant_seed, plan.tasks_done)
+                 if isinstance(self.player, Population) else self.player)
         return SimulatedParticipant(plan, skill, seed, time_limit_s=plan.rules.timeout_s + 10.0)
 
     def close(self) -> None:
@@ -140,11 +141,11 @@ def parse_input(spec: str) -> tuple[str, str]:
     raise InputError(f"--input {spec!r}: must be leap, webxr, lsl:STREAM_NAME, replay:FILE or simulated[:PROFILE]")
 
 
-def open_inputs(spec: str, group_profile: str | None = None, webxr: HandSource | None = None,
+def open_inputs(spec: str, group: Group | None = None, webxr: HandSource | None = None,
                 align: str | None = None) -> Inputs:
     """Parse ``--input`` and check that what it needs is installed; ``simulated`` without a
-    profile plays ``group_profile``; ``webxr`` is the source the participant's page feeds
-    (``microg.hands.webxr``); ``align`` places replayed recordings (``microg.study.replay``)."""
+    profile plays ``group``'s (``Group.player``); ``webxr`` is the source the participant's page
+    feeds (``microg.hands.webxr``); ``align`` places replayed recordings (``microg.study.replay``)."""
     kind, argument = parse_input(spec)
     if align is not None and kind != "replay":
         raise InputError(f"--align {align}: only replayed recordings are placed in the workspace")
@@ -153,18 +154,15 @@ def open_inputs(spec: str, group_profile: str | None = None, webxr: HandSource |
             raise InputError("--input webxr: the hands come from the participant's page; run with --display")
         return LiveInputs(spec, webxr)
     if kind == "simulated":
-        from microg.participant import skill_profile
-
-        profile = argument or group_profile
-        if not profile:
-            raise InputError(f"--input {spec!r}: give a skill profile, as simulated:practice, simulated:veteran "
-                             f"or simulated:beginner")
-        if profile != PRACTICE:
+        if argument:
             try:
-                skill_profile(profile)
-            except ValueError as error:
-                raise InputError(f"--input {spec!r}: {error}; or {PRACTICE}") from None
-        return SimulatedInputs(f"simulated:{profile}", profile)
+                return SimulatedInputs(f"simulated:{argument}", simulated_player(argument, Path.cwd()))
+            except (ValueError, PopulationError) as error:
+                raise InputError(f"--input {spec!r}: {error}") from None
+        if group is None:
+            raise InputError(f"--input {spec!r}: give a profile, as simulated:{PRACTICE}, simulated:veteran, "
+                             f"simulated:beginner or simulated:PROFILE.toml")
+        return SimulatedInputs("simulated", group.player)
     if kind in ("leap", "lsl"):
         return LiveInputs(spec, _open_tracking(spec))  # the device answers before any session starts
     from .replay import ReplayError, ReplayInputs

@@ -28,6 +28,7 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -39,6 +40,12 @@ from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
 from microg.task.rules import TaskRules
 
+if TYPE_CHECKING:
+    from microg.participant import Population, SkillProfile
+
+PRACTICE = "practice"
+"""The simulated profile of the default population: every participant draws their own parameters,
+and practice improves them with each task done (``microg.study.inputs.SimulatedInputs``)."""
 PHASES_INFO = ("orientation", "instructions")
 """Timeline phases that show text and log their start and end."""
 ORDER_SCHEMES = ("latin_square", "permutation")
@@ -60,7 +67,12 @@ class Group:
     size: int
     training: bool
     simulated_profile: str
-    """Skill profile a simulated participant of this group plays (``veteran``, ``beginner``)."""
+    """What a simulated participant of this group plays, as the protocol names it: ``practice``
+    (the default population), a population file ``FILE.toml`` (relative to the protocol), or one
+    of the fixed skills ``veteran`` and ``beginner``."""
+    player: Population | SkillProfile | None = field(default=None, compare=False)
+    """That profile, read (``simulated_player``); None where it names nothing a simulated
+    participant can play (``Protocol.simulation_problems`` says so)."""
 
 
 @dataclass(frozen=True)
@@ -208,15 +220,13 @@ class Protocol:
         from microg.participant.ratings import PENALTIES
         from microg.participant.skill import PROFILES
 
-        from .inputs import PRACTICE
-
         problems = []
-        profiles = sorted(PROFILES) + [PRACTICE]
+        profiles = [PRACTICE] + sorted(PROFILES)
         for i, group in enumerate(self.groups):
-            if group.simulated_profile not in profiles:
+            if group.player is None:
                 problems.append(f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: "
-                                f"simulated participants play one of the skill profiles {profiles} (the default "
-                                "is the group's name)")
+                                f"simulated participants play a population file (FILE.toml) or one of {profiles} "
+                                "(the default is the group's name)")
         for i, item in enumerate(self.questionnaire.items if self.questionnaire else ()):
             if item.name not in PENALTIES:
                 problems.append(f"{self.where}: questionnaire.items[{i}].name = {item.name!r}: the rating model of "
@@ -304,6 +314,26 @@ def _resolve(path: Path, chain: tuple[Path, ...] = ()) -> tuple[dict, list[dict]
     return _merge(base, data), base_sources + sources
 
 
+def simulated_player(profile: str, protocol_dir: Path | None, stored: dict | None = None,
+                     where: str = "") -> Population | SkillProfile | None:
+    """What ``profile`` names for a simulated participant: the default population (``practice``), a
+    population file (``FILE.toml``: its text in ``stored`` when the protocol comes from a study's
+    database, else read relative to ``protocol_dir``), a fixed skill (``veteran``, ``beginner``), or
+    None for any other name. A population file that cannot be used raises PopulationError."""
+    from microg.participant import PROFILES, default_population, read_population
+    from microg.participant.population import population_from_dict
+
+    if profile == PRACTICE:
+        return default_population()
+    if profile in PROFILES:
+        return PROFILES[profile]
+    if not profile.endswith(".toml"):
+        return None
+    if stored is not None and profile in stored:
+        return population_from_dict(tomllib.loads(stored[profile]), f"{where}: population {profile}")
+    return read_population((protocol_dir or Path.cwd()) / profile)
+
+
 def _object_file(name: str, protocol_dir: Path | None) -> Path | None:
     if not LABEL.fullmatch(name.replace("_", "").replace("-", "")):
         return None  # not a file name of an object (the validation below names the key)
@@ -348,6 +378,17 @@ def load_protocol(path: str | Path) -> Protocol:
     resolved = dict(data, object_files=objects, sources=sources)
     if meshes:
         resolved["mesh_files"] = meshes
+    populations = {}
+    for i, group in enumerate(data.get("groups") if isinstance(data.get("groups"), list) else ()):
+        profile = group.get("simulated_profile") if isinstance(group, dict) else None
+        if isinstance(profile, str) and profile.endswith(".toml") and profile not in populations:
+            found = path.parent / profile
+            if not found.is_file():
+                raise ProtocolError(f"{path}: groups[{i}].simulated_profile = {profile!r}: no such population file "
+                                    f"{found}")
+            populations[profile] = _read_text(found, "population file")
+    if populations:
+        resolved["population_files"] = populations
     return _build(_Reader(str(path), data), resolved, files)
 
 
@@ -355,7 +396,7 @@ def protocol_from_resolved(resolved: dict, where: str) -> Protocol:
     """The protocol a study database keeps (see ``Protocol.resolved``)."""
     if not isinstance(resolved, dict) or not isinstance(resolved.get("object_files", {}), dict):
         raise ProtocolError(f"{where}: the stored protocol is not a protocol table")
-    data = {k: v for k, v in resolved.items() if k not in ("object_files", "mesh_files", "sources")}
+    data = {k: v for k, v in resolved.items() if k not in ("object_files", "mesh_files", "population_files", "sources")}
     return _build(_Reader(where, data), resolved, {})
 
 
@@ -498,14 +539,21 @@ def _read_participants(top: _Reader) -> tuple[_Reader, int, str, tuple[int, int]
     return people, total, balance, age_range
 
 
-def _read_groups(top: _Reader, people: _Reader, total: int) -> tuple[Group, ...]:
-    """``[[groups]]``: codes, names, sizes (adding up to the total), who trains."""
+def _read_groups(top: _Reader, people: _Reader, total: int, populations: dict) -> tuple[Group, ...]:
+    """``[[groups]]``: codes, names, sizes (adding up to the total), who trains, what a simulated
+    participant of the group plays (its population file's text from ``populations``)."""
+    from microg.participant import PopulationError
+
     groups = []
     for g in top.tables("groups"):
         code = g.label("code", "it names the group in every table")
+        profile = g.text("simulated_profile", g.data.get("name", code))
+        try:
+            player = simulated_player(profile, None, populations, top.where)
+        except PopulationError as error:
+            raise g.fail("simulated_profile", profile, str(error)) from None
         groups.append(Group(code=code, name=g.text("name"), size=g.integer("size"),
-                            training=g.boolean("training", False),
-                            simulated_profile=g.text("simulated_profile", g.data.get("name", code))))
+                            training=g.boolean("training", False), simulated_profile=profile, player=player))
         g.done()
     top.unique("groups", [g.code for g in groups], "group code")
     if sum(g.size for g in groups) != total:
@@ -783,7 +831,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     duration = top.number("duration_minutes", unit=" (minutes)")
     gravity, table_height, options, filter_window, jump_distance = _read_scene(top)
     people, total, balance, age_range = _read_participants(top)
-    groups = _read_groups(top, people, total)
+    groups = _read_groups(top, people, total, resolved.get("population_files", {}))
     objects, order = _read_objects(top, sources, files, meshes)
     task = _read_task(top)
     phases = _read_phases(top)
@@ -797,6 +845,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     dataset = _read_dataset(top)
     top.raw("object_files", None)
     top.raw("mesh_files", None)
+    top.raw("population_files", None)
     top.raw("sources", None)
     top.done()
     protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,

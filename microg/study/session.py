@@ -284,7 +284,9 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
             elif phase.name == "training" or phase.name in task_phases:
                 for task in tasks:
                     if task.phase == phase.name and task.index not in finished:
-                        _run_planned(log, session, task, inputs, operator, outputs.sinks, bar)
+                        first = all(t.object != task.object for t in tasks if t.index < task.index)
+                        _run_planned(log, session, task, inputs, operator=operator, sinks=outputs.sinks, bar=bar,
+                                     first_with_object=first)
                         finished.add(task.index)
                         bar.update(1)
             else:
@@ -295,8 +297,8 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     return store.finish_session(session_id, clock.now())
 
 
-def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, operator: Operator,
-                 sinks: Sequence[FrameSink], bar) -> TaskResult:
+def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, operator: Operator,
+                 sinks: Sequence[FrameSink], bar, first_with_object: bool) -> TaskResult:
     store, clock = log.store, log.clock
     protocol = store.protocol
     seed = derived_seed(session.seed, task.index)
@@ -308,7 +310,9 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, oper
         return TaskResult("skipped", None, None, 0)
     hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
     world = task_world(protocol, task)
-    source = inputs.open(participant_plan(protocol, task, hand, session.participant_id), seed)
+    plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
+                            first_with_object=first_with_object)
+    source = inputs.open(plan, seed)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     log.mark(store.events(session.id, run_id))
     progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")

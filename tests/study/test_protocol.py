@@ -210,8 +210,8 @@ def test_what_only_simulated_participants_need_is_reported_not_refused(tmp_path)
     protocol = load_protocol(path)  # a study with live participants can use it
     problems = protocol.simulation_problems()
     assert problems == [
-        f"{path}: groups[0].simulated_profile = 'expert': simulated participants play one of the skill profiles "
-        "['beginner', 'veteran', 'practice'] (the default is the group's name)",
+        f"{path}: groups[0].simulated_profile = 'expert': simulated participants play a population file "
+        "(FILE.toml) or one of ['practice', 'beginner', 'veteran'] (the default is the group's name)",
         f"{path}: questionnaire.items[1].name = 'comfort': the rating model of simulated participants rates only "
         "['efficiency', 'naturalness']"]
     assert load_protocol(PAPER).simulation_problems() == []
