@@ -15,7 +15,7 @@ from click.testing import CliRunner
 from microg.analysis import mixed_anova, posthoc, sphericity_correction
 from microg.cli import main
 from microg.power import design_from_protocol
-from microg.power.simulated import simulated_trials
+from microg.insilico import simulate_trials
 from microg.study.protocol import load_protocol
 
 QUICK = Path(__file__).parent / "quick.toml"
@@ -37,7 +37,7 @@ def test_simulated_studies_on_a_local_cluster(tmp_path):
     assert (power["method"] == "montecarlo").all()
 
     seed = int(np.random.SeedSequence(5, spawn_key=(2, 0)).generate_state(1)[0])
-    trials = simulated_trials(protocol, 2, seed)
+    trials = simulate_trials(protocol, 2, seed)
     assert trials["simulated"].all() and trials["participant"].nunique() == 4
     names = {o.code: o.name for o in protocol.objects}
     groups = {g.code: g.name for g in protocol.groups}
