@@ -1,40 +1,35 @@
-"""What the simulated participant does each frame: one pure function per action, and their table.
+"""What the simulated participant does each frame: one compiled function per action, on plain records.
 
-The participant's state is plain, immutable data (``ParticipantState``). Each frame it perceives
-the task (``Seen``: its own clock, the object's pose, which of its phalanges touch the object,
-whether its hand holds it, the task's display) and the function of its current action returns
-the next state; ``ACTIONS`` says which function that is. The actions, in the order a clean run
-goes through them:
+The participant at one frame is a ``STATE`` record (its clock, its action and since when, the
+intended hand, the current movement and grasp, the closure and grip, the place, its own count of
+attempts, its hold clock, the tremor and tracking-noise states); what stays the same through a task
+is a ``PLAYER`` record (the skill, the task as the participant knows it: the object, the places, the
+gravity; the frame timing); what it perceives of a frame is a ``SEEN`` record (its own clock, the
+object's pose, which of its phalanges touch it, whether its hand holds it, the task's display).
+Each frame ``decide`` lets the display preempt the action where it must (the task is over; the task
+counted a drop) and calls the action's function, which updates the state. The actions, in the order
+a clean run goes through them:
 
     wait -> reach -> descend -> close -> squeeze -> lift -> carry -> hold (once per place, with
     corrective carries) -> open -> retreat -> watch -> done
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
-open, back off, reach again). Random draws come from the generators in ``Player.streams``, the
-one mutable part of the state: every other field is replaced, never changed (a grasp and its
-template do remember the last pose and posture they worked out, which saves work and changes
-nothing).
+open, back off, reach again). Random draws come from the participant's ``decisions`` generator.
+Everything is compiled (numba): a session calls ``participant.next_frame`` once a frame, and an
+in-silico study steps many participants and their worlds in one compiled loop, with the same code.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-from scipy.spatial.transform import Rotation
 
-from microg.sim.rotation import quat_multiply, quat_to_matrix
-from microg.task import FINAL, MANIPULATION, RELEASE, TaskDisplay
-from .grasp import CLOSURES, GraspTemplate, plan_grasp
-from .motion import Movement, Pose, movement_time
-from .noise import FrameTiming, NormalStream, TrackingNoise, Tremor
-from .plan import TaskPlan
+from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
 from .anatomy import REST
-from .skill import SkillProfile
+from .grasp import CLOSURES, choose_grasp
+from .motion import minimum_jerk_at, movement_time
 
 BELIEVED_STIFFNESS = 100.0
 """N/m per pressed phalanx: what the participant has learned a press feels like (the paper's gamma);
@@ -71,501 +66,520 @@ WATCH_S = 1.0
 """... or this long (s) before backing off again."""
 PEAK_ACCELERATION = 5.77
 """Peak acceleration of a minimum-jerk movement over D / T^2."""
+MAX_PLACES = 8
+"""The most places a task may have (the paper's has three)."""
 
-WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE = "wait", "wait_for_object", "reach", "descend", "close"
-SQUEEZE, LIFT, CARRY, HOLD, OPEN, RETREAT, WATCH = "squeeze", "lift", "carry", "hold", "open", "retreat", "watch"
-RETRY, DONE = "retry", "done"
-HOLDING = (LIFT, CARRY, HOLD)
-"""The actions in which the object is in the hand."""
+ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "lift", "carry", "hold", "retry",
+           "open", "retreat", "watch", "done")
+"""The participant's actions ("phase" is the study's timeline, "stage" the task's): ``STATE.action``
+is an index into this tuple."""
+(WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
+ DONE) = range(len(ACTIONS))
+STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout")
+"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``)."""
+MANIPULATION, RELEASE, FINAL = 0, 2, 3
+"""``SEEN.stage`` codes: manipulation, release; this one and above: the task is over."""
+SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
+         "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
+         "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s")
+"""The skill's numbers in a ``PLAYER`` record (``skill.SkillProfile``'s fields)."""
 
-
-def _distance(a: np.ndarray, b: np.ndarray) -> float:
-    """|a - b| of 3-vectors, in floats: numpy's arithmetic (``v @ v`` sums in order), without its
-    cost per call on three elements."""
-    (ax, ay, az), (bx, by, bz) = a.tolist(), b.tolist()
-    x, y, z = ax - bx, ay - by, az - bz
-    return math.sqrt(x * x + y * y + z * z)
-
-
-def _length(v: np.ndarray) -> float:
-    """|v| of a 3-vector (``_distance`` from the origin: x - 0.0 is x)."""
-    return _distance(v, _ORIGIN)
-
-
-_ORIGIN = np.zeros(3)
-
-
-@dataclass(frozen=True, eq=False)
-class Streams:
-    """The seed's random streams, one per kind of draw, so that one kind does not shift another."""
-
-    timing: np.random.Generator
-    """Frame intervals."""
-    decisions: np.random.Generator
-    """Pauses, aim errors, the believed stiffness, the hold clock's rate."""
-    tremor: NormalStream
-    noise: NormalStream
-
-
-@dataclass(frozen=True, eq=False)
-class Player:
-    """What stays the same through a task: the plan, the skill, the frame timing, where the hand
-    waits, which phalanx slots are its own, and the random streams."""
-
-    plan: TaskPlan
-    skill: SkillProfile
-    timing: FrameTiming
-    time_limit_s: float
-    """The participant stops after this long (s) on its own clock."""
-    home: np.ndarray
-    """Where the hand waits at the start (m)."""
-    slots: slice
-    """The own hand's slots among the physics' 40 phalanx slots."""
-    thumb: np.ndarray
-    """(20,) True for the own hand's thumb slots."""
-    fingers: np.ndarray
-    """(20,) True for its other slots."""
-    streams: Streams
-    mirror: float
-    """-1.0 for a left hand, 1.0 for a right (the skeleton is a right hand's)."""
-    caution: float
-    """Every movement with this object takes this many times longer (1 + ``shape_caution`` x the log
-    of its elongation: the cube 1, the flat and long cuboids more)."""
-
-
-@dataclass(frozen=True, eq=False)
-class Grasp:
-    """One attempt's grasp: the planned template, the hand's orientation relative to the object
-    (the template's, as a quaternion) and the attempt's aim error (m)."""
-
-    template: GraspTemplate
-    orientation: np.ndarray
-    aim: np.ndarray
-    last: list = field(default_factory=lambda: [None, None], repr=False)
-    """The last grasp pose worked out and what it was worked out from (``_grasp_pose``): an object
-    at rest is seen at the same pose frame after frame while the hand reaches for it."""
-
-
-@dataclass(frozen=True, eq=False)
-class ParticipantState:
-    """The participant at one frame; ``advance`` gives the next."""
-
-    player: Player
-    pose: Pose
-    """The intended hand (tremor and tracking noise come on top)."""
-    tremor: Tremor
-    noise: TrackingNoise
-    go_at: float
-    """When the first reach starts (s, own clock)."""
-    time: float | None = None
-    """Its own clock (s): None before the first frame."""
-    action: str = WAIT
-    since: float = 0.0
-    """When the action began (s)."""
-    movement: Movement | None = None
-    grasp: Grasp | None = None
-    closure: float = 0.0
-    """How far (m) the pressing phalanges are closed past the faces they touch (negative: short of them)."""
-    grip: float = 0.0
-    """The closure the squeeze aims for (m)."""
-    place: int = 0
-    """The place it is carrying to or holding at; the number of places once all are done."""
-    attempts: int = 0
-    """Drops the participant saw (its own count of attempts; the task keeps the official one)."""
-    in_hand: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    """Where the object sat in the hand when the grip settled (or after the last slip), hand frame (m)."""
-    close_origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    """Where the object was when closing began (m)."""
-    released_since: float | None = None
-    """Since when the object has been out of the grasp and displaced (s)."""
-    hold_clock: float = 0.0
-    """Its own reckoning of the time held at the place (s), without a display."""
-    clock_rate: float = 1.0
-    """How fast that clock runs in this hold."""
-    dark_since: float | None = None
-    """Since when the displayed place it holds at has been dark (s)."""
-
-    def changed(self, **changes) -> ParticipantState:
-        """This state with ``changes``: ``dataclasses.replace`` without its look at every field on
-        each call (a state has no checks to rerun), at a fifth of its cost; a frame makes a few."""
-        fields = self.__dict__.copy()
-        count = len(fields)
-        fields.update(changes)
-        if len(fields) != count:
-            raise TypeError(f"ParticipantState has no field {min(changes.keys() - self.__dict__.keys())!r}")
-        state = object.__new__(ParticipantState)
-        object.__setattr__(state, "__dict__", fields)
-        return state
-
-
-class Seen(NamedTuple):
-    """One frame as the participant perceives it (a named tuple: made every frame, it costs a
-    third of a frozen dataclass)."""
-
-    t: float
-    """Its own clock (s)."""
-    dt: float
-    """Time since the last frame (s)."""
-    position: np.ndarray
-    """The object's centre (m)."""
-    orientation: np.ndarray
-    touching: np.ndarray
-    """(20,) True for each of its own hand's phalanx slots touching the object."""
-    grasped: bool
-    """The object is grasped (the physics' rule), with its own thumb and another digit on it."""
-    display: TaskDisplay | None
-    """What the task shows; None: it judges the task from the scene and its own clock."""
+_POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8", (5, 4))]
+PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
+    ("time_limit", "f8"), ("home", "f8", (3,)), ("first_slot", "i8"), ("mirror", "f8"), ("caution", "f8"),
+    ("round_object", "?"), ("half", "f8", (3,)), ("mass", "f8"), ("static_friction", "f8"), ("gravity", "f8", (3,)),
+    ("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8"),
+    ("release", "f8", (3,)), ("has_release", "?"),
+    ("period", "f8"), ("jitter_sd", "f8"), ("p_one_missing", "f8"), ("p_two_missing", "f8"),
+    ("noise_tau", "f8"), ("noise_sd", "f8", (16,)), ("tremor_centre", "f8"), ("tremor_base", "f8"),
+], align=True)
+"""What stays the same through a task: the skill (``SKILL``), the participant's clock limit, where
+the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
+caution with this object, the object (ball or box, half extents, mass, friction), the gravity, the
+places and the hold, where to let go, the frame timing and the tremor and noise constants."""
+STATE = np.dtype([
+    ("time", "f8"), ("action", "i8"), ("since", "f8"), ("go_at", "f8"),
+    ("pose", _POSE), ("start", _POSE), ("end", _POSE), ("begin", "f8"), ("duration", "f8"),
+    ("grasp", "i8"), ("hand_in_object", "f8", (3, 3)), ("grasp_orientation", "f8", (4,)), ("aim", "f8", (3,)),
+    ("closure", "f8"), ("grip", "f8"), ("place", "i8"), ("attempts", "i8"),
+    ("in_hand", "f8", (3,)), ("close_origin", "f8", (3,)), ("released_since", "f8"),
+    ("hold_clock", "f8"), ("clock_rate", "f8"), ("dark_since", "f8"),
+    ("tremor", "f8", (7,)), ("noise", "f8", (2, 16)),
+], align=True)
+"""The participant at one frame. ``time`` is its own clock (NaN before the first frame); the
+intended hand is ``pose``; the current movement runs from ``start`` to ``end`` from ``begin`` for
+``duration``; ``grasp`` is the key of this attempt's grasp (``grasp.GRASP``), ``aim`` its aim error;
+``closure`` how far (m) the pressing phalanges are closed past the faces they touch, ``grip`` the
+closure the squeeze aims for; ``place`` the place it carries to or holds at; ``attempts`` the drops
+it saw (its own count; the task keeps the official one); ``in_hand`` where the object sat in the
+hand when the grip settled (hand frame), ``close_origin`` where it was when closing began;
+``released_since``, ``dark_since``: NaN for none."""
+SEEN = np.dtype([
+    ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
+    ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"),
+], align=True)
+"""One frame as the participant perceives it: its own clock and the time since the last frame,
+the object's pose, its own phalanges touching the object (1: touching), whether the physics reports the object
+grasped with its own thumb and another digit on it, and what the task displays, if anything."""
 
 
 # -- helpers every action shares ------------------------------------------------------------
 
-def pause(player: Player, extra_s: float = 0.0) -> float:
+@njit(cache=True)
+def pause(p, draws, extra_s):
     """Reaction time plus hesitation before a new movement (s), plus an exponential pause of mean
     ``extra_s`` (a new object, a drop)."""
-    skill = player.skill
-    draws = player.streams.decisions
     extra = draws.exponential(extra_s) if extra_s > 0 else 0.0
-    if skill.hesitation_s == 0:
-        return skill.reaction_s + extra
-    return skill.reaction_s + draws.exponential(skill.hesitation_s) + extra
-
-
-def _movement_time(player: Player, distance: float, tolerance: float) -> float:
-    """Fitts' law with the participant's constants, slowed by its caution with this object (s)."""
-    skill = player.skill
-    return player.caution * movement_time(distance, tolerance, skill.movement_intercept, skill.movement_slope)
-
-
-def _enter(s: ParticipantState, action: str, t: float, **changes) -> ParticipantState:
-    return s.changed(action=action, since=t, **changes)
-
-
-def _closing(s: ParticipantState, seen: Seen, limit: float = math.inf, palm: Pose | None = None) -> ParticipantState:
-    """The grip closed one frame further at the profile's speed, up to ``limit`` (m); the palm
-    where ``palm`` puts it (default: where it is)."""
-    closure = min(s.closure + s.player.skill.closing_speed * seen.dt, limit)
-    palm = s.pose if palm is None else palm
-    return s.changed(closure=closure, pose=Pose(palm.position, palm.orientation, s.grasp.template.posture(closure)))
-
-
-def _grasp_pose(grasp: Grasp, closure: float, seen: Seen, approach: bool) -> Pose:
-    """Where the hand grasps the object as seen now (with this attempt's aim error); ``approach``:
-    the pre-grasp pose, backed off along the template's approach."""
-    key = (float(closure).hex(), approach, seen.position.tobytes(), seen.orientation.tobytes())
-    if key == grasp.last[0]:
-        return grasp.last[1]
-    template = grasp.template
-    palm, rotation = template.hand_pose(seen.position, quat_to_matrix(seen.orientation))
-    palm = palm + grasp.aim
-    if approach:
-        palm = palm + rotation @ template.approach
-    pose = Pose(palm, quat_multiply(seen.orientation, grasp.orientation), template.posture(closure))
-    grasp.last[:] = key, pose
-    return pose
-
-
-def _object_in_hand(pose: Pose, seen: Seen) -> np.ndarray:
-    """The seen object's centre in the intended hand frame."""
-    in_hand = np.empty(3)
-    _to_hand_frame(pose.orientation, pose.position, seen.position, in_hand)
-    return in_hand
+    if p.hesitation_s == 0:
+        return p.reaction_s + extra
+    return p.reaction_s + draws.exponential(p.hesitation_s) + extra
 
 
 @njit(cache=True)
-def _to_hand_frame(orientation, position, point, out):
-    """``quat_to_matrix(orientation).T @ (point - position)`` into ``out``, with numpy's arithmetic
-    (compiled: a frame with the object in the hand takes one)."""
-    rotation = quat_to_matrix(orientation)
-    x, y, z = point[0] - position[0], point[1] - position[1], point[2] - position[2]
+def _fitts(p, distance, tolerance):
+    """Fitts' law with the participant's constants, slowed by its caution with this object (s)."""
+    return p.caution * movement_time(distance, tolerance, p.movement_intercept, p.movement_slope)
+
+
+@njit(cache=True)
+def _carry_time(p, distance):
+    return p.carry_slowdown * _fitts(p, distance, p.place_accept * p.place_radius)
+
+
+@njit(cache=True)
+def _distance(a, b):
+    x, y, z = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return math.sqrt(x * x + y * y + z * z)
+
+
+@njit(cache=True)
+def _enter(s, action, t):
+    s.action, s.since = action, t
+
+
+@njit(cache=True)
+def _copy_pose(source, target):
+    target.position[:] = source.position
+    target.orientation[:] = source.orientation
+    target.posture[:] = source.posture
+
+
+@njit(cache=True)
+def posture_at(grasp, closure, out):
+    """Joint angles at ``closure`` (m) of a grasp, interpolated on its ladder (``grasp.CLOSURES``)."""
+    q = min(max(closure, CLOSURES[0]), CLOSURES[-1])
+    i = 0
+    while i < len(CLOSURES) - 2 and CLOSURES[i + 1] <= q:
+        i += 1
+    w = (q - CLOSURES[i]) / (CLOSURES[i + 1] - CLOSURES[i])
+    for d in range(5):
+        for j in range(4):
+            out[d, j] = (1.0 - w) * grasp.postures[i, d, j] + w * grasp.postures[i + 1, d, j]
+
+
+@njit(cache=True)
+def _grasp_pose(s, grasps, closure, seen, approach, out):
+    """Where the hand grasps the object as seen now (with this attempt's aim error), into ``out``;
+    ``approach``: the pre-grasp pose, backed off along the grasp's approach."""
+    grasp = grasps[s.grasp]
+    rotation = quat_to_matrix(seen.orientation) @ s.hand_in_object
+    for i in range(3):
+        out.position[i] = seen.position[i] + s.aim[i]
+        for k in range(3):
+            out.position[i] -= rotation[i, k] * grasp.object_in_hand[k]
+            if approach:
+                out.position[i] += rotation[i, k] * grasp.approach[k]
+    out.orientation[:] = quat_multiply(seen.orientation, s.grasp_orientation)
+    posture_at(grasp, closure, out.posture)
+
+
+@njit(cache=True)
+def _move(s, t):
+    """The intended hand where the current movement has it at ``t`` (minimum jerk); its progress."""
+    progress = min(max((t - s.begin) / s.duration, 0.0), 1.0)
+    minimum_jerk_at(s.start.position, s.end.position, s.start.orientation, s.end.orientation, s.start.posture,
+                    s.end.posture, progress, s.pose.position, s.pose.orientation, s.pose.posture)
+    return progress
+
+
+@njit(cache=True)
+def _begin_movement(s, t, duration):
+    """A new movement from the intended hand to ``s.end`` (already set), from ``t``."""
+    _copy_pose(s.pose, s.start)
+    s.begin, s.duration = t, duration
+
+
+@njit(cache=True)
+def _closing(s, grasps, seen, p, limit):
+    """The grip closed one frame further at the profile's speed, up to ``limit`` (m)."""
+    s.closure = min(s.closure + p.closing_speed * seen.dt, limit)
+    posture_at(grasps[s.grasp], s.closure, s.pose.posture)
+
+
+@njit(cache=True)
+def _object_in_hand(s, seen, out):
+    """The seen object's centre in the intended hand frame."""
+    rotation = quat_to_matrix(s.pose.orientation)
+    x, y, z = seen.position[0] - s.pose.position[0], seen.position[1] - s.pose.position[1], \
+        seen.position[2] - s.pose.position[2]
     for i in range(3):
         out[i] = rotation[0, i] * x + rotation[1, i] * y + rotation[2, i] * z
 
 
-def _destination(s: ParticipantState) -> np.ndarray:
-    """The current place, or after the last one the release position."""
-    plan = s.player.plan
-    if s.place < len(plan.rules.places):
-        return np.asarray(plan.rules.places[s.place])
-    return np.asarray(plan.release_position)
+@njit(cache=True)
+def _destination(p, s):
+    """The current place, or after the last one the release position (a new array)."""
+    goal = np.empty(3)
+    for i in range(3):
+        goal[i] = p.places[s.place, i] if s.place < p.n_places else p.release[i]
+    return goal
 
 
-def _carry_time(player: Player, distance: float) -> float:
-    tolerance = player.skill.place_accept * player.plan.rules.place_radius
-    return player.skill.carry_slowdown * _movement_time(player, distance, tolerance)
-
-
-def _squeeze_depth(s: ParticipantState, seen: Seen) -> float:
+@njit(cache=True)
+def _squeeze_depth(p, s, seen, draws):
     """Extra closure (m) that holds the expected load: the grip force safety x m (g + a) / (2 mu)
     per side, through the believed stiffness of the phalanges pressing on each side."""
-    player, plan = s.player, s.player.plan
-    thumb = max(int((seen.touching & player.thumb).sum()), 1)
-    others = max(int((seen.touching & player.fingers).sum()), 1)
-    target = np.asarray(plan.rules.places[min(s.place, len(plan.rules.places) - 1)])
-    distance = _distance(target, seen.position)
-    duration = _carry_time(player, distance)
-    gravity = _length(np.asarray(plan.gravity, dtype=np.float64))
-    load = float(plan.object.mass) * (gravity + PEAK_ACCELERATION * distance / duration ** 2)
-    force = player.skill.grip_safety * load / (2.0 * max(float(plan.object.material.static_friction), 0.1))
-    belief = player.streams.decisions.normal(0.0, player.skill.stiffness_belief_sd)
-    stiffness = BELIEVED_STIFFNESS * math.exp(belief)
+    thumb, others = 0, 0
+    for k in range(20):
+        if seen.touching[k]:
+            if k < 4:
+                thumb += 1
+            else:
+                others += 1
+    thumb, others = max(thumb, 1), max(others, 1)
+    distance = _distance(p.places[min(s.place, p.n_places - 1)], seen.position)
+    duration = _carry_time(p, distance)
+    gravity = math.sqrt(p.gravity[0] ** 2 + p.gravity[1] ** 2 + p.gravity[2] ** 2)
+    load = p.mass * (gravity + PEAK_ACCELERATION * distance / duration ** 2)
+    force = p.grip_safety * load / (2.0 * max(p.static_friction, 0.1))
+    stiffness = BELIEVED_STIFFNESS * math.exp(draws.normal(0.0, p.stiffness_belief_sd))
     return max(force * (thumb + others) / (2.0 * stiffness * thumb * others), MIN_SQUEEZE)
 
 
-def _check_drop(s: ParticipantState, seen: Seen, displaced: bool) -> tuple[ParticipantState, bool]:
+@njit(cache=True)
+def _check_drop(p, s, seen, grasps, draws, displaced):
     """Whether the object has been out of the grasp for ``DROP_CONFIRM_S``, ``displaced`` from its
     place in the hand all along; a drop starts a retry."""
     if not displaced or seen.grasped:
-        return (s if s.released_since is None else s.changed(released_since=None)), False
-    since = seen.t if s.released_since is None else s.released_since
-    if seen.t - since >= DROP_CONFIRM_S:
-        return _begin_retry(s.changed(attempts=s.attempts + 1, released_since=None), seen.t, dropped=True), True
-    return s.changed(released_since=since), False
+        s.released_since = math.nan
+        return False
+    if math.isnan(s.released_since):
+        s.released_since = seen.t
+    if seen.t - s.released_since >= DROP_CONFIRM_S:
+        s.attempts += 1
+        s.released_since = math.nan
+        _begin_retry(p, s, grasps, draws, seen.t, True)
+        return True
+    return False
 
 
-def _keep_grip(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bool]:
+@njit(cache=True)
+def _keep_grip(p, s, seen, grasps, draws):
     """Keep the grip: squeeze more after a visible slip; True with a drop (the object out of the
     grasp and ``DROP_DISTANCE`` from its place in the hand)."""
-    in_hand = _object_in_hand(s.pose, seen)
+    in_hand = np.empty(3)
+    _object_in_hand(s, seen, in_hand)
     moved = _distance(in_hand, s.in_hand)
-    s, dropped = _check_drop(s, seen, moved > DROP_DISTANCE)
-    if dropped:
-        return s, True
+    if _check_drop(p, s, seen, grasps, draws, moved > DROP_DISTANCE):
+        return True
     if moved > SLIP_DISTANCE and seen.grasped:
-        s = s.changed(grip=min(s.grip + SLIP_SQUEEZE, CLOSURES[-1]), in_hand=in_hand)
-    return s, False
+        s.grip = min(s.grip + SLIP_SQUEEZE, CLOSURES[-1])
+        s.in_hand[:] = in_hand
+    return False
 
 
-def _move_holding(s: ParticipantState, seen: Seen) -> tuple[ParticipantState, bool]:
+@njit(cache=True)
+def _move_holding(p, s, seen, grasps, draws):
     """Carry the hand along its movement with the object in it; True when the movement ended
     with the object held."""
-    s, dropped = _keep_grip(_closing(s, seen, s.grip, palm=s.movement.at(seen.t)), seen)
-    return s, not dropped and s.movement.progress(seen.t) >= 1.0
+    progress = _move(s, seen.t)
+    _closing(s, grasps, seen, p, s.grip)
+    return not _keep_grip(p, s, seen, grasps, draws) and progress >= 1.0
 
 
 # -- starting a movement --------------------------------------------------------------------
 
-def _begin_reach(s: ParticipantState, seen: Seen) -> ParticipantState:
-    """Plan a grasp of the object as it lies now and reach for its pre-grasp pose."""
-    player, skill, t = s.player, s.player.skill, seen.t
-    if _distance(seen.position, player.home) > REACH_RADIUS:
-        return _enter(s, WAIT_FOR_OBJECT, t)
-    spec = player.plan.object
-    template = plan_grasp(spec.shape, spec.half_extents, seen.orientation, player.plan.hand)
-    orientation = Rotation.from_matrix(template.hand_in_object).as_quat(scalar_first=True)
-    grasp = Grasp(template, orientation, player.streams.decisions.normal(0.0, skill.aim_sd, 3))
-    closure = -skill.preshape_margin
-    target = _grasp_pose(grasp, closure, seen, approach=True)
-    duration = _movement_time(player, _distance(target.position, s.pose.position), skill.preshape_margin)
-    return _enter(s, REACH, t, grasp=grasp, closure=closure, movement=Movement(s.pose, target, t, duration))
+@njit(cache=True)
+def _begin_reach(p, s, seen, grasps, draws):
+    """Plan a grasp of the object as it lies now and reach for its pre-grasp pose (the object out
+    of reach, or lying so that the hand cannot grip it: wait for it)."""
+    t = seen.t
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object)
+    if _distance(seen.position, p.home) > REACH_RADIUS or not grasps[key].valid:
+        _enter(s, WAIT_FOR_OBJECT, t)
+        return
+    s.grasp = key
+    if p.round_object:
+        s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
+    else:
+        s.grasp_orientation[:] = grasps[key].orientation
+    for i in range(3):
+        s.aim[i] = draws.normal(0.0, p.aim_sd)
+    s.closure = -p.preshape_margin
+    _grasp_pose(s, grasps, s.closure, seen, True, s.end)
+    _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
+    _enter(s, REACH, t)
 
 
-def _begin_carry(s: ParticipantState, seen: Seen, delay: float) -> ParticipantState:
+@njit(cache=True)
+def _begin_carry(p, s, seen, draws, delay):
     """Carry the object to the current destination (with an aim error), after ``delay`` (s)."""
-    player = s.player
-    offset = seen.position - s.pose.position
-    goal = _destination(s) + player.streams.decisions.normal(0.0, player.skill.aim_sd, 3)
-    start = s.pose
-    duration = _carry_time(player, _distance(goal, seen.position))
-    end = Pose(goal - offset, start.orientation, start.posture)
-    return _enter(s, CARRY, seen.t, movement=Movement(start, end, seen.t + delay, duration))
+    goal = _destination(p, s)
+    for i in range(3):
+        goal[i] += draws.normal(0.0, p.aim_sd)
+    duration = _carry_time(p, _distance(goal, seen.position))
+    _copy_pose(s.pose, s.end)
+    for i in range(3):
+        s.end.position[i] = goal[i] - (seen.position[i] - s.pose.position[i])
+    _begin_movement(s, seen.t + delay, duration)
+    _enter(s, CARRY, seen.t)
 
 
-def _begin_retry(s: ParticipantState, t: float, dropped: bool = False) -> ParticipantState:
+@njit(cache=True)
+def _begin_retry(p, s, grasps, draws, t, dropped):
     """Open the hand and back off, then reach for the object again where it is; after a drop the
     hand first stays where it is for a pause (``drop_pause_s``)."""
-    player = s.player
-    start, template, margin = s.pose, s.grasp.template, player.skill.preshape_margin
-    back = start.position + quat_to_matrix(start.orientation) @ template.approach
-    end = Pose(back, start.orientation, template.posture(-margin))
-    wait = pause(player, player.skill.drop_pause_s) - player.skill.reaction_s if dropped else 0.0
-    return _enter(s, RETRY, t, closure=-margin,
-                  movement=Movement(start, end, t + wait, OPEN_S + player.skill.reaction_s))
+    grasp = grasps[s.grasp]
+    rotation = quat_to_matrix(s.pose.orientation)
+    _copy_pose(s.pose, s.end)
+    for i in range(3):
+        for k in range(3):
+            s.end.position[i] += rotation[i, k] * grasp.approach[k]
+    posture_at(grasp, -p.preshape_margin, s.end.posture)
+    s.closure = -p.preshape_margin
+    wait = pause(p, draws, p.drop_pause_s) - p.reaction_s if dropped else 0.0
+    _begin_movement(s, t + wait, OPEN_S + p.reaction_s)
+    _enter(s, RETRY, t)
 
 
-def _begin_open(s: ParticipantState, t: float) -> ParticipantState:
+@njit(cache=True)
+def _begin_open(p, s, grasps, t):
     """Let go: open the grip where the hand is."""
-    start = s.pose
-    end = Pose(start.position, start.orientation, s.grasp.template.posture(-s.player.skill.preshape_margin))
-    return _enter(s, OPEN, t, movement=Movement(start, end, t, OPEN_S))
+    _copy_pose(s.pose, s.end)
+    posture_at(grasps[s.grasp], -p.preshape_margin, s.end.posture)
+    _begin_movement(s, t, OPEN_S)
+    _enter(s, OPEN, t)
+
+
+@njit(cache=True)
+def _begin_hold(p, s, seen, draws):
+    s.hold_clock, s.clock_rate, s.dark_since = 0.0, 1.0 + draws.normal(0.0, p.clock_cv), math.nan
+    _enter(s, HOLD, seen.t)
 
 
 # -- the actions ----------------------------------------------------------------------------
 
-def wait(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def wait(p, s, seen, grasps, draws):
     """Wait at the start until it is time to reach (a reaction time, plus hesitation)."""
-    return _begin_reach(s, seen) if seen.t >= s.go_at else s
+    if seen.t >= s.go_at:
+        _begin_reach(p, s, seen, grasps, draws)
 
 
-def wait_for_object(s: ParticipantState, seen: Seen) -> ParticipantState:
-    """The object is out of reach: wait until it comes back (a task puts a lost object back)."""
-    if _distance(seen.position, s.player.home) <= REACH_RADIUS:
-        return _enter(s, WAIT, seen.t, go_at=seen.t + pause(s.player))
-    return s
+@njit(cache=True)
+def wait_for_object(p, s, seen, grasps, draws):
+    """The object is out of reach (or lies so the hand cannot grip it): wait until that changes (a
+    task puts a lost object back)."""
+    frame = np.empty((3, 3))
+    reachable = _distance(seen.position, p.home) <= REACH_RADIUS
+    if reachable and grasps[choose_grasp(p.round_object, p.half, seen.orientation, frame)].valid:
+        s.go_at = seen.t + pause(p, draws, 0.0)
+        _enter(s, WAIT, seen.t)
 
 
-def reach(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def reach(p, s, seen, grasps, draws):
     """Move to the pre-grasp pose, following the object if it drifts."""
-    t = seen.t
-    movement = s.movement.toward(_grasp_pose(s.grasp, s.closure, seen, approach=True))
-    pose = movement.at(t)
-    if movement.progress(t) < 1.0:
-        return s.changed(pose=pose, movement=movement)
-    duration = _movement_time(s.player, _length(s.grasp.template.approach), s.player.skill.preshape_margin)
-    descent = Movement(pose, _grasp_pose(s.grasp, s.closure, seen, approach=False), t, duration)
-    return _enter(s, DESCEND, t, pose=pose, movement=descent)
+    _grasp_pose(s, grasps, s.closure, seen, True, s.end)
+    if _move(s, seen.t) < 1.0:
+        return
+    _grasp_pose(s, grasps, s.closure, seen, False, s.end)
+    _begin_movement(s, seen.t, _fitts(p, _length(grasps[s.grasp].approach), p.preshape_margin))
+    _enter(s, DESCEND, seen.t)
 
 
-def descend(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def _length(v):
+    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+@njit(cache=True)
+def descend(p, s, seen, grasps, draws):
     """Move the pre-shaped hand around the object until the descent ends or a phalanx touches it."""
-    movement = s.movement.toward(_grasp_pose(s.grasp, s.closure, seen, approach=False))
-    pose = movement.at(seen.t)
-    if movement.progress(seen.t) >= 1.0 or np.count_nonzero(seen.touching):
-        return _enter(s, CLOSE, seen.t, pose=pose, movement=movement, close_origin=seen.position)
-    return s.changed(pose=pose, movement=movement)
+    _grasp_pose(s, grasps, s.closure, seen, False, s.end)
+    if _move(s, seen.t) >= 1.0 or seen.touching.any():
+        s.close_origin[:] = seen.position
+        _enter(s, CLOSE, seen.t)
 
 
-def close(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def close(p, s, seen, grasps, draws):
     """Close until the hand holds the object; a grip closed fully, or an object pushed away, is a
     failed grasp."""
-    s = _closing(s, seen)
+    _closing(s, grasps, seen, p, math.inf)
     if seen.grasped:
-        return _enter(s, SQUEEZE, seen.t, grip=s.closure + _squeeze_depth(s, seen))
-    if s.closure >= CLOSURES[-1] or _distance(seen.position, s.close_origin) > LOST_DISTANCE:
-        return _begin_retry(s, seen.t)
-    return s
+        s.grip = s.closure + _squeeze_depth(p, s, seen, draws)
+        _enter(s, SQUEEZE, seen.t)
+    elif s.closure >= CLOSURES[-1] or _distance(seen.position, s.close_origin) > LOST_DISTANCE:
+        _begin_retry(p, s, grasps, draws, seen.t, False)
 
 
-def squeeze(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def squeeze(p, s, seen, grasps, draws):
     """Squeeze to the planned grip, settle, then lift; losing the grasp now is a drop."""
     limit = min(s.grip, CLOSURES[-1])
-    s, dropped = _check_drop(_closing(s, seen, limit), seen, displaced=True)
-    if dropped or s.closure < limit or seen.t - s.since < SETTLE_S:
-        return s
-    start = s.pose
-    lifted = Pose(start.position + LIFT_OFFSET, start.orientation, start.posture)
-    lifting = Movement(start, lifted, seen.t, _carry_time(s.player, _length(LIFT_OFFSET)))
-    return _enter(s, LIFT, seen.t, in_hand=_object_in_hand(s.pose, seen), movement=lifting)
+    _closing(s, grasps, seen, p, limit)
+    if _check_drop(p, s, seen, grasps, draws, True) or s.closure < limit or seen.t - s.since < SETTLE_S:
+        return
+    _copy_pose(s.pose, s.end)
+    for i in range(3):
+        s.end.position[i] += LIFT_OFFSET[i]
+    _object_in_hand(s, seen, s.in_hand)
+    _begin_movement(s, seen.t, _carry_time(p, _length(LIFT_OFFSET)))
+    _enter(s, LIFT, seen.t)
 
 
-def lift(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def lift(p, s, seen, grasps, draws):
     """Lift the object straight up, then (after a pause) carry it."""
-    s, arrived = _move_holding(s, seen)
-    return _begin_carry(s, seen, pause(s.player)) if arrived else s
+    if _move_holding(p, s, seen, grasps, draws):
+        _begin_carry(p, s, seen, draws, pause(p, draws, 0.0))
 
 
-def carry(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def carry(p, s, seen, grasps, draws):
     """Carry to the destination; there, hold if the object is close enough to the place, else
     correct; after the last place let go (with a display: once it shows the release stage)."""
-    s, arrived = _move_holding(s, seen)
-    if not arrived:
-        return s
-    player = s.player
-    if s.place == len(player.plan.rules.places):
-        if seen.display is None or seen.display.stage == RELEASE:
-            return _begin_open(s, seen.t)
-        return _begin_carry(s.changed(place=seen.display.place), seen, player.skill.reaction_s)
-    if _distance(seen.position, _destination(s)) <= player.skill.place_accept * player.plan.rules.place_radius:
-        rate = 1.0 + player.streams.decisions.normal(0.0, player.skill.clock_cv)
-        return _enter(s, HOLD, seen.t, hold_clock=0.0, clock_rate=rate, dark_since=None)
-    return _begin_carry(s, seen, player.skill.reaction_s)
+    if not _move_holding(p, s, seen, grasps, draws):
+        return
+    if s.place == p.n_places:
+        if not seen.has_display or seen.stage == RELEASE:
+            _begin_open(p, s, grasps, seen.t)
+        else:
+            s.place = seen.place
+            _begin_carry(p, s, seen, draws, p.reaction_s)
+    elif _distance(seen.position, _destination(p, s)) <= p.place_accept * p.place_radius:
+        _begin_hold(p, s, seen, draws)
+    else:
+        _begin_carry(p, s, seen, draws, p.reaction_s)
 
 
-def hold(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def hold(p, s, seen, grasps, draws):
     """Hold at the place until done (own clock, or the display moved on); carry back into a place
     it left, or whose mark stayed dark; then on to the next place, the release position or letting go."""
-    player, t = s.player, seen.t
-    s, dropped = _keep_grip(_closing(s, seen, s.grip), seen)
-    if dropped:
-        return s
-    if _distance(seen.position, _destination(s)) > player.plan.rules.place_radius:
-        return _begin_carry(s, seen, player.skill.reaction_s)
-    dark = seen.display is not None and not seen.display.lit
-    if dark != (s.dark_since is not None):
-        s = s.changed(dark_since=t if dark else None)
-    if dark and t - s.dark_since > player.skill.reaction_s:
-        return _begin_carry(s, seen, player.skill.reaction_s)
-    if seen.display is None:
-        s = s.changed(hold_clock=s.hold_clock + seen.dt * s.clock_rate)
-        done = s.hold_clock >= player.plan.rules.hold_s + player.skill.hold_margin_s
+    t = seen.t
+    _closing(s, grasps, seen, p, s.grip)
+    if _keep_grip(p, s, seen, grasps, draws):
+        return
+    if _distance(seen.position, _destination(p, s)) > p.place_radius:
+        _begin_carry(p, s, seen, draws, p.reaction_s)
+        return
+    dark = seen.has_display and not seen.lit
+    if dark != (not math.isnan(s.dark_since)):
+        s.dark_since = t if dark else math.nan
+    if dark and t - s.dark_since > p.reaction_s:
+        _begin_carry(p, s, seen, draws, p.reaction_s)
+        return
+    if not seen.has_display:
+        s.hold_clock += seen.dt * s.clock_rate
+        done = s.hold_clock >= p.hold_s + p.hold_margin_s
     else:
-        done = seen.display.place > s.place or seen.display.stage == RELEASE
+        done = seen.place > s.place or seen.stage == RELEASE
     if not done:
-        return s
-    s = s.changed(place=s.place + 1)
-    if s.place < len(player.plan.rules.places) or player.plan.release_position is not None:
-        return _begin_carry(s, seen, pause(player))
-    return _begin_open(s, t)
+        return
+    s.place += 1
+    if s.place < p.n_places or p.has_release:
+        _begin_carry(p, s, seen, draws, pause(p, draws, 0.0))
+    else:
+        _begin_open(p, s, grasps, t)
 
 
-def retry(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def retry(p, s, seen, grasps, draws):
     """Open and back off, then reach again for the object where it is now."""
-    pose = s.movement.at(seen.t)
-    s = s.changed(pose=pose)
-    return _begin_reach(s, seen) if s.movement.progress(seen.t) >= 1.0 else s
+    if _move(s, seen.t) >= 1.0:
+        _begin_reach(p, s, seen, grasps, draws)
 
 
-def open_hand(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def open_hand(p, s, seen, grasps, draws):
     """Open the grip, then withdraw quickly, out of the back of the hand."""
-    pose = s.movement.at(seen.t)
-    if s.movement.progress(seen.t) < 1.0:
-        return s.changed(pose=pose)
-    away = Pose(pose.position + quat_to_matrix(pose.orientation) @ RETREAT_OFFSET, pose.orientation, REST)
-    return _enter(s, RETREAT, seen.t, pose=pose, movement=Movement(pose, away, seen.t, RETREAT_S))
+    if _move(s, seen.t) < 1.0:
+        return
+    rotation = quat_to_matrix(s.pose.orientation)
+    _copy_pose(s.pose, s.end)
+    for i in range(3):
+        for k in range(3):
+            s.end.position[i] += rotation[i, k] * RETREAT_OFFSET[k]
+    s.end.posture[:] = REST
+    _begin_movement(s, seen.t, RETREAT_S)
+    _enter(s, RETREAT, seen.t)
 
 
-def retreat(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def retreat(p, s, seen, grasps, draws):
     """Withdraw the open hand, then watch the object."""
-    pose = s.movement.at(seen.t)
-    if s.movement.progress(seen.t) < 1.0:
-        return s.changed(pose=pose)
-    return _enter(s, WATCH, seen.t, pose=pose)
+    if _move(s, seen.t) >= 1.0:
+        _enter(s, WATCH, seen.t)
 
 
-def watch(s: ParticipantState, seen: Seen) -> ParticipantState:
+@njit(cache=True)
+def watch(p, s, seen, grasps, draws):
     """Stay until the object is seen away from the hand (with a display: until the task shows it
     is over); if it still clings after ``WATCH_S``, open and back off again."""
     away = _distance(seen.position, s.pose.position) > RELEASED_DISTANCE and not seen.grasped
-    if away and seen.display is None:
-        return _enter(s, DONE, seen.t)
-    if not away and seen.t - s.since > WATCH_S:
-        return _begin_open(s, seen.t)
-    return s
+    if away and not seen.has_display:
+        _enter(s, DONE, seen.t)
+    elif not away and seen.t - s.since > WATCH_S:
+        _begin_open(p, s, grasps, seen.t)
 
 
-ACTIONS: dict[str, Callable[[ParticipantState, Seen], ParticipantState]] = {
-    WAIT: wait,
-    WAIT_FOR_OBJECT: wait_for_object,
-    REACH: reach,
-    DESCEND: descend,
-    CLOSE: close,
-    SQUEEZE: squeeze,
-    LIFT: lift,
-    CARRY: carry,
-    HOLD: hold,
-    RETRY: retry,
-    OPEN: open_hand,
-    RETREAT: retreat,
-    WATCH: watch,
-}
-"""Which function plays each action (``done`` has none: the participant gives no more frames)."""
-
-
-def follow_display(s: ParticipantState, seen: Seen) -> ParticipantState | None:
-    """React to what the task display shows, before the action does; None if it changes nothing.
+@njit(cache=True)
+def follow_display(p, s, seen, grasps, draws):
+    """React to what the task display shows, before the action does; False if it changes nothing.
     The task is over: done. The task counts a drop while the hand thinks it holds the object: go
     back for it (after a reaction time in the action)."""
-    display = seen.display
-    if display.stage in FINAL:
-        return _enter(s, DONE, seen.t)
-    if display.stage == MANIPULATION and s.action in HOLDING and seen.t - s.since > s.player.skill.reaction_s:
-        return _begin_retry(s.changed(attempts=s.attempts + 1), seen.t, dropped=True)
-    return None
+    if seen.stage >= FINAL:
+        _enter(s, DONE, seen.t)
+        return True
+    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD
+    if seen.stage == MANIPULATION and holding and seen.t - s.since > p.reaction_s:
+        s.attempts += 1
+        _begin_retry(p, s, grasps, draws, seen.t, True)
+        return True
+    return False
 
 
-def decide(s: ParticipantState, seen: Seen) -> ParticipantState:
-    """The state after this frame's decision: the display's, if it has one, else the action's."""
-    if seen.display is not None:
-        followed = follow_display(s, seen)
-        if followed is not None:
-            return followed
-    return ACTIONS[s.action](s, seen)
+@njit(cache=True)
+def decide(p, s, seen, grasps, draws):
+    """This frame's decision: the display's, if it has one, else the current action's."""
+    if seen.has_display and follow_display(p, s, seen, grasps, draws):
+        return
+    action = s.action
+    if action == WAIT:
+        wait(p, s, seen, grasps, draws)
+    elif action == WAIT_FOR_OBJECT:
+        wait_for_object(p, s, seen, grasps, draws)
+    elif action == REACH:
+        reach(p, s, seen, grasps, draws)
+    elif action == DESCEND:
+        descend(p, s, seen, grasps, draws)
+    elif action == CLOSE:
+        close(p, s, seen, grasps, draws)
+    elif action == SQUEEZE:
+        squeeze(p, s, seen, grasps, draws)
+    elif action == LIFT:
+        lift(p, s, seen, grasps, draws)
+    elif action == CARRY:
+        carry(p, s, seen, grasps, draws)
+    elif action == HOLD:
+        hold(p, s, seen, grasps, draws)
+    elif action == RETRY:
+        retry(p, s, seen, grasps, draws)
+    elif action == OPEN:
+        open_hand(p, s, seen, grasps, draws)
+    elif action == RETREAT:
+        retreat(p, s, seen, grasps, draws)
+    elif action == WATCH:
+        watch(p, s, seen, grasps, draws)

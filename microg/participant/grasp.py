@@ -25,10 +25,11 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 from scipy.optimize import least_squares
 
 from microg.skeleton import bone_centres
-from microg.sim.rotation import quat_to_matrix
+from microg.sim.rotation import quat_from_matrix, quat_to_matrix
 from .anatomy import DIP_PER_PIP, KNUCKLES, LOWER, PHALANGES, RADII, REST, UPPER, local_joints
 
 CLOSURES = np.array([-0.012, -0.008, -0.004, 0.0, 0.006, 0.012, 0.018, 0.024])
@@ -216,47 +217,124 @@ def flat_template(half: tuple[float, float, float], fingers: tuple[int, ...]) ->
     return centre, _ladder(targets, free, Obstacle(centre, np.array(half), False), np.zeros(4))
 
 
-def plan_grasp(shape: str, half_extents: np.ndarray, orientation: np.ndarray, side: str = "right") -> GraspTemplate:
-    """The grasp for an object of ``shape`` ("box" or "sphere") in its current orientation.
+GRASP = np.dtype([("valid", "?"), ("flat", "?"), ("fingers", "i8"), ("hand_in_object", "f8", (3, 3)),
+                  ("orientation", "f8", (4,)),
+                  ("object_in_hand", "f8", (3,)), ("approach", "f8", (3,)),
+                  ("postures", "f8", (len(CLOSURES), 5, 4))], align=True)
+"""One grasp of an object, as the compiled participant reads it (``GraspTemplate``'s numbers;
+``orientation`` is ``hand_in_object`` as a quaternion)."""
+KEYS = 24
+"""Grasp frames of a box: the up axis (3) and its sign, which of the other two axes the grip goes
+along and its sign (``choose_grasp``)."""
+UP = np.array([0.0, 1.0, 0.0])
+TOWARD_USER = np.array([0.3, 0.0, 1.0])
+
+
+@njit(cache=True)
+def choose_grasp(round_object, half_extents, orientation, hand_in_object):
+    """Which grasp the hand takes of an object lying as ``orientation`` says: its key (0 for a
+    ball) and the hand's axes in the object's frame (into ``hand_in_object``, columns).
 
     The hand's y axis follows the object's most vertical body axis (palm down for a side grasp,
     palm up under a clamped plate), its z axis the squeezed axis (side) or the plate's axis that
-    points most toward the user (flat), signed so the fingers point away from the user.
-    """
+    points most toward the user (flat), signed so the fingers point away from the user. A ball has
+    no faces to align with: the hand keeps the world's axes (palm down, fingers ahead)."""
+    axes = quat_to_matrix(orientation)
+    if round_object:
+        for i in range(3):
+            hand_in_object[i, 1], hand_in_object[i, 2] = axes[1, i], axes[2, i]
+        _complete_frame(hand_in_object)
+        return 0
+    up_axis, best = 0, -1.0
+    for a in range(3):
+        if abs(axes[1, a]) > best:
+            up_axis, best = a, abs(axes[1, a])
+    others = (1, 2) if up_axis == 0 else (0, 2) if up_axis == 1 else (0, 1)
+    flat = (2 * half_extents[up_axis] <= FLAT_THICKNESS and 2 * half_extents[others[0]] > 2.5 * FLAT_THICKNESS
+            and 2 * half_extents[others[1]] > 2.5 * FLAT_THICKNESS)
+    narrow = min(half_extents[others[0]], half_extents[others[1]])
+    slot, best = -1, -1.0
+    for k in range(2):
+        a = others[k]
+        if flat or half_extents[a] <= narrow + 1e-9:
+            toward = abs(axes[0, a] * TOWARD_USER[0] + axes[1, a] * TOWARD_USER[1] + axes[2, a] * TOWARD_USER[2])
+            if toward > best:
+                slot, best = k, toward
+    along = others[slot]
+    up_sign = 1.0 if axes[1, up_axis] >= 0 else -1.0
+    along_dot = axes[0, along] * TOWARD_USER[0] + axes[1, along] * TOWARD_USER[1] + axes[2, along] * TOWARD_USER[2]
+    along_sign = 1.0 if along_dot >= 0 else -1.0
+    return _grasp_frame(up_axis, up_sign, slot, along_sign, flat, hand_in_object)
+
+
+@njit(cache=True)
+def _grasp_frame(up_axis, up_sign, slot, along_sign, flat, hand_in_object):
+    """The hand's axes for one box grasp key (see ``choose_grasp``); returns the key."""
+    others = (1, 2) if up_axis == 0 else (0, 2) if up_axis == 1 else (0, 1)
+    along = others[slot]
+    for i in range(3):
+        hand_in_object[i, 1] = (-1.0 if flat else 1.0) * up_sign * (1.0 if i == up_axis else 0.0)
+        hand_in_object[i, 2] = along_sign * (1.0 if i == along else 0.0)
+    _complete_frame(hand_in_object)
+    return up_axis * 8 + (4 if up_sign > 0 else 0) + 2 * slot + (1 if along_sign > 0 else 0)
+
+
+@njit(cache=True)
+def _complete_frame(frame):
+    """The x column as y x z, the hand's axes right-handed."""
+    y0, y1, y2, z0, z1, z2 = frame[0, 1], frame[1, 1], frame[2, 1], frame[0, 2], frame[1, 2], frame[2, 2]
+    frame[0, 0], frame[1, 0], frame[2, 0] = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0
+
+
+@lru_cache(maxsize=32)
+def grasps(shape: str, half_extents: tuple[float, float, float], side: str = "right") -> np.ndarray:
+    """Every grasp a hand can take of the object, by key (``KEYS`` records of ``GRASP``): the
+    postures are solved once per object (the inverse kinematics is the costly part). A key the
+    choice never makes, or whose grip would be wider than ``MAX_APERTURE``, is not ``valid``."""
     half_extents = np.asarray(half_extents, dtype=np.float64)
-    up = np.array([0.0, 1.0, 0.0])
-    toward_user = np.array([0.3, 0.0, 1.0])
-    axes = np.eye(3) if shape == "sphere" else quat_to_matrix(np.asarray(orientation, dtype=np.float64))
-    up_axis = int(np.argmax(np.abs(axes.T @ up)))
-    others = [a for a in range(3) if a != up_axis]
-    flat = (shape == "box" and 2 * half_extents[up_axis] <= FLAT_THICKNESS
-            and all(2 * half_extents[a] > 2.5 * FLAT_THICKNESS for a in others))
-    if flat:
-        candidates = others
-    else:
-        narrow = min(half_extents[a] for a in others)
-        candidates = [a for a in others if half_extents[a] <= narrow + 1e-9]
-    along = max(candidates, key=lambda a: abs(axes[:, a] @ toward_user))
-    hand_y = (-1.0 if flat else 1.0) * np.sign(axes[:, up_axis] @ up) * np.eye(3)[up_axis]
-    hand_z = np.sign(axes[:, along] @ toward_user) * np.eye(3)[along]
-    if shape == "sphere":
-        # A ball has no faces to align with: the hand keeps the world's axes (palm down, fingers ahead).
-        rotation = quat_to_matrix(np.asarray(orientation, dtype=np.float64))
-        hand_y, hand_z = rotation.T @ up, rotation.T @ np.array([0.0, 0.0, 1.0])
-    hand_in_object = np.column_stack([np.cross(hand_y, hand_z), hand_y, hand_z])
-    if shape == "sphere":
-        half = (float(half_extents[0]),) * 3
-    else:
-        half = tuple(float(v) for v in np.abs(hand_in_object.T @ half_extents))
-    if not flat and 2 * half[2] > MAX_APERTURE:
-        raise ValueError(f"plan_grasp: object extent {2 * half[2]:.3f} m across the grip exceeds {MAX_APERTURE} m")
-    fingers = (1, 2, 3) if flat or max(half[0], half[2]) > 0.06 else (1, 2)
-    if flat:
-        centre, postures = flat_template(half, fingers)
-        approach = np.array([0.0, 0.0, FLAT_APPROACH])
-    else:
-        centre, postures = side_template(half, fingers, shape == "sphere")
-        approach = np.array([0.0, 0.05, 0.0])
-    if side == "left":
-        centre = centre * np.array([-1.0, 1.0, 1.0])
-    return GraspTemplate("flat" if flat else "side", (0, *fingers), hand_in_object, centre, approach, postures)
+    table = np.zeros(KEYS, GRASP)
+    round_object = shape == "sphere"
+    for key in range(1 if round_object else KEYS):
+        frame = np.eye(3)
+        flat = False
+        if not round_object:
+            up_axis, rest = divmod(key, 8)
+            up_sign, slot, along_sign = (1.0 if rest >= 4 else -1.0), (rest % 4) // 2, (1.0 if rest % 2 else -1.0)
+            others = [a for a in range(3) if a != up_axis]
+            flat = bool(2 * half_extents[up_axis] <= FLAT_THICKNESS
+                        and all(2 * half_extents[a] > 2.5 * FLAT_THICKNESS for a in others))
+            narrow = min(half_extents[a] for a in others)
+            if not flat and half_extents[others[slot]] > narrow + 1e-9:
+                continue  # the choice never grips along a wider axis
+            _grasp_frame(up_axis, up_sign, slot, along_sign, flat, frame)
+            half = tuple(float(v) for v in np.abs(frame.T @ half_extents))
+        else:
+            half = (float(half_extents[0]),) * 3
+        if not flat and 2 * half[2] > MAX_APERTURE:
+            continue
+        fingers = (1, 2, 3) if flat or max(half[0], half[2]) > 0.06 else (1, 2)
+        if flat:
+            centre, postures = flat_template(half, fingers)
+            approach = np.array([0.0, 0.0, FLAT_APPROACH])
+        else:
+            centre, postures = side_template(half, fingers, round_object)
+            approach = np.array([0.0, 0.05, 0.0])
+        if side == "left":
+            centre = centre * np.array([-1.0, 1.0, 1.0])
+        table[key] = (True, flat, len(fingers), frame, quat_from_matrix(frame), centre, approach, postures)
+    return table
+
+
+def plan_grasp(shape: str, half_extents: np.ndarray, orientation: np.ndarray, side: str = "right") -> GraspTemplate:
+    """The grasp for an object of ``shape`` ("box", "sphere" or "mesh", gripped as its box) in its
+    current orientation (``choose_grasp``); ValueError when the grip would be wider than the hand."""
+    half_extents = tuple(float(v) for v in np.asarray(half_extents, dtype=np.float64))
+    frame = np.empty((3, 3))
+    key = choose_grasp(shape == "sphere", np.asarray(half_extents), np.asarray(orientation, dtype=np.float64), frame)
+    grasp = grasps(shape, half_extents, side)[key]
+    if not grasp["valid"]:
+        raise ValueError(f"plan_grasp: the {shape} of half extents {half_extents} is wider across the grip than "
+                         f"{MAX_APERTURE} m in this orientation")
+    fingers = tuple(range(1, 1 + int(grasp["fingers"])))
+    return GraspTemplate("flat" if grasp["flat"] else "side", (0, *fingers), frame, grasp["object_in_hand"].copy(),
+                         grasp["approach"].copy(), grasp["postures"].copy())

@@ -6,26 +6,27 @@ A point-to-point movement of duration T that minimises the integrated squared je
 
 with zero velocity and acceleration at both ends and a bell-shaped speed whose peak, at mid-time,
 is 1.875 times the mean speed. The participant moves every degree of freedom (palm position,
-palm orientation by slerp, joint angles) along ``s``; a target that moves while the hand travels
-(a drifting object) is followed by re-aiming x1 at each frame (``Movement.toward``).
+palm orientation by slerp, joint angles) along ``s`` (``minimum_jerk_at``); a target that moves
+while the hand travels (a drifting object) is followed by re-aiming x1 at each frame.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, vectorize
 
 
-def minimum_jerk(tau: float | np.ndarray) -> float | np.ndarray:
-    """The normalised minimum-jerk position s(tau), tau clipped to [0, 1] (a float without numpy:
-    a movement takes one every frame)."""
-    tau = min(max(tau, 0.0), 1.0) if isinstance(tau, float) else np.clip(tau, 0.0, 1.0)
+@vectorize(["float64(float64)"], cache=True)
+def minimum_jerk(tau):
+    """The normalised minimum-jerk position s(tau), tau clipped to [0, 1] (a numpy ufunc: floats or
+    arrays, from Python or compiled code)."""
+    tau = min(max(tau, 0.0), 1.0)
     return tau ** 3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
 
 
+@njit(cache=True)
 def movement_time(distance: float, tolerance: float, intercept: float, slope: float) -> float:
     """Fitts' law, Shannon form: T = a + b log2(D / W + 1), with W the target's full width (2 x tolerance)."""
     return intercept + slope * math.log2(distance / (2.0 * tolerance) + 1.0)
@@ -71,37 +72,11 @@ def _interpolate(start_position, end_position, start_orientation, end_orientatio
             posture[d, j] = start_posture[d, j] + s * (end_posture[d, j] - start_posture[d, j])
 
 
-class Pose(NamedTuple):
-    """An intended hand: palm position (m), palm orientation (w, x, y, z), joint angles (5, 4).
-    (Named tuples, this and ``Movement``: immutable, and a third of a frozen dataclass's cost to
-    make; a frame makes a few.)"""
-
-    position: np.ndarray
-    orientation: np.ndarray
-    posture: np.ndarray
-
-
-class Movement(NamedTuple):
-    """A minimum-jerk movement of every degree of freedom from ``start`` to ``end``, beginning at
-    ``begin`` (s) and lasting ``duration`` (s)."""
-
-    start: Pose
-    end: Pose
-    begin: float
-    duration: float
-
-    def progress(self, t: float) -> float:
-        """The fraction of the movement's time elapsed at ``t``, in [0, 1]."""
-        return min(max((t - self.begin) / self.duration, 0.0), 1.0)
-
-    def at(self, t: float) -> Pose:
-        """The pose at ``t`` (one compiled call: a frame of a movement takes one)."""
-        start, end = self.start, self.end
-        position, orientation, posture = np.empty(3), np.empty(4), np.empty((5, 4))
-        _interpolate(start.position, end.position, start.orientation, end.orientation, start.posture, end.posture,
-                     minimum_jerk(self.progress(t)), position, orientation, posture)
-        return Pose(position, orientation, posture)
-
-    def toward(self, end: Pose) -> Movement:
-        """The same movement re-aimed at ``end`` (a target that moved while the hand travels)."""
-        return Movement(self.start, end, self.begin, self.duration)
+@njit(cache=True)
+def minimum_jerk_at(start_position, end_position, start_orientation, end_orientation, start_posture, end_posture,
+                    progress, position, orientation, posture):
+    """The pose of a minimum-jerk movement at ``progress`` of its time (every degree of freedom of
+    the hand along s: the palm position, its orientation by slerp, the joint angles), into the
+    last three arrays."""
+    _interpolate(start_position, end_position, start_orientation, end_orientation, start_posture, end_posture,
+                 minimum_jerk(progress), position, orientation, posture)

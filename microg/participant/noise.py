@@ -26,30 +26,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-
-
-class NormalStream:
-    """Standard normal draws from a generator, fetched in blocks as they are needed (a frame needs
-    a few dozen). With the generator, the one mutable thing of a participant: a take advances it."""
-
-    BLOCK = 4096
-
-    def __init__(self, rng: np.random.Generator):
-        self.rng = rng
-        self.block = np.empty(0)
-        self.used = self.BLOCK
-
-    def take(self, count: int) -> np.ndarray:
-        if self.used + count > self.BLOCK:
-            self.block = self.rng.standard_normal(self.BLOCK)
-            self.used = 0
-        out = self.block[self.used:self.used + count]
-        self.used += count
-        return out
 
 
 @dataclass(frozen=True)
@@ -61,11 +40,13 @@ class FrameTiming:
     p_one_missing: float = 0.0019
     p_two_missing: float = 0.0074
 
-    def interval(self, rng: np.random.Generator) -> float:
-        """One frame interval."""
-        u = rng.random()
-        periods = 3 if u < self.p_two_missing else 2 if u < self.p_two_missing + self.p_one_missing else 1
-        return periods * self.period + self.jitter_sd * rng.standard_normal()
+
+@njit(cache=True)
+def frame_interval(period, jitter_sd, p_one_missing, p_two_missing, rng):
+    """One frame interval (s) of a ``FrameTiming``, drawn from ``rng``."""
+    u = rng.random()
+    periods = 3 if u < p_two_missing else 2 if u < p_two_missing + p_one_missing else 1
+    return periods * period + jitter_sd * rng.standard_normal()
 
 
 def band_fraction(corner: float, band: float) -> float:
@@ -90,45 +71,23 @@ class TrackingNoiseLevels:
         return scale * np.array([self.palm_position, self.palm_rotation, self.digit_angle])
 
 
-class TrackingNoise(NamedTuple):
-    """Low-pass noise on 3 palm position, 3 palm rotation and 10 digit-angle parameters: the
-    state of its two filter stages. (Named tuples, this and ``Tremor``: immutable, and cheaper to
-    make than a frozen dataclass; a frame makes one of each.)"""
+NOISE_SIZE = 16
+"""Tracking noise parameters: palm offset (3, m), palm rotation vector (3, rad), digit base angles (5 x 2, rad)."""
 
-    SIZE = 16
 
-    tau: float
-    """Time constant of each stage (s)."""
-    sd: np.ndarray
-    """(16,) stationary SD of each parameter."""
-    stages: np.ndarray
-    """(2, 16) the first and the second stage."""
-
-    @classmethod
-    def start(cls, levels: TrackingNoiseLevels, normals: NormalStream) -> TrackingNoise:
-        """Both stages drawn from their stationary distributions."""
-        sd = np.repeat(levels.stationary_sd(), [3, 3, 10])
-        # Two equal first-order stages: the output's variance is half the first stage's.
-        first = math.sqrt(2.0) * sd * normals.take(cls.SIZE)
-        return cls(1.0 / (2.0 * math.pi * levels.corner), sd, np.stack([first, sd * normals.take(cls.SIZE)]))
-
-    def advance(self, dt: float, draws: np.ndarray) -> TrackingNoise:
-        """The noise ``dt`` seconds later, driven by 16 standard normal ``draws``; its ``value``
-        is the offset."""
-        stages = np.empty_like(self.stages)
-        advance_noise(self.stages, self.tau, self.sd, dt, draws, stages)
-        return TrackingNoise(self.tau, self.sd, stages)
-
-    @property
-    def value(self) -> np.ndarray:
-        """(16,) = palm offset (3, m), rotation vector (3, rad), digit base angles (5, 2; rad)."""
-        return self.stages[1]
+def noise_start(levels: TrackingNoiseLevels, rng: np.random.Generator) -> tuple[float, np.ndarray, np.ndarray]:
+    """Tracking noise at its start: the stages' time constant (s), each parameter's stationary SD
+    (16,) and both stages (2, 16) drawn from their stationary distributions. The second stage is
+    the noise's value: the offsets on the intended hand."""
+    sd = np.repeat(levels.stationary_sd(), [3, 3, 10])
+    # Two equal first-order stages: the output's variance is half the first stage's.
+    first = math.sqrt(2.0) * sd * rng.standard_normal(NOISE_SIZE)
+    return 1.0 / (2.0 * math.pi * levels.corner), sd, np.stack([first, sd * rng.standard_normal(NOISE_SIZE)])
 
 
 @njit(cache=True)
 def advance_noise(stages, tau, sd, dt, draws, out):
-    """``TrackingNoise.stages`` ``dt`` later, into ``out`` (compiled: the participant's hand takes
-    one a frame)."""
+    """The noise's two stages ``dt`` later, driven by 16 standard normal ``draws``, into ``out``."""
     decay = math.exp(-dt / tau)
     gain = math.sqrt(2.0 * (1.0 - decay * decay))
     for i in range(stages.shape[1]):
@@ -144,7 +103,7 @@ def _ou(value, dt, tau, sd, noise):
     return decay * value + sd * math.sqrt(1.0 - decay * decay) * noise
 
 
-# The tremor's constants (``Tremor``), at module level for its compiled kernels.
+# The tremor's constants, at module level for its compiled kernels.
 TREMOR_LOW, TREMOR_HIGH = 8.0, 12.0
 """Hz: the band of physiological tremor."""
 FREQUENCY_SD, FREQUENCY_TAU = 0.5, 1.0
@@ -153,46 +112,23 @@ AMPLITUDE_LOG_SD, AMPLITUDE_TAU = 0.3, 0.5
 """The log-amplitude's stationary SD and time constant (s), an Ornstein-Uhlenbeck process too."""
 
 
-class Tremor(NamedTuple):
-    """Whole-hand physiological tremor: per axis a sinusoid of wandering frequency (8-12 Hz) and
-    amplitude; the state of the oscillators."""
-
-    centre: float
-    """The participant's own frequency (Hz)."""
-    base: float
-    """Amplitude at log-amplitude 0 (m)."""
-    state: np.ndarray
-    """(7,) how far the frequency has wandered from ``centre`` (Hz), the phase of each axis (3,
-    rad), the log-amplitude of each axis (3)."""
-
-    @classmethod
-    def start(cls, rms: float, normals: NormalStream) -> Tremor:
-        """A tremor of ``rms`` metres per axis, its frequency and phases drawn from ``normals``' generator."""
-        rng = normals.rng
-        centre = rng.uniform(TREMOR_LOW + 1.0, TREMOR_HIGH - 1.0)
-        phase = rng.uniform(0.0, 2.0 * math.pi, 3)
-        log_amplitude = AMPLITUDE_LOG_SD * normals.take(3)
-        # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
-        base = rms * math.sqrt(2.0) * math.exp(-AMPLITUDE_LOG_SD ** 2)
-        return cls(centre, base, np.concatenate([[0.0], phase, log_amplitude]))
-
-    def advance(self, dt: float, draws: np.ndarray) -> Tremor:
-        """The tremor ``dt`` seconds later, driven by 4 standard normal ``draws``."""
-        state = np.empty(7)
-        advance_tremor(self.state, self.centre, dt, draws, state)
-        return Tremor(self.centre, self.base, state)
-
-    @property
-    def value(self) -> np.ndarray:
-        """The tremor displacement (3,) in metres."""
-        value = np.empty(3)
-        tremor_value(self.state, self.base, value)
-        return value
+def tremor_start(rms: float, rng: np.random.Generator) -> tuple[float, float, np.ndarray]:
+    """Whole-hand physiological tremor of ``rms`` metres per axis at its start: the participant's
+    own frequency (Hz), the amplitude at log-amplitude 0 (m) and the oscillators' state (7,): how
+    far the frequency has wandered from its own (Hz), the phase of each axis (3, rad), the
+    log-amplitude of each axis (3). Per axis a sinusoid of wandering frequency (8-12 Hz) and
+    amplitude (``advance_tremor``, ``tremor_value``)."""
+    centre = rng.uniform(TREMOR_LOW + 1.0, TREMOR_HIGH - 1.0)
+    phase = rng.uniform(0.0, 2.0 * math.pi, 3)
+    log_amplitude = AMPLITUDE_LOG_SD * rng.standard_normal(3)
+    # E[(A sin)^2] = E[A^2] / 2 with A = A0 exp(z), z ~ N(0, s^2): A0 = rms sqrt(2) exp(-s^2).
+    base = rms * math.sqrt(2.0) * math.exp(-AMPLITUDE_LOG_SD ** 2)
+    return centre, base, np.concatenate([[0.0], phase, log_amplitude])
 
 
 @njit(cache=True)
 def advance_tremor(state, centre, dt, draws, out):
-    """``Tremor.state`` ``dt`` later, into ``out`` (compiled: the participant's hand takes one a frame)."""
+    """The tremor's state ``dt`` later, driven by 4 standard normal ``draws``, into ``out``."""
     offset = _ou(state[0], dt, FREQUENCY_TAU, FREQUENCY_SD, draws[0])
     frequency = min(max(centre + offset, TREMOR_LOW), TREMOR_HIGH)
     out[0] = offset
@@ -204,6 +140,6 @@ def advance_tremor(state, centre, dt, draws, out):
 
 @njit(cache=True)
 def tremor_value(state, base, out):
-    """The displacement (3,) of a ``Tremor.state`` (m), into ``out``."""
+    """The tremor's displacement (3,) in metres, into ``out``."""
     for i in range(3):
         out[i] = base * math.exp(state[4 + i]) * math.sin(state[1 + i])

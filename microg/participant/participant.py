@@ -1,18 +1,19 @@
 """The simulated participant: a closed-loop motor model that plays the pick-and-place task.
 
     participant = SimulatedParticipant(plan, "veteran", seed=7)
-    for moment in play(world, participant, plan.rules, smooth):   # microg.task.play
+    for moment in play(world, Tracking(participant), plan.rules):   # microg.task.play
         ...
 
 or, by hand, ``frame = participant.next_frame(observe(world))`` then ``world = step(world, frame)``.
 
-Each frame the participant advances its own clock by one frame interval (``noise.FrameTiming``),
+Each frame the participant advances its own clock by one frame interval (``noise.frame_interval``),
 looks at what the last frame showed of the task (``microg.task.Observation``: the object's pose,
 which phalanges touch it, whether it is grasped, what the task displays), decides what the hand
 does (``actions``) and returns a Leap-shaped frame: the intended pose plus physiological tremor
-plus tracking noise. ``advance(state, observation) -> (state, frame)`` is that frame as a pure
-function of the participant's state; ``SimulatedParticipant`` holds the state for the
-``HandSource`` interface.
+plus tracking noise. The frame is one compiled call (``step_participant``) on plain records (the
+``actions.PLAYER`` constants and the ``actions.STATE`` that changes); ``SimulatedParticipant``
+holds them for the ``HandSource`` interface, and an in-silico study steps many participants with
+the same call from compiled code.
 
 Reaches, lifts and carries are minimum-jerk movements sized by Fitts' law; the reach follows the
 object if it drifts. Closing stops when the hand grasps the object, then the grip squeezes deeper
@@ -21,7 +22,7 @@ the plan, as a trained participant knows the objects); a visible slip of the obj
 squeezes more. A grasp that closes fully without holding, or an object that leaves the hand (a
 drop), sends the participant back to reach for the object where it now is. After letting go it
 watches until the object is away from its hand. Every random draw comes from the seed, in
-separate streams for timing, decisions, tremor and tracking noise.
+separate streams for frame timing, decisions, tremor and tracking noise.
 
 With a display in the observation (``TaskDisplay``, what the task shows), the participant follows
 the place marks, as a person does: it holds at a place until the task moves on to the next one
@@ -36,16 +37,17 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.typed import List
 
-from microg.skeleton import BONES_PER_HAND, N_BONES, SIDES, SLOT_DIGIT, HandFrame, side_slots
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
+from microg.skeleton import BONES_PER_HAND, SIDES, HandFrame, side_slots
 from microg.task import Observation
-from .actions import DONE, ParticipantState, Player, Seen, Streams, decide, pause
-from .motion import Pose
-from .noise import (FrameTiming, NormalStream, TrackingNoise, TrackingNoiseLevels, Tremor, advance_noise,
-                    advance_tremor, tremor_value)
-from .plan import TaskPlan
+from .actions import ACTIONS, DONE, MAX_PLACES, PLAYER, SEEN, SKILL, STAGE_CODES, STATE, decide, pause
 from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
+from .grasp import grasps
+from .noise import (NOISE_SIZE, FrameTiming, TrackingNoiseLevels, advance_noise, advance_tremor, frame_interval,
+                    noise_start, tremor_start, tremor_value)
+from .plan import TaskPlan
 from .skill import SkillProfile, skill_profile
 
 MEASURED_TIMING = FrameTiming()
@@ -53,94 +55,122 @@ MEASURED_NOISE = TrackingNoiseLevels()
 ABOVE_THE_OBJECT = np.array([0.0, 0.10, 0.12])
 """Where the hand waits when the plan does not say: this far (m) from the object's start, above it
 and nearer the user."""
+STREAMS = ("timing", "decisions", "tremor", "noise")
+"""The seed's random streams, one per kind of draw, so that one kind does not shift another."""
 
 
 def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = MEASURED_TIMING,
-          noise: TrackingNoiseLevels = MEASURED_NOISE, time_limit_s: float = 300.0) -> ParticipantState:
-    """The participant before its first frame: the hand waiting at its start, open and relaxed."""
-    generators = [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4)]
-    streams = Streams(generators[0], generators[1], NormalStream(generators[2]), NormalStream(generators[3]))
-    tremor = Tremor.start(skill.tremor_rms, streams.tremor)
-    jitter = TrackingNoise.start(noise, streams.noise)
-    home = (np.asarray(plan.hand_start, dtype=np.float64) if plan.hand_start is not None
-            else np.asarray(plan.start, dtype=np.float64) + ABOVE_THE_OBJECT)
-    side = SIDES.index(plan.hand)
-    slots = side_slots(side)
-    thumb = SLOT_DIGIT[slots] == 0
-    extents = np.asarray(plan.object.half_extents, dtype=np.float64)
-    caution = 1.0 + skill.shape_caution * math.log(float(extents.max() / extents.min()))
-    player = Player(plan, skill, timing, float(time_limit_s), home, slots, thumb, ~thumb, streams,
-                    -1.0 if plan.hand == "left" else 1.0, caution)
-    pose = Pose(home, np.array([1.0, 0.0, 0.0, 0.0]), REST.copy())
-    first_reach = pause(player, skill.new_object_pause_s if plan.first_with_object else 0.0)
-    return ParticipantState(player, pose, tremor, jitter, go_at=first_reach)
-
-
-def perceive(player: Player, observation: Observation, t: float, dt: float) -> Seen:
-    """What the participant takes in of ``observation`` at its time ``t``."""
-    touching = (np.zeros(BONES_PER_HAND, dtype=bool) if observation.touching is None
-                else np.asarray(observation.touching, dtype=bool)[player.slots])
-    in_my_hand = (bool(observation.grasped) and np.count_nonzero(touching & player.thumb) > 0
-                  and np.count_nonzero(touching & player.fingers) > 0)
-    return Seen(t, dt, np.asarray(observation.position, dtype=np.float64),
-                np.asarray(observation.orientation, dtype=np.float64), touching, in_my_hand, observation.display)
-
-
-def advance(state: ParticipantState, observation: Observation) -> tuple[ParticipantState, HandFrame | None]:
-    """One frame: the clock moves on by a frame interval, the participant looks at ``observation``
-    and decides, and its hand is tracked. The frame is None once it is done or out of time."""
-    player = state.player
-    if state.action == DONE:
-        return state, None
-    if state.time is None:  # the first frame shows the hand where it waits
-        return _tracked(state, 0.0, 0.0)
-    dt = player.timing.interval(player.streams.timing)
-    t = state.time + dt
-    if t > player.time_limit_s:
-        return state.changed(time=t, action=DONE), None
-    return _tracked(decide(state, perceive(player, observation, t, dt)), t, dt)
-
-
-def _tracked(state: ParticipantState, t: float, dt: float) -> tuple[ParticipantState, HandFrame]:
-    """The intended pose plus tremor and tracking noise, as a Leap-shaped hand at ``t``, ``dt``
-    after the last frame."""
-    player, tremor, noise, pose = state.player, state.tremor, state.noise, state.pose
-    streams = player.streams
-    # The kernel fills arrays made here: a compiled function's new arrays cost more to hand back.
-    oscillators, stages = np.empty(7), np.empty((2, TrackingNoise.SIZE))
-    palm, orientation, joints = np.empty(3), np.empty(4), np.empty((5, N_BONES + 1, 3))
-    _jitter(dt, tremor.state, tremor.centre, tremor.base, noise.stages, noise.tau, noise.sd,
-            streams.tremor.take(4), streams.noise.take(TrackingNoise.SIZE), pose.position, pose.orientation,
-            pose.posture, player.mirror, oscillators, stages, palm, orientation, joints)
-    hand = posed_hand(joints, palm, orientation, player.plan.hand)
-    return (state.changed(time=t, tremor=Tremor(tremor.centre, tremor.base, oscillators),
-                          noise=TrackingNoise(noise.tau, noise.sd, stages)),
-            HandFrame.made(t, (hand,)))
+          noise: TrackingNoiseLevels = MEASURED_NOISE, time_limit_s: float = 300.0, *, player=None, state=None):
+    """The participant before its first frame, into ``player`` and ``state`` (a ``PLAYER`` and a
+    ``STATE`` record; new ones when None): the hand waiting at its start, open and relaxed. Returns
+    the records, the random streams (``STREAMS``, a typed list of generators) and the grasps it can
+    take of the object (``grasp.grasps``)."""
+    if len(plan.rules.places) > MAX_PLACES:
+        raise ValueError(f"TaskPlan.rules.places has {len(plan.rules.places)} places: a simulated participant "
+                         f"plays at most {MAX_PLACES}")
+    streams = List([np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(len(STREAMS))])
+    player = np.zeros(1, PLAYER)[0] if player is None else player
+    state = np.zeros(1, STATE)[0] if state is None else state
+    for name in SKILL:
+        player[name] = getattr(skill, name)
+    spec = plan.object
+    half = np.asarray(spec.half_extents, dtype=np.float64)
+    player["time_limit"] = float(time_limit_s)
+    player["home"] = (np.asarray(plan.hand_start, dtype=np.float64) if plan.hand_start is not None
+                      else np.asarray(plan.start, dtype=np.float64) + ABOVE_THE_OBJECT)
+    player["first_slot"] = side_slots(SIDES.index(plan.hand)).start
+    player["mirror"] = -1.0 if plan.hand == "left" else 1.0
+    player["caution"] = 1.0 + skill.shape_caution * math.log(float(half.max() / half.min()))
+    player["round_object"] = spec.shape == "sphere"
+    player["half"] = half
+    player["mass"], player["static_friction"] = float(spec.mass), float(spec.material.static_friction)
+    player["gravity"] = plan.gravity
+    places = np.asarray(plan.rules.places, dtype=np.float64)
+    player["places"][:len(places)] = places
+    player["n_places"], player["place_radius"], player["hold_s"] = len(places), plan.rules.place_radius, plan.rules.hold_s
+    player["has_release"] = plan.release_position is not None
+    if plan.release_position is not None:
+        player["release"] = plan.release_position
+    for name in ("period", "jitter_sd", "p_one_missing", "p_two_missing"):
+        player[name] = getattr(timing, name)
+    player["tremor_centre"], player["tremor_base"], state["tremor"] = tremor_start(skill.tremor_rms, streams[2])
+    player["noise_tau"], player["noise_sd"], state["noise"] = noise_start(noise, streams[3])
+    state["time"], state["action"], state["since"], state["grasp"] = math.nan, 0, 0.0, -1
+    state["pose"]["position"], state["pose"]["orientation"], state["pose"]["posture"] = player["home"], \
+        (1.0, 0.0, 0.0, 0.0), REST
+    state["released_since"], state["dark_since"], state["clock_rate"] = math.nan, math.nan, 1.0
+    state["go_at"] = pause(player, streams[1], skill.new_object_pause_s if plan.first_with_object else 0.0)
+    return player, state, streams, grasps(spec.shape, tuple(float(v) for v in half), plan.hand)
 
 
 @njit(cache=True)
-def _jitter(dt, oscillators, centre, base, stages, tau, sd, tremor_draws, noise_draws, position, orientation,
-            posture, mirror, next_oscillators, next_stages, palm, palm_orientation, joints):
-    """One compiled call a frame: the tremor's and the tracking noise's states ``dt`` later
-    (into ``next_oscillators``, ``next_stages``) and the hand they jitter, the intended pose plus
-    the tremor and the noise's offsets (into ``palm``, ``palm_orientation`` and ``joints``)."""
-    advance_tremor(oscillators, centre, dt, tremor_draws, next_oscillators)
-    advance_noise(stages, tau, sd, dt, noise_draws, next_stages)
-    shake, offset = np.empty(3), next_stages[1]
-    tremor_value(next_oscillators, base, shake)
+def perceive(p, seen, t, dt, position, orientation, touching, grasped, has_display, stage, place, lit):
+    """What the participant takes in of an observation at its time ``t``, into ``seen``: its own
+    phalanges among the 40 slots ``touching``, and the object as its hand holds it (grasped, with
+    its own thumb and another of its digits on it)."""
+    seen.t, seen.dt = t, dt
+    seen.position[:] = position
+    seen.orientation[:] = orientation
+    thumb = fingers = False
+    for k in range(BONES_PER_HAND):
+        on = touching[p.first_slot + k]
+        seen.touching[k] = on
+        thumb = thumb or (on and k < 4)
+        fingers = fingers or (on and k >= 4)
+    seen.grasped = grasped and thumb and fingers
+    seen.has_display, seen.stage, seen.place, seen.lit = has_display, stage, place, lit
+
+
+@njit(cache=True)
+def step_participant(p, s, seen, streams, grasps, joints, palm, palm_orientation):
+    """One frame: the clock moves on by a frame interval, the participant looks at ``seen`` (filled
+    by ``perceive`` at the new time, which this returns first) and decides, and its hand is tracked
+    into ``joints``, ``palm`` and ``palm_orientation``. Returns the frame's time, or NaN once the
+    participant is done or out of time (no frame)."""
+    if s.action == DONE:
+        return math.nan
+    if math.isnan(s.time):  # the first frame shows the hand where it waits
+        _track(p, s, streams, 0.0, joints, palm, palm_orientation)
+        s.time = 0.0
+        return 0.0
+    seen.dt = frame_interval(p.period, p.jitter_sd, p.p_one_missing, p.p_two_missing, streams[0])
+    seen.t = s.time + seen.dt
+    if seen.t > p.time_limit:
+        s.time, s.action = seen.t, DONE
+        return math.nan
+    decide(p, s, seen, grasps, streams[1])
+    _track(p, s, streams, seen.dt, joints, palm, palm_orientation)
+    s.time = seen.t
+    return seen.t
+
+
+@njit(cache=True)
+def _track(p, s, streams, dt, joints, palm, palm_orientation):
+    """The intended pose plus tremor and tracking noise, as a Leap-shaped hand: the tremor's and the
+    noise's states ``dt`` later, and the joints, palm and its orientation they jitter."""
+    tremor, noise = s.tremor.copy(), s.noise.copy()
+    tremor_draws, noise_draws = np.empty(4), np.empty(NOISE_SIZE)
+    for i in range(4):
+        tremor_draws[i] = streams[2].standard_normal()
+    for i in range(NOISE_SIZE):
+        noise_draws[i] = streams[3].standard_normal()
+    advance_tremor(tremor, p.tremor_centre, dt, tremor_draws, s.tremor)
+    advance_noise(noise, p.noise_tau, p.noise_sd, dt, noise_draws, s.noise)
+    shake, offset = np.empty(3), s.noise[1]
+    tremor_value(s.tremor, p.tremor_base, shake)
     for i in range(3):
-        palm[i] = position[i] + shake[i] + offset[i]
-    palm_orientation[:] = quat_multiply(quat_from_rotation_vector(offset[3:6]), orientation)
-    angles = posture.copy()
+        palm[i] = s.pose.position[i] + shake[i] + offset[i]
+    palm_orientation[:] = quat_multiply(quat_from_rotation_vector(offset[3:6]), s.pose.orientation)
+    angles = s.pose.posture.copy()
     for d in range(5):
         for k in range(2):
             angles[d, k] += offset[6 + 2 * d + k]
-    pose_joints(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, mirror, joints)
+    pose_joints(angles, KNUCKLES, CARPALS, PHALANGES, palm, palm_orientation, p.mirror, joints)
 
 
 class SimulatedParticipant:
-    """A ``HandSource`` that plays a ``TaskPlan`` in closed loop: it holds the participant's state
-    (``state``) and advances it by one frame per ``next_frame``."""
+    """A ``HandSource`` that plays a ``TaskPlan`` in closed loop: it holds the participant's records
+    and advances them by one frame per ``next_frame``."""
 
     def __init__(self, plan: TaskPlan, skill: str | SkillProfile = "veteran", seed: int = 0, *,
                  timing: FrameTiming = MEASURED_TIMING, noise: TrackingNoiseLevels = MEASURED_NOISE,
@@ -151,8 +181,15 @@ class SimulatedParticipant:
         self.skill = skill_profile(skill) if isinstance(skill, str) else skill
         self.seed = int(seed)
         self.description = f"simulated:{self.skill.name}:seed={self.seed}"
-        self.state = start(plan, self.skill, self.seed, timing, noise, time_limit_s)
+        self.player, self.state, self._streams, self._grasps = start(plan, self.skill, self.seed, timing, noise,
+                                                                     time_limit_s)
+        self._seen = np.zeros(1, SEEN)[0]
         self.closed = False
+
+    @property
+    def action(self) -> str:
+        """What the participant is doing (``actions.ACTIONS``)."""
+        return ACTIONS[int(self.state["action"])]
 
     def next_frame(self, observation: Observation | None = None) -> HandFrame | None:
         """The next frame, or None once the participant has finished (or run out of time)."""
@@ -161,8 +198,19 @@ class SimulatedParticipant:
         if observation is None:
             raise ValueError(f"{self.description}: a simulated participant is closed-loop; "
                              "next_frame needs the observation of the last frame (microg.task.observe)")
-        self.state, frame = advance(self.state, observation)
-        return frame
+        o, display = observation, observation.display
+        touching = np.zeros(2 * BONES_PER_HAND, dtype=np.bool_) if o.touching is None else np.asarray(o.touching)
+        perceive(self.player, self._seen, 0.0, 0.0, np.asarray(o.position, dtype=np.float64),
+                 np.asarray(o.orientation, dtype=np.float64), touching, bool(o.grasped), display is not None,
+                 STAGE_CODES.index(display.stage) if display is not None else 0,
+                 display.place if display is not None else 0, bool(display.lit) if display is not None else False)
+        joints, palm, orientation = np.empty((5, 5, 3)), np.empty(3), np.empty(4)
+        t = step_participant(self.player, self.state, self._seen, self._streams, self._grasps, joints, palm,
+                             orientation)
+        if math.isnan(t):
+            return None
+        return HandFrame.made(t, (posed_hand(joints, palm, orientation, self.plan.hand),))
 
     def close(self) -> None:
         self.closed = True
+

@@ -45,6 +45,34 @@ def quat_from_rotation_vector(v):
     return np.array([np.cos(0.5 * angle), s * v[0], s * v[1], s * v[2]])
 
 
+@njit(cache=True)
+def quat_from_matrix(m):
+    """The unit quaternion (w > 0) of a rotation matrix (Shepperd's method: from the largest of the
+    four squared components, so no division by a small number)."""
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    q = np.empty(4)
+    if trace > m[0, 0] and trace > m[1, 1] and trace > m[2, 2]:
+        r = np.sqrt(1.0 + trace)
+        q[0], q[1], q[2], q[3] = 0.5 * r, (m[2, 1] - m[1, 2]) / (2 * r), (m[0, 2] - m[2, 0]) / (2 * r), \
+            (m[1, 0] - m[0, 1]) / (2 * r)
+    elif m[0, 0] >= m[1, 1] and m[0, 0] >= m[2, 2]:
+        r = np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q[0], q[1], q[2], q[3] = (m[2, 1] - m[1, 2]) / (2 * r), 0.5 * r, (m[0, 1] + m[1, 0]) / (2 * r), \
+            (m[0, 2] + m[2, 0]) / (2 * r)
+    elif m[1, 1] >= m[2, 2]:
+        r = np.sqrt(1.0 - m[0, 0] + m[1, 1] - m[2, 2])
+        q[0], q[1], q[2], q[3] = (m[0, 2] - m[2, 0]) / (2 * r), (m[0, 1] + m[1, 0]) / (2 * r), 0.5 * r, \
+            (m[1, 2] + m[2, 1]) / (2 * r)
+    else:
+        r = np.sqrt(1.0 - m[0, 0] - m[1, 1] + m[2, 2])
+        q[0], q[1], q[2], q[3] = (m[1, 0] - m[0, 1]) / (2 * r), (m[0, 2] + m[2, 0]) / (2 * r), \
+            (m[1, 2] + m[2, 1]) / (2 * r), 0.5 * r
+    if q[0] < 0:
+        for i in range(4):
+            q[i] = -q[i]
+    return q
+
+
 def quat_from_euler_deg(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """Quaternion from intrinsic x-y-z angles in degrees (object placement in scene files)."""
     qx = quat_from_rotation_vector(np.array([np.radians(roll), 0.0, 0.0]))

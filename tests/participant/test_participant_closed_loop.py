@@ -63,9 +63,9 @@ def test_a_reach_follows_the_minimum_jerk_profile():
     samples = []
 
     def record(p, w, frame):
-        samples.append((frame.timestamp, p.state.action, frame.hands[0].palm_position))
+        samples.append((frame.timestamp, p.action, frame.hands[0].palm_position))
 
-    run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: p.state.action == "descend", record)
+    run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: p.action == "descend", record)
     times = np.array([t for t, _, _ in samples])
     palms = np.array([x for _, _, x in samples])
     actions = [a for _, a, _ in samples]
@@ -118,7 +118,7 @@ def test_a_veteran_picks_and_places_the_cube_under_earth_gravity_with_the_papers
         holding.append(bool(grasped(w)[0]))
 
     run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: w.time > 40.0, record)
-    assert participant.state.action == "done"
+    assert participant.action == "done"
     times, positions, palms = np.array(times), np.array(positions), np.array(palms)
     starts = held_windows(times, positions, plan.rules)
     assert len(starts) == 3, "the cube stayed 3 s within each place's radius, in order"
@@ -143,17 +143,17 @@ def test_after_a_forced_drop_the_participant_grasps_the_object_again(gravity):
     plan = bench_plan("cube", gravity)
     participant = SimulatedParticipant(plan, "veteran", 5)
     world = run(participant, bench_world(plan, "impulse_penetration"),
-                lambda p, w: p.state.action == "hold" and w.time > 0.5 + p.state.since)
+                lambda p, w: p.action == "hold" and w.time > 0.5 + p.state["since"])
     assert grasped(world)[0]
     world = knocked_out(world)
     knocked_at = world.time
-    world = run(participant, world, lambda p, w: p.state.attempts == 1)
-    assert participant.state.attempts == 1 and world.time - knocked_at < 1.0
+    world = run(participant, world, lambda p, w: p.state["attempts"] == 1)
+    assert participant.state["attempts"] == 1 and world.time - knocked_at < 1.0
     world = run(participant, world,
-                lambda p, w: grasped(w)[0] and p.state.action == "carry" or w.time > knocked_at + 8.0)
+                lambda p, w: grasped(w)[0] and p.action == "carry" or w.time > knocked_at + 8.0)
     assert grasped(world)[0], "the participant took hold of the cube again"
     assert world.time - knocked_at < 8.0
-    world = run(participant, world, lambda p, w: p.state.action == "hold" or w.time > knocked_at + 12.0)
+    world = run(participant, world, lambda p, w: p.action == "hold" or w.time > knocked_at + 12.0)
     assert np.linalg.norm(world.data.position[0] - np.asarray(PLACES[0])) <= plan.rules.place_radius
 
 
@@ -167,7 +167,7 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
     tracked = Tracking(participant, GuardConfig(nominal_rate=world.model.scene.tracking_rate))
     shown_places, own_places = [], []
     for moment in play(world, tracked, plan.rules):
-        own_places.append(participant.state.place)
+        own_places.append(participant.state["place"])
         shown_places.append(moment.observation.display.place)
     assert moment.state.stage == COMPLETED and moment.state.attempts == 0
     # own_places[i] was decided on the display of frame i - 1.
@@ -177,7 +177,7 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
     assert own_places[-1] == 3
     assert moment.observation.display.stage == COMPLETED
     assert participant.next_frame(moment.observation) is not None
-    assert participant.state.action == "done" and participant.next_frame(moment.observation) is None
+    assert participant.action == "done" and participant.next_frame(moment.observation) is None
 
 
 def test_the_bench_plays_the_task_by_its_rules():

@@ -4,14 +4,8 @@ import numpy as np
 import pytest
 from scipy import signal, stats
 
-from microg.participant.noise import (
-    FrameTiming,
-    NormalStream,
-    TrackingNoise,
-    TrackingNoiseLevels,
-    Tremor,
-    band_fraction,
-)
+from microg.participant.noise import (NOISE_SIZE, FrameTiming, TrackingNoiseLevels, advance_noise, advance_tremor,
+                                     band_fraction, frame_interval, noise_start, tremor_start, tremor_value)
 
 RNG_SEED = 2024
 
@@ -20,7 +14,8 @@ def test_frame_intervals_follow_the_measured_distribution():
     timing = FrameTiming()
     rng = np.random.default_rng(RNG_SEED)
     n = 60_000
-    intervals = np.array([timing.interval(rng) for _ in range(n)])
+    intervals = np.array([frame_interval(timing.period, timing.jitter_sd, timing.p_one_missing, timing.p_two_missing,
+                                         rng) for _ in range(n)])
     periods = np.rint(intervals / timing.period).astype(int)
     assert set(np.unique(periods)) <= {1, 2, 3}
     single = intervals[periods == 1]
@@ -42,13 +37,29 @@ def test_band_fraction_matches_numerical_integration_of_the_spectrum():
     assert band_fraction(5.0, 5.0) == pytest.approx(0.5 - 1.0 / np.pi, rel=1e-9)
 
 
-def _uniform_series(process, normals, draws, duration, dt):
-    """The ``value`` of ``process`` every ``dt`` seconds for ``duration``, advanced on ``draws``
-    standard normals from ``normals`` each time."""
+def _noise_series(levels, rng, duration, dt):
+    """The tracking noise's value (16,) every ``dt`` seconds for ``duration``, through the kernels a
+    simulated participant's frame runs."""
+    tau, sd, stages = noise_start(levels, rng)
     values = []
     for _ in range(int(duration / dt)):
-        process = process.advance(dt, normals.take(draws))
-        values.append(process.value)
+        after = np.empty_like(stages)
+        advance_noise(stages, tau, sd, dt, rng.standard_normal(NOISE_SIZE), after)
+        stages = after
+        values.append(stages[1].copy())
+    return np.array(values)
+
+
+def _tremor_series(rms, rng, duration, dt):
+    """The tremor's displacement (3,) every ``dt`` seconds for ``duration``, through the same kernels."""
+    centre, base, state = tremor_start(rms, rng)
+    values = []
+    for _ in range(int(duration / dt)):
+        after, value = np.empty(7), np.empty(3)
+        advance_tremor(state, centre, dt, rng.standard_normal(4), after)
+        state = after
+        tremor_value(state, base, value)
+        values.append(value)
     return np.array(values)
 
 
@@ -59,9 +70,8 @@ def _high_pass_rms(values, dt, cutoff):
 
 def test_tracking_noise_has_the_measured_size_above_5_hz_and_the_stationary_sd():
     levels = TrackingNoiseLevels()
-    normals = NormalStream(np.random.default_rng(RNG_SEED))
     dt = 1.0 / 115
-    series = _uniform_series(TrackingNoise.start(levels, normals), normals, TrackingNoise.SIZE, 400.0, dt)
+    series = _noise_series(levels, np.random.default_rng(RNG_SEED), 400.0, dt)
     palm, rotation, digits = series[:, :3], series[:, 3:6], series[:, 6:]
     assert np.mean(_high_pass_rms(palm, dt, 5.0)) == pytest.approx(levels.palm_position, rel=0.15)
     assert np.mean(_high_pass_rms(rotation, dt, 5.0)) == pytest.approx(levels.palm_rotation, rel=0.15)
@@ -71,9 +81,8 @@ def test_tracking_noise_has_the_measured_size_above_5_hz_and_the_stationary_sd()
 
 def test_tremor_is_a_narrow_band_oscillation_between_8_and_12_hz_of_the_stated_rms():
     for seed in range(5):
-        normals = NormalStream(np.random.default_rng(seed))
         dt = 1.0 / 115
-        series = _uniform_series(Tremor.start(100e-6, normals), normals, 4, 120.0, dt)
+        series = _tremor_series(100e-6, np.random.default_rng(seed), 120.0, dt)
         f, psd = signal.welch(series, fs=1.0 / dt, nperseg=1024, axis=0)
         peak = f[np.argmax(psd.sum(axis=1))]
         assert 8.0 <= peak <= 12.0
