@@ -1,4 +1,13 @@
-"""Whole simulated studies, kept as their trials table (``simulate_trials``)."""
+"""Whole simulated studies, kept as their trials table (``simulate_trials``).
+
+A simulated study is a real study in a temporary folder: its participants enrolled, assigned to
+groups and object orders, each given a session with its seed, by the study engine itself. Its
+tasks are then played by ``engine.play_tasks`` (batched, in compiled code, no frames logged) and
+each task's run is written to the study as a session would write it: the run's start and end on
+the session's clock (rebuilt from the frames' times, as a session advances it), its status,
+completion time and attempts. The trials table is read back by the export's own function, so it
+is the table a logged session of the same seeds gives.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +19,8 @@ import pandas as pd
 
 from microg.participant import Population
 from microg.study.protocol import Protocol, protocol_from_resolved
+
+from .engine import TaskUnit, play_tasks
 
 
 def sized_protocol(protocol: Protocol, n_per_group: int) -> Protocol:
@@ -25,7 +36,7 @@ def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *,
     """The trials table of one whole simulated study with ``n_per_group`` participants per group;
     every group's participants are drawn from ``population`` when given, else from each group's
     ``simulated_profile``. The same seed gives the same table."""
-    from microg.study import Participant, SimulationClock, create_study, open_inputs, run_session, trials_table
+    from microg.study import Participant, create_study, open_inputs, trials_table
     from microg.study.inputs import SimulatedInputs
 
     sized = sized_protocol(protocol, n_per_group)
@@ -33,12 +44,61 @@ def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *,
     youngest, oldest = sized.age_range or (18, 60)
     with tempfile.TemporaryDirectory(prefix="microg-insilico-") as folder, \
             create_study(Path(folder) / "study", sized, seed) as store:
+        store.commit_for(True)
         for number in range(sized.total_participants):
             store.add_participant(Participant(f"S{number + 1:03d}", ("female", "male")[number % 2],
                                               int(rng.integers(youngest, oldest + 1)), "right", True))
         for record in store.participants():
             inputs = (open_inputs("simulated", sized.group(record.group)) if population is None
                       else SimulatedInputs(f"simulated:{population.where}", population))
-            session = store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
-            run_session(store, session.id, inputs, clock=SimulationClock())
+            store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
+        play_sessions(store, lambda session: (open_inputs("simulated", sized.group(
+            store.participant(session.participant_id).group)) if population is None
+            else SimulatedInputs(f"simulated:{population.where}", population)))
         return trials_table(store)
+
+
+def play_sessions(store, inputs_of) -> None:
+    """Play every running session of ``store`` (simulated participants, ``inputs_of(session)``
+    their ``SimulatedInputs``) with ``engine.play_tasks`` and write each task's run as the session
+    runner would, in the order it would run them; then end the sessions."""
+    from microg.study.inputs import participant_plan
+    from microg.study.session import SimulationClock
+    from microg.study.store import Event, derived_seed
+
+    protocol = store.protocol
+    task_phases = {p.name for p in protocol.phases}
+    sessions, units = [], []
+    for record in store.participants():
+        session = store.session_of(record.participant.id)
+        if session is None or session.status != "running":
+            continue
+        inputs, tasks = inputs_of(session), store.tasks(session.id)
+        hand = "left" if record.participant.handedness == "left" else "right"
+        order = [task for phase in protocol.phases_for(record.group)
+                 if phase.name == "training" or phase.name in task_phases
+                 for task in tasks if task.phase == phase.name]
+        played = []
+        for task in order:
+            first = all(t.object != task.object for t in tasks if t.index < task.index)
+            plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
+                                    first_with_object=first)
+            seed = derived_seed(session.seed, task.index)
+            skill = inputs.skill(plan)
+            units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
+            played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))
+        sessions.append((session, played))
+    outcomes = iter(play_tasks(protocol, units))
+    for session, played in sessions:
+        clock = SimulationClock()
+        for task, seed, source in played:
+            outcome = next(outcomes)
+            run_id = store.begin_run(session.id, task, source, seed, clock.now())
+            times = outcome.frame_times
+            for i in range(1, len(times)):
+                clock.elapse(float(times[i] - times[i - 1]))
+            reason = {"completed": None, "timeout": f"not completed within task.timeout_s = {protocol.task.timeout_s:g} s",
+                      "aborted": f"the hand source ({source}) ended before the task did"}[outcome.status]
+            store.end_run(run_id, outcome.status, clock.now(), time_s=outcome.time_s, attempts=outcome.attempts,
+                          reason=reason, events=[Event(clock.now(), "in_silico", {"frames": len(times)})])
+        store.finish_session(session.id, clock.now())

@@ -64,6 +64,9 @@ RELEASED_DISTANCE = 0.10
 """After letting go, the participant waits until the object is this far (m) from its palm."""
 WATCH_S = 1.0
 """... or this long (s) before backing off again."""
+REPLAN_DISTANCE = 0.02
+"""A reach's target that moves this far (m) from one frame to the next was not followed but
+replaced (the object was put back): the hand starts a new movement toward it."""
 PEAK_ACCELERATION = 5.77
 """Peak acceleration of a minimum-jerk movement over D / T^2."""
 MAX_PLACES = 8
@@ -204,9 +207,35 @@ def _move(s, t):
 
 @njit(cache=True)
 def _begin_movement(s, t, duration):
-    """A new movement from the intended hand to ``s.end`` (already set), from ``t``."""
+    """A new movement from the intended hand to ``s.end`` (already set), from ``t``; the end's
+    quaternion on the start's side, so the hand turns the short way."""
     _copy_pose(s.pose, s.start)
+    if _dot4(s.start.orientation, s.end.orientation) < 0.0:
+        for i in range(4):
+            s.end.orientation[i] = -s.end.orientation[i]
     s.begin, s.duration = t, duration
+
+
+@njit(cache=True)
+def _dot4(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
+@njit(cache=True)
+def _follow(p, s, grasps, seen, approach):
+    """Re-aim the current movement's end at the grasp pose of the object as seen now (a drifting,
+    turning object): the end's quaternion kept on the side of the last one, so the hand turns on
+    continuously. A target that moved by ``REPLAN_DISTANCE`` or more since the last frame (an
+    object put back at its start) is reached by a new movement from where the hand is."""
+    target = np.empty(1, STATE)[0]
+    _grasp_pose(s, grasps, s.closure, seen, approach, target.end)
+    if _dot4(target.end.orientation, s.end.orientation) < 0.0:
+        for i in range(4):
+            target.end.orientation[i] = -target.end.orientation[i]
+    replan = _distance(target.end.position, s.end.position) >= REPLAN_DISTANCE
+    _copy_pose(target.end, s.end)
+    if replan:
+        _begin_movement(s, seen.t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
 
 
 @njit(cache=True)
@@ -390,7 +419,7 @@ def wait_for_object(p, s, seen, grasps, draws):
 @njit(cache=True)
 def reach(p, s, seen, grasps, draws):
     """Move to the pre-grasp pose, following the object if it drifts."""
-    _grasp_pose(s, grasps, s.closure, seen, True, s.end)
+    _follow(p, s, grasps, seen, True)
     if _move(s, seen.t) < 1.0:
         return
     _grasp_pose(s, grasps, s.closure, seen, False, s.end)
@@ -406,7 +435,7 @@ def _length(v):
 @njit(cache=True)
 def descend(p, s, seen, grasps, draws):
     """Move the pre-shaped hand around the object until the descent ends or a phalanx touches it."""
-    _grasp_pose(s, grasps, s.closure, seen, False, s.end)
+    _follow(p, s, grasps, seen, False)
     if _move(s, seen.t) >= 1.0 or seen.touching.any():
         s.close_origin[:] = seen.position
         _enter(s, CLOSE, seen.t)

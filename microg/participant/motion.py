@@ -35,38 +35,39 @@ def movement_time(distance: float, tolerance: float, intercept: float, slope: fl
 @njit(cache=True)
 def slerp(q0: np.ndarray, q1: np.ndarray, s: float) -> np.ndarray:
     """Spherical interpolation between unit quaternions (shortest arc), s in [0, 1]."""
+    dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
     q = np.empty(4)
-    _slerp(q0, q1, s, q)
+    _arc(q0, q1 if dot >= 0.0 else -q1, s, q)
     return q
 
 
 @njit(cache=True)
-def _slerp(q0, q1, s, out):
-    """``slerp`` into ``out``, with numpy's arithmetic (its dot product sums in order)."""
+def _arc(q0, q1, s, out):
+    """The rotation ``s`` of the way along the great arc from ``q0`` to ``q1`` as given (the short
+    arc when their dot product is positive), into ``out``, with numpy's arithmetic."""
     dot = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
-    sign = 1.0
-    if dot < 0.0:
-        sign, dot = -1.0, -dot
     if dot > 0.9995:
         for i in range(4):
-            out[i] = q0[i] + s * (sign * q1[i] - q0[i])
+            out[i] = q0[i] + s * (q1[i] - q0[i])
         norm = math.sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2] + out[3] * out[3])
         for i in range(4):
             out[i] /= norm
         return
-    theta = math.acos(dot)
+    theta = math.acos(min(max(dot, -1.0), 1.0))
     a, b, c = math.sin((1.0 - s) * theta), math.sin(s * theta), math.sin(theta)
     for i in range(4):
-        out[i] = (a * q0[i] + b * (sign * q1[i])) / c
+        out[i] = (a * q0[i] + b * q1[i]) / c
 
 
 @njit(cache=True)
 def _interpolate(start_position, end_position, start_orientation, end_orientation, start_posture, end_posture, s,
                  position, orientation, posture):
-    """The pose ``s`` of the way from start to end (``Movement.at``), into the last three arrays."""
+    """The pose ``s`` of the way from start to end, into the last three arrays: the orientation
+    along the arc from the start's quaternion to the end's as given (the movement puts the end on
+    the start's side when it begins, and keeps it continuous while it follows a turning object)."""
     for i in range(3):
         position[i] = start_position[i] + s * (end_position[i] - start_position[i])
-    _slerp(start_orientation, end_orientation, s, orientation)
+    _arc(start_orientation, end_orientation, s, orientation)
     for d in range(start_posture.shape[0]):
         for j in range(start_posture.shape[1]):
             posture[d, j] = start_posture[d, j] + s * (end_posture[d, j] - start_posture[d, j])

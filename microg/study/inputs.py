@@ -78,12 +78,24 @@ class SimulatedInputs:
     def __init__(self, spec: str, player: Population | SkillProfile):
         self.spec, self.player = spec, player
 
-    def open(self, plan: TaskPlan, seed: int) -> HandSource:
-        from microg.participant import SimulatedParticipant, person_skill
+    def skill(self, plan: TaskPlan) -> SkillProfile:
+        """The participant's skill in this task: drawn from the population (from the participant's
+        seed) and practised by the tasks done, or the fixed one."""
+        from microg.participant import person_skill
 
-        skill = (person_skill(self.player, plan.participant_seed, plan.tasks_done)
-                 if isinstance(self.player, Population) else self.player)
-        return SimulatedParticipant(plan, skill, seed, time_limit_s=plan.rules.timeout_s + 10.0)
+        if isinstance(self.player, Population):
+            return person_skill(self.player, plan.participant_seed, plan.tasks_done)
+        return self.player
+
+    @staticmethod
+    def time_limit_s(plan: TaskPlan) -> float:
+        """The participant's own clock stops this long (s) into a task: after the task's timeout."""
+        return plan.rules.timeout_s + 10.0
+
+    def open(self, plan: TaskPlan, seed: int) -> HandSource:
+        from microg.participant import SimulatedParticipant
+
+        return SimulatedParticipant(plan, self.skill(plan), seed, time_limit_s=self.time_limit_s(plan))
 
     def close(self) -> None:
         pass

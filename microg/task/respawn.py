@@ -6,20 +6,35 @@ drifting away in microgravity or falling off the table, goes back to its start p
 
 from __future__ import annotations
 
+import numpy as np
+from numba import njit
+
 from microg.sim import World
 
 from .rules import TaskRules
-from .stages import TaskEvent, TaskState
+from .stages import TaskEvent, TaskState, rules_of
+
+
+@njit(cache=True)
+def lost(rules, held, position):
+    """Whether an object at ``position`` is lost: out of the workspace while not held (``rules``
+    a ``stages.RULES`` record)."""
+    if held:
+        return False
+    for i in range(3):
+        if not rules.workspace_min[i] <= position[i] <= rules.workspace_max[i]:
+            return True
+    return False
 
 
 def inside_workspace(rules: TaskRules, position) -> bool:
-    return all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, position, rules.workspace_max))
+    return not lost(rules_of(rules), False, np.asarray(position, dtype=np.float64))
 
 
 def respawn(world: World, rules: TaskRules, state: TaskState, start, position) -> tuple[World, list[TaskEvent]]:
     """``world`` with object 0 (now at ``position``) back at ``start`` (position, orientation), at
     rest, if it left the workspace while not held; a new World (the argument is left as it was)."""
-    if state.held or inside_workspace(rules, position):
+    if not lost(rules_of(rules), state.held, np.asarray(position, dtype=np.float64)):
         return world, []
     data = world.data.copy()
     data.position[0], data.orientation[0] = start

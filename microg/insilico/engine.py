@@ -1,0 +1,268 @@
+"""Tasks played by simulated participants, many at once, in compiled code.
+
+A session plays a task frame by frame from Python (``microg.study.session.run_task``): the
+participant's frame, hand tracking (the guard, the window filter), the physics, the task's rules,
+respawn, and the log. An in-silico study logs no frames, so ``play_tasks`` runs the same steps for
+many tasks together: the tasks of one object and interaction model share one physics model, so
+their worlds are stepped as one batch (``sim`` ``step_worlds``, as ``step_batch``), between two
+compiled calls that do the rest for every task of the batch: ``_track`` (each participant's frame,
+the guard's checks, Eq. 1) and ``_judge`` (what each world shows, the task's rules, respawn).
+Each calls the code a session runs: ``participant.step_participant``, ``filter.window_mean``,
+``stages.judge``, ``respawn.lost``, the physics' ``_snapshot``. A finished task's place in the
+batch is taken by the next task of its kind.
+
+The tracking guard passes a simulated participant's frames unchanged (its timestamps increase by
+less than ``max_gap``, every joint is known, no point moves ``jump_distance`` in a frame, its
+track never changes); ``_track`` checks each frame for exactly that and refuses to go on otherwise,
+so a task played here sees what it would see in a session. The outcome of each task is what a
+session's run records (status, completion time, attempts) and every frame's time, from which the
+session clock is rebuilt exactly as a session advances it (``frame_times``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from numba.typed import List
+
+from microg.hands.filter import window_mean
+from microg.participant.actions import PLAYER, SEEN, STATE
+from microg.participant.anatomy import WIDTHS
+from microg.participant.grasp import GRASP, KEYS
+from microg.participant.participant import perceive, start, step_participant
+from microg.participant.plan import TaskPlan
+from microg.participant.skill import SkillProfile
+from microg.sim import make_world
+from microg.sim.observe import _snapshot
+from microg.sim.state import POINTS, layout
+from microg.skeleton import N_BONES, N_DIGITS, SIDES
+from microg.study.protocol import Protocol
+from microg.task.respawn import lost
+from microg.task.stages import EVENT, MAX_EVENTS, STAGES, TASK, judge, rules_record
+
+BATCH = 32
+"""Tasks stepped together at most (per object and interaction model)."""
+FRAMES_PER_SECOND = 130
+"""More frames a second than a simulated participant gives (115 Hz with jitter): sizes each task's
+record of frame times."""
+_COMPLETED = STAGES.index("completed")
+
+
+@dataclass(frozen=True)
+class TaskUnit:
+    """One task for a simulated participant: its plan, its skill, its seed, its clock's limit."""
+
+    plan: TaskPlan
+    skill: SkillProfile
+    seed: int
+    time_limit_s: float
+    interaction: str
+    object_name: str
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a task played out: ``completed``, ``timeout`` or ``aborted`` (the participant gave no
+    more frames), its completion time and attempts (as the task's rules count them), and the time
+    of every frame (s, the participant's clock)."""
+
+    status: str
+    time_s: float | None
+    attempts: int
+    frame_times: np.ndarray
+
+
+def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None) -> list[Outcome]:
+    """Play every task of ``units`` (a task's world is the protocol's scene of its object and
+    interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
+    number of tasks finished as they finish."""
+    outcomes: list[Outcome | None] = [None] * len(units)
+    kinds: dict[tuple[str, str], list[int]] = {}
+    for i, unit in enumerate(units):
+        kinds.setdefault((unit.object_name, unit.interaction), []).append(i)
+    done = 0
+    for (name, interaction), indices in kinds.items():
+        world = make_world(protocol.scene(name, interaction))
+        for i, outcome in _play_kind(protocol, world, [units[i] for i in indices]):
+            outcomes[indices[i]] = outcome
+            done += 1
+            if progress is not None:
+                progress(done)
+    return outcomes
+
+
+def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
+    """The tasks of one world model, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
+    model, data = world.model, world.data
+    size = min(BATCH, len(units))
+    places, _ = layout(model.n_objects)
+    offsets = np.array([places[name][1] for name in ("position", "orientation", "velocity", "angular_velocity")])
+    rules = rules_record(protocol.task)
+    window = protocol.filter_window
+    limit = max(int(u.time_limit_s * FRAMES_PER_SECOND) + 2 for u in units)
+    batch = _Batch(size, data, window, limit)
+    queue = list(range(len(units)))
+    slots = [-1] * size
+    for slot in range(size):
+        slots[slot] = queue.pop(0)
+        batch.load(slot, units[slots[slot]], data)
+    while any(index >= 0 for index in slots):
+        ended = _track(batch.players, batch.states, batch.seens, batch.streams, batch.grasps, batch.tasks,
+                       batch.observed, batch.position, batch.orientation, batch.touching, batch.grasped, batch.active,
+                       batch.timestamp, batch.present, batch.track, batch.points, batch.widths, batch.samples,
+                       batch.times, batch.count, batch.newest, 1.0 / protocol.tracking_rate, batch.guard,
+                       protocol.guard.jump_distance, protocol.guard.max_gap, batch.frame_times, batch.frames)
+        model.step_worlds(model.params, model.ints, batch.reals, batch.flags, batch.counts, batch.timestamp,
+                          batch.present, batch.track, batch.points, batch.widths)
+        _judge(batch.reals, batch.flags, batch.counts, model.n_objects, batch.tasks, rules, batch.events,
+               batch.active, batch.observed, batch.position, batch.orientation, batch.touching, batch.grasped,
+               batch.start, offsets)
+        finished = np.flatnonzero((batch.tasks["stage"] >= _COMPLETED) & batch.active | ended)
+        for slot in finished:
+            yield slots[slot], batch.outcome(slot)
+            if queue:
+                slots[slot] = queue.pop(0)
+                batch.load(slot, units[slots[slot]], data)
+            else:
+                slots[slot] = -1
+                batch.active[slot] = False
+
+
+class _Batch:
+    """The arrays of ``size`` tasks of one world model stepped together (see ``_track``, ``_judge``)."""
+
+    def __init__(self, size: int, data, window: int, limit: int):
+        self.players, self.states = np.zeros(size, PLAYER), np.zeros(size, STATE)
+        self.seens, self.tasks = np.zeros(size, SEEN), np.zeros(size, TASK)
+        self.events = np.zeros((size, MAX_EVENTS), EVENT)
+        self.grasps = np.zeros((size, KEYS), GRASP)
+        self.streams = List([List([np.random.default_rng(0) for _ in range(4)]) for _ in range(size)])
+        self.reals = np.repeat(data.reals[None], size, axis=0)
+        self.flags = np.repeat(data.flags[None], size, axis=0)
+        self.counts = np.repeat(data.counts[None], size, axis=0)
+        self.start = np.concatenate([data.position[0], data.orientation[0]])
+        self.timestamp = np.zeros(size)
+        self.present = np.zeros((size, 2), dtype=np.bool_)
+        self.track = np.zeros((size, 2), dtype=np.int64)
+        self.points = np.full((size, 2, POINTS, 3), np.nan)
+        self.widths = np.full((size, 2, N_DIGITS, N_BONES), np.nan)
+        self.samples = np.zeros((size, window, N_DIGITS, N_BONES + 1, 3))
+        self.times, self.count, self.newest = np.zeros((size, window)), np.zeros(size, np.int64), np.zeros(size, np.int64)
+        self.guard = np.zeros((size, POINTS, 3))
+        self.observed = np.zeros(size)
+        self.position, self.orientation = np.zeros((size, 3)), np.zeros((size, 4))
+        self.touching, self.grasped = np.zeros((size, 40), dtype=np.bool_), np.zeros(size, dtype=np.bool_)
+        self.active = np.zeros(size, dtype=np.bool_)
+        self.frame_times, self.frames = np.zeros((size, limit)), np.zeros(size, np.int64)
+        self.initial = (data.reals.copy(), data.flags.copy(), data.counts.copy())
+
+    def load(self, slot: int, unit: TaskUnit, data) -> None:
+        """Put ``unit`` in ``slot``: its participant before its first frame, its world at rest."""
+        self.players[slot], self.states[slot] = np.zeros(1, PLAYER)[0], np.zeros(1, STATE)[0]
+        _, _, streams, grasps = start(unit.plan, unit.skill, unit.seed, time_limit_s=unit.time_limit_s,
+                                      player=self.players[slot], state=self.states[slot])
+        self.streams[slot] = streams
+        self.grasps[slot] = grasps
+        self.tasks[slot] = (0, math.nan, math.nan, 0, math.nan, False, math.nan, math.nan, 0)
+        self.reals[slot], self.flags[slot], self.counts[slot] = self.initial
+        side = SIDES.index(unit.plan.hand)
+        self.present[slot] = [s == side for s in range(2)]
+        self.track[slot] = 0
+        self.track[slot, side] = 1
+        self.points[slot] = np.nan
+        self.widths[slot] = np.nan
+        self.widths[slot, side] = WIDTHS
+        self.count[slot], self.newest[slot] = 0, -1
+        t, values, touching, grasped = _snapshot(*self.initial, data.n_objects, 0)
+        self.observed[slot], self.position[slot], self.orientation[slot] = t, values[0:3], values[3:7]
+        self.touching[slot], self.grasped[slot] = touching, grasped
+        self.frames[slot] = 0
+        self.active[slot] = True
+
+    def outcome(self, slot: int) -> Outcome:
+        task = self.tasks[slot]
+        frame_times = self.frame_times[slot, :self.frames[slot]].copy()
+        if task["stage"] == _COMPLETED:
+            return Outcome("completed", float(task["ended"] - task["started"]), int(task["attempts"]), frame_times)
+        if task["stage"] > _COMPLETED:
+            return Outcome("timeout", None, int(task["attempts"]), frame_times)
+        return Outcome("aborted", None, int(task["attempts"]), frame_times)
+
+
+@njit(cache=True)
+def _track(players, states, seens, streams, grasps, tasks, observed, position, orientation, touching, grasped, active,
+           timestamp, present, track, points, widths, samples, times, count, newest, period, guard, jump_distance,
+           max_gap, frame_times, frames):
+    """Every active task's next frame: the participant looks at what its world showed and moves its
+    hand (``step_participant``); the frame passes the tracking guard's checks unchanged and the
+    window filter (Eq. 1) smooths its joints into the batch's hand frames. Returns, per task,
+    whether its participant gave no more frames (it is done, or out of time)."""
+    ended = np.zeros(len(active), dtype=np.bool_)
+    joints, palm, palm_orientation = np.empty((N_DIGITS, N_BONES + 1, 3)), np.empty(3), np.empty(4)
+    for b in range(len(active)):
+        if not active[b]:
+            continue
+        task, p = tasks[b], players[b]
+        perceive(p, seens[b], 0.0, 0.0, position[b], orientation[b], touching[b], grasped[b], True, task.stage,
+                 task.place, not math.isnan(task.lit_since))
+        t = step_participant(p, states[b], seens[b], streams[b], grasps[b], joints, palm, palm_orientation)
+        if math.isnan(t):
+            ended[b], active[b] = True, False
+            continue
+        side = 0 if p.mirror < 0 else 1
+        n = frames[b]
+        if n > 0:
+            interval = t - frame_times[b, n - 1]
+            if not 0 < interval <= max_gap or _moved(guard[b], palm, joints) >= jump_distance:
+                raise ValueError("a simulated participant's frame the tracking guard would not pass unchanged")
+        frame_times[b, n], frames[b] = t, n + 1
+        guard[b, 0] = palm
+        guard[b, 1:] = joints.reshape((-1, 3))
+        newest[b] = (newest[b] + 1) % samples.shape[1]
+        samples[b, newest[b]] = joints
+        times[b, newest[b]] = t
+        count[b] = min(count[b] + 1, samples.shape[1])
+        smoothed = window_mean(samples[b], times[b], count[b], newest[b], period)
+        timestamp[b] = t
+        points[b, side, 0] = palm
+        points[b, side, 1:] = smoothed.reshape((-1, 3))
+    return ended
+
+
+@njit(cache=True)
+def _moved(last, palm, joints):
+    """The largest distance (m) the palm or a joint moved since ``last`` (the jump rule's measure)."""
+    largest = math.sqrt((palm[0] - last[0, 0]) ** 2 + (palm[1] - last[0, 1]) ** 2 + (palm[2] - last[0, 2]) ** 2)
+    flat = joints.reshape((-1, 3))
+    for i in range(flat.shape[0]):
+        d = math.sqrt((flat[i, 0] - last[i + 1, 0]) ** 2 + (flat[i, 1] - last[i + 1, 1]) ** 2
+                      + (flat[i, 2] - last[i + 1, 2]) ** 2)
+        largest = max(largest, d)
+    return largest
+
+
+@njit(cache=True)
+def _judge(reals, flags, counts, n_objects, tasks, rules, events, active, observed, position, orientation, touching,
+           grasped, start, offsets):
+    """Every active task after its world's step: what the world shows of the object
+    (``_snapshot``), the task's rules (``stages.judge``), a lost object put back at its start
+    (``respawn.lost``), and what the participant sees next."""
+    for b in range(len(active)):
+        if not active[b]:
+            continue
+        t, values, touch, held = _snapshot(reals[b], flags[b], counts[b], n_objects, 0)
+        judge(tasks[b], rules, t, held, values[0:3], events[b])
+        if lost(rules, tasks[b].held, values[0:3]):
+            for i in range(3):
+                reals[b, offsets[0] + i] = start[i]
+                reals[b, offsets[2] + i] = 0.0
+                reals[b, offsets[3] + i] = 0.0
+            for i in range(4):
+                reals[b, offsets[1] + i] = start[3 + i]
+            t, values, touch, held = _snapshot(reals[b], flags[b], counts[b], n_objects, 0)
+        observed[b] = t
+        position[b], orientation[b] = values[0:3], values[3:7]
+        touching[b], grasped[b] = touch, held

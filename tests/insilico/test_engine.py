@@ -1,0 +1,48 @@
+"""An in-silico study played batched in compiled code against the same study run by the session runner."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from microg.insilico.studies import play_sessions, sized_protocol
+from microg.paths import protocol_file
+from microg.study import Participant, SimulationClock, create_study, open_inputs, run_session, trials_table
+from microg.study.protocol import load_protocol
+
+PROTOCOLS = Path(__file__).resolve().parents[1] / "study" / "protocols"
+
+
+def study_trials(folder: Path, protocol, seed: int, batched: bool) -> pd.DataFrame:
+    """The trials table of a study of ``protocol`` (its groups as sized), its sessions run by the
+    session runner (every frame logged) or played batched (nothing logged)."""
+    rng = np.random.default_rng(seed)
+    with create_study(folder, protocol, seed) as store:
+        for number in range(protocol.total_participants):
+            store.add_participant(Participant(f"S{number + 1:03d}", ("female", "male")[number % 2],
+                                              int(rng.integers(18, 31)), ("right", "left")[number % 3 == 2], True))
+        inputs = {record.participant.id: open_inputs("simulated", protocol.group(record.group))
+                  for record in store.participants()}
+        for pid, source in inputs.items():
+            store.create_session(pid, source.spec, source.simulated, source.clock)
+        if batched:
+            play_sessions(store, lambda session: inputs[session.participant_id])
+        else:
+            for pid, source in inputs.items():
+                run_session(store, store.session_of(pid).id, source, clock=SimulationClock())
+        return trials_table(store).drop(columns=["study"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("protocol", [PROTOCOLS / "tiny.toml", protocol_file("paper")], ids=["tiny", "paper"])
+def test_a_batched_in_silico_study_gives_the_trials_table_of_the_logged_sessions(tmp_path, protocol):
+    """The same seeds, the same table: every task's status, completion time, attempts, and its
+    start and end on the session's clock, to the last bit (a left-handed participant among them)."""
+    sized = sized_protocol(load_protocol(protocol), 2)
+    logged = study_trials(tmp_path / "logged", sized, 7, batched=False)
+    batched = study_trials(tmp_path / "batched", sized, 7, batched=True)
+    assert logged["completed"].any()
+    pd.testing.assert_frame_equal(batched, logged, check_exact=True)
