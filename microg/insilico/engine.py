@@ -114,7 +114,17 @@ def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
                        batch.observed, batch.position, batch.orientation, batch.touching, batch.grasped, batch.active,
                        batch.timestamp, batch.present, batch.track, batch.points, batch.widths, batch.samples,
                        batch.times, batch.count, batch.newest, 1.0 / protocol.tracking_rate, batch.guard,
-                       protocol.guard.jump_distance, protocol.guard.max_gap, batch.frame_times, batch.frames)
+                       protocol.guard.jump_distance, protocol.guard.max_gap, batch.frame_times, batch.frames,
+                       batch.refused)
+        if np.isfinite(batch.refused).any():
+            slot = int(np.flatnonzero(np.isfinite(batch.refused))[0])
+            unit, value = units[slots[slot]], float(batch.refused[slot])
+            raise RuntimeError(
+                f"in-silico task {unit.plan.phase} {unit.object_name} ({unit.interaction}) of participant "
+                f"{unit.plan.participant or '?'}, seed {unit.seed}: at t = {batch.frame_times[slot, batch.frames[slot] - 1]:.3f} s "
+                f"the simulated hand's frame is one the tracking guard would change "
+                + (f"(a point moved {value:.3f} m in one frame)" if value >= 0 else f"(an interval of {-value:g} s)")
+                + "; a session would run it, an in-silico study cannot")
         model.step_worlds(model.params, model.ints, batch.reals, batch.flags, batch.counts, batch.timestamp,
                           batch.present, batch.track, batch.points, batch.widths)
         _judge(batch.reals, batch.flags, batch.counts, model.n_objects, batch.tasks, rules, batch.events,
@@ -156,6 +166,7 @@ class _Batch:
         self.position, self.orientation = np.zeros((size, 3)), np.zeros((size, 4))
         self.touching, self.grasped = np.zeros((size, 40), dtype=np.bool_), np.zeros(size, dtype=np.bool_)
         self.active = np.zeros(size, dtype=np.bool_)
+        self.refused = np.full(size, np.nan)
         self.frame_times, self.frames = np.zeros((size, limit)), np.zeros(size, np.int64)
         self.initial = (data.reals.copy(), data.flags.copy(), data.counts.copy())
 
@@ -195,11 +206,13 @@ class _Batch:
 @njit(cache=True)
 def _track(players, states, seens, streams, grasps, tasks, observed, position, orientation, touching, grasped, active,
            timestamp, present, track, points, widths, samples, times, count, newest, period, guard, jump_distance,
-           max_gap, frame_times, frames):
+           max_gap, frame_times, frames, refused):
     """Every active task's next frame: the participant looks at what its world showed and moves its
     hand (``step_participant``); the frame passes the tracking guard's checks unchanged and the
     window filter (Eq. 1) smooths its joints into the batch's hand frames. Returns, per task,
-    whether its participant gave no more frames (it is done, or out of time)."""
+    whether its participant gave no more frames (it is done, or out of time). A frame the guard would
+    not pass unchanged stops it: ``refused`` then holds how far the hand moved (m), or minus the
+    interval (s)."""
     ended = np.zeros(len(active), dtype=np.bool_)
     joints, palm, palm_orientation = np.empty((N_DIGITS, N_BONES + 1, 3)), np.empty(3), np.empty(4)
     for b in range(len(active)):
@@ -216,8 +229,10 @@ def _track(players, states, seens, streams, grasps, tasks, observed, position, o
         n = frames[b]
         if n > 0:
             interval = t - frame_times[b, n - 1]
-            if not 0 < interval <= max_gap or _moved(guard[b], palm, joints) >= jump_distance:
-                raise ValueError("a simulated participant's frame the tracking guard would not pass unchanged")
+            moved = _moved(guard[b], palm, joints)
+            if not 0 < interval <= max_gap or moved >= jump_distance:
+                refused[b] = moved if 0 < interval <= max_gap else -interval
+                return ended
         frame_times[b, n], frames[b] = t, n + 1
         guard[b, 0] = palm
         guard[b, 1:] = joints.reshape((-1, 3))

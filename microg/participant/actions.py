@@ -181,10 +181,14 @@ def posture_at(grasp, closure, out):
 
 
 @njit(cache=True)
-def _grasp_pose(s, grasps, closure, seen, approach, out):
+def _grasp_pose(p, s, grasps, closure, seen, approach, out):
     """Where the hand grasps the object as seen now (with this attempt's aim error), into ``out``;
-    ``approach``: the pre-grasp pose, backed off along the grasp's approach."""
+    ``approach``: the pre-grasp pose, backed off along the grasp's approach. A ball has no faces:
+    the hand keeps the world's axes however it has rolled (``choose_grasp``)."""
     grasp = grasps[s.grasp]
+    if p.round_object:
+        choose_grasp(True, p.half, seen.orientation, s.hand_in_object)
+        s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
     rotation = quat_to_matrix(seen.orientation) @ s.hand_in_object
     for i in range(3):
         out.position[i] = seen.position[i] + s.aim[i]
@@ -228,7 +232,7 @@ def _follow(p, s, grasps, seen, approach):
     continuously. A target that moved by ``REPLAN_DISTANCE`` or more since the last frame (an
     object put back at its start) is reached by a new movement from where the hand is."""
     target = np.empty(1, STATE)[0]
-    _grasp_pose(s, grasps, s.closure, seen, approach, target.end)
+    _grasp_pose(p, s, grasps, s.closure, seen, approach, target.end)
     if _dot4(target.end.orientation, s.end.orientation) < 0.0:
         for i in range(4):
             target.end.orientation[i] = -target.end.orientation[i]
@@ -345,7 +349,7 @@ def _begin_reach(p, s, seen, grasps, draws):
     for i in range(3):
         s.aim[i] = draws.normal(0.0, p.aim_sd)
     s.closure = -p.preshape_margin
-    _grasp_pose(s, grasps, s.closure, seen, True, s.end)
+    _grasp_pose(p, s, grasps, s.closure, seen, True, s.end)
     _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
     _enter(s, REACH, t)
 
@@ -422,7 +426,7 @@ def reach(p, s, seen, grasps, draws):
     _follow(p, s, grasps, seen, True)
     if _move(s, seen.t) < 1.0:
         return
-    _grasp_pose(s, grasps, s.closure, seen, False, s.end)
+    _grasp_pose(p, s, grasps, s.closure, seen, False, s.end)
     _begin_movement(s, seen.t, _fitts(p, _length(grasps[s.grasp].approach), p.preshape_margin))
     _enter(s, DESCEND, seen.t)
 
