@@ -348,9 +348,10 @@ def check_trials(
             first = trials.iloc[rows[0]]
             same = twice & (trials[key] == first[key]).all(axis=1)
             numbers = " and ".join(str(r + 1) for r in np.flatnonzero(same.to_numpy()))
+            task = ", ".join(f"{column} {_plain(first[column])!r}" for column in key)
             raise AnalysisInputError(
-                f"{source}: data rows {numbers} are the same task ({', '.join(f'{c} {first[c]!r}' for c in key)}) "
-                "with different values: each planned task has one row; keep the right one"
+                f"{source}: data rows {numbers} are the same task ({task}) with different values: each planned task "
+                "has one row; keep the right one"
             )
     out = trials.copy()
     for column in (subject, group, interaction, within):
@@ -671,9 +672,12 @@ def _require(table: pd.DataFrame, column: str, bad: pd.Series, source: str, what
     where = f"data row {row + 1}"
     if subject in table.columns and column != subject:
         where += f", {subject} {table[subject].iloc[row]!r}"
-    value = table[column].iloc[row]
-    value = value.item() if isinstance(value, np.generic) else value
-    raise AnalysisInputError(f"{source}: column {column!r} value {value!r} {what} ({where})")
+    raise AnalysisInputError(f"{source}: column {column!r} value {_plain(table[column].iloc[row])!r} {what} ({where})")
+
+
+def _plain(value):
+    """A table's value as Python writes it (5, not np.int64(5))."""
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def _check_one_each(table: pd.DataFrame, key: str, column: str, source: str) -> None:

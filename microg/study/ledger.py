@@ -195,7 +195,9 @@ def check(db: sqlite3.Connection, heads: Sequence[tuple[Head, str]] = ()) -> lis
     from, e.g. the head file) must be in the chain. Run it inside one read transaction."""
     problems: list[str] = []
     entries: dict[tuple[str, str], tuple[int, bytes]] = {}
-    wanted = {head.entry: (head, source) for head, source in heads}
+    wanted: dict[int, list[tuple[Head, str]]] = {}
+    for head, source in heads:
+        wanted.setdefault(head.entry, []).append((head, source))
     previous, last = GENESIS, 0
     for seq, fact, key, fact_digest, stored in db.execute("SELECT seq, fact, key, digest, link FROM ledger "
                                                           "ORDER BY seq"):
@@ -205,8 +207,7 @@ def check(db: sqlite3.Connection, heads: Sequence[tuple[Head, str]] = ()) -> lis
             previous = None  # one broken link says it; the entries after it cannot be trusted either
         elif previous is not None:
             previous = stored
-        if seq in wanted:
-            head, source = wanted[seq]
+        for head, source in wanted.get(seq, ()):
             if stored.hex() != head.link:
                 problems.append(f"{source} names ledger entry {seq} with link {head.link[:16]}..., but the ledger's "
                                 f"entry {seq} links {stored.hex()[:16]}...: the ledger was rewritten after that "

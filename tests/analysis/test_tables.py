@@ -292,3 +292,42 @@ def test_cli_names_a_bad_mapping_file(tmp_path, study):
                                        str(tmp_path / "out")])  # fmt: skip
     assert result.exit_code == 1
     assert f"{mapping}: unknown key 'participant'" in result.output
+
+
+def test_a_row_given_twice_is_refused_naming_it_and_dropped_only_when_asked(tmp_path, study):
+    """Rows pasted in twice would count twice in every mean and test: refused, naming each copy;
+    with --drop-duplicates dropped and listed, and the results are those of the table without them."""
+    trials, answers = study
+    doubled = pd.concat([trials, trials.iloc[[3, 10]]], ignore_index=True)
+    path = _write(tmp_path, doubled, "trials.csv")
+    n = len(trials)
+    listed = f"data row {n + 1} repeats row 4, data row {n + 2} repeats row 11"
+    with pytest.raises(AnalysisInputError, match=re.escape(f"{path}: 2 row(s) repeat an earlier row in every "
+                                                           f"column: {listed}")):
+        read_trials(path)
+    result = CliRunner().invoke(main, ["report", "--trials", str(path), "--out", str(tmp_path / "refused")])
+    assert result.exit_code == 1 and listed in result.output and "--drop-duplicates" in result.output
+    assert not (tmp_path / "refused").exists()
+
+    kept = analyse_study(path, answers, drop_duplicates=True)
+    original = analyse_study(trials, answers)
+    pd.testing.assert_frame_equal(kept.anova, original.anova)
+    pd.testing.assert_frame_equal(kept.comparison, original.comparison)
+    assert kept.warnings[0] == f"{path}: 2 rows repeated earlier rows in every column and were dropped ({listed})"
+    assert kept.warnings[1:] == original.warnings
+    repeated_answers = pd.concat([answers, answers.iloc[[0]]], ignore_index=True)
+    assert analyse_study(trials, repeated_answers, drop_duplicates=True).warnings[0] == (
+        f"questionnaire table: 1 row repeated an earlier row in every column and was dropped (data row "
+        f"{len(answers) + 1} repeats row 1)")
+
+
+def test_two_different_rows_of_one_exported_task_are_refused(study):
+    trials = study[0].assign(session=lambda t: t.participant.str[1:].astype(int),
+                             task_index=lambda t: t.groupby("participant").cumcount())
+    changed = pd.concat([trials, trials.iloc[[5]].assign(time_s=1.0)], ignore_index=True)
+    row = trials.iloc[5]
+    with pytest.raises(AnalysisInputError, match=re.escape(
+            f"trials table: data rows 6 and {len(trials) + 1} are the same task (participant {row.participant!r}, "
+            f"study 'fixture', session {int(row.session)}, task_index {int(row.task_index)}) with different values")):
+        analyse_study(changed)
+    analyse_study(trials)  # one row per task is what an export has
