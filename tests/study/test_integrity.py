@@ -219,11 +219,11 @@ def reseal(study: Path, facts: list[tuple[str, tuple]], relink: bool) -> None:
         fact = ledger.FACT[name]
         row = db.execute(fact.select_one(), key).fetchone()
         db.execute("UPDATE ledger SET digest = ? WHERE fact = ? AND key = ?",
-                   (ledger.digest(fact, row), name, json.dumps(list(key), separators=(",", ":"))))
+                   (ledger.digest(fact, row), name, ledger.key_text(key)))
     if relink:
         previous = ledger.GENESIS
-        for seq, fact, key, digest in db.execute("SELECT seq, fact, key, digest FROM ledger ORDER BY seq").fetchall():
-            previous = ledger.link(previous, fact, key, digest)
+        for seq, digest in db.execute("SELECT seq, digest FROM ledger ORDER BY seq").fetchall():
+            previous = ledger.link(previous, digest)
             db.execute("UPDATE ledger SET link = ? WHERE seq = ?", (previous, seq))
     db.execute(trigger("ledger_no_update"))
     db.close()
