@@ -60,7 +60,7 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
             logged.add_participant(Participant(participant, "female", 24, "right", True))
             session = logged.create_session(participant, "simulated:practice", True, "simulation")
             walls.append(_seconds(lambda: run_session(logged, session.id, open_inputs("simulated:practice"),
-                                                      clock=SimulationClock(), progress=False)))
+                                                      clock=SimulationClock())))
         timed = logged.db.execute("SELECT SUM(f.count) FROM frames f JOIN task_runs r ON r.id = f.run_id "
                                   "WHERE r.session_id = ?", (session.id,)).fetchone()[0]
         size = protocol.frame_batch

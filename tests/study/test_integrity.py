@@ -55,7 +55,7 @@ def finished(tmp_path_factory) -> Path:
         store.add_participant(Participant("P01", "female", 24, "right", True))
         session = store.create_session("P01", "scripted", True, "simulation")
         run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
-                    rater=answers("7", "6", "3", "4"), progress=False)
+                    rater=answers("7", "6", "3", "4"))
     return folder
 
 
