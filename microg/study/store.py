@@ -499,7 +499,8 @@ class Store:
     def _insert_events(db: sqlite3.Connection, session_id: int, run_id: int | None, events: list[Event]) -> None:
         wall = utc_now()
         for e in events:
-            event_id = db.execute("INSERT INTO events (session_id, run_id, t, wall, kind, data) VALUES (?, ?, ?, ?, ?, ?)",
+            event_id = db.execute("INSERT INTO events (session_id, run_id, t, wall, kind, data) "
+                                  "VALUES (?, ?, ?, ?, ?, ?)",
                                   (session_id, run_id, e.t, wall, e.kind, canonical_json(e.data))).lastrowid
             ledger.seal(db, "event", event_id)
 

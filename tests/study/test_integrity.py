@@ -185,8 +185,8 @@ def trigger(name: str) -> str:
 def forge_time(study: Path) -> tuple[int, float]:
     """A finished run's time changed, with the store's trigger dropped and re-created as it was."""
     run_id, *_, time_s = completed_run(study)
-    forge(study, "DROP TRIGGER task_runs_once", ("UPDATE task_runs SET time_s = ? WHERE id = ?", (time_s - 1.0, run_id)),
-          trigger("task_runs_once"))
+    forge(study, "DROP TRIGGER task_runs_once",
+          ("UPDATE task_runs SET time_s = ? WHERE id = ?", (time_s - 1.0, run_id)), trigger("task_runs_once"))
     return run_id, time_s
 
 
@@ -389,7 +389,8 @@ def test_a_symbolic_link_as_export_target_is_refused_and_nothing_is_written_thro
         result = cli("export", finished, "--out", link, "--quiet", *extra)
         assert result.exit_code == 1 and f"{link} is a symbolic link" in result.output, (link, extra, result.output)
     assert not (tmp_path / "nowhere").exists() and not (tmp_path / "nowhere.partial").exists()
-    assert [p.name for p in elsewhere.iterdir()] == ["notes.txt"] and sorted(p.name for p in exported.iterdir()) == listed
+    assert [p.name for p in elsewhere.iterdir()] == ["notes.txt"]
+    assert sorted(p.name for p in exported.iterdir()) == listed
     partial_link = tmp_path / "fresh.partial"
     partial_link.symlink_to(elsewhere)
     result = cli("export", finished, "--out", tmp_path / "fresh", "--quiet")
