@@ -29,7 +29,7 @@ from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COL
 from microg.skeleton import HandFrame
 
 from . import framelog, ledger
-from .store import DATABASE, FINAL_RUN, Store, StoreError, open_study, writable
+from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
 
 
 def _status(last_status: str | None) -> str:
@@ -171,10 +171,10 @@ def check_output(out_dir: Path, overwrite: bool) -> None:
         if not out_dir.is_dir() or (any(out_dir.iterdir()) and not (out_dir / MANIFEST).is_file()):
             raise FileExistsError(f"{out_dir} exists and is not an export (it has no {MANIFEST}); --overwrite "
                                   "replaces an earlier export only: export into another folder")
-    parent = next(p for p in (out_dir.absolute().parent, *out_dir.absolute().parents) if p.exists())
+    parent = nearest_folder(out_dir)
     if not writable(parent):
         raise StoreError(f"{out_dir}: cannot write into {parent}: the folder is read-only (an archived study "
-                              "is exported elsewhere: give --out a writable folder)")
+                         "is exported elsewhere: give --out a writable folder)")
 
 
 def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),

@@ -214,6 +214,11 @@ def writable(path: Path) -> bool:
         return False
 
 
+def nearest_folder(path: Path) -> Path:
+    """The folder that holds ``path`` or would hold it once made: its nearest existing ancestor."""
+    return next(p for p in (path.absolute().parent, *path.absolute().parents) if p.exists())
+
+
 def archived(path: Path) -> bool:
     """Whether the study database ``path`` is read-only where it lies (a copied archive, a published
     data set, a read-only mount): it or its folder cannot be written."""
@@ -635,6 +640,8 @@ def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
         raise StoreError(f"{path} exists: {study_dir} already holds a study; a study is never overwritten")
     if not isinstance(seed, int) or seed < 0:
         raise StoreError(f"seed = {seed!r}: must be a whole number >= 0")
+    if not writable(study_dir if study_dir.is_dir() else nearest_folder(study_dir)):
+        raise StoreError(f"{study_dir}: cannot create a study there: the folder is read-only")
     try:
         study_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:

@@ -342,6 +342,8 @@ def test_an_archived_study_is_read_where_it_lies_and_refuses_to_be_written(copy,
         for result in (add_p02(archive), cli("session", "resume", archive, "--participant", "P01")):
             assert result.exit_code == 1 and f"{archive} is read-only" in result.output
             assert "Copy the study folder to a writable place" in result.output
+        result = cli("session", "resimulate", archive, "--all", "--interaction", "soft_hand", "--quiet")
+        assert result.exit_code == 1 and "the folder is read-only" in result.output  # its runs would go inside
         result = cli("export", archive, "--quiet")  # its default folder is inside the archive
         assert result.exit_code == 1 and "the folder is read-only" in result.output
         assert sorted(p.name for p in archive.iterdir()) == [ledger.HEAD_FILE, DATABASE]
