@@ -92,9 +92,9 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
               show_default=True, help="Directory for store.csv.")
 @click.option("--quick", is_flag=True, help="A fast smoke run: 40 frame batches, fewer repeats.")
 def store_bench(out: Path, quick: bool) -> None:
-    """What the study log's integrity costs: per frame logged (the batch's checksum, its ledger entry, the
-    head file) against the whole commit, per frame read (the checksum against decoding), per open (the
-    ledger check) and per MB checked by study check (store.csv)."""
+    """What the study log's integrity costs: per frame logged (the batch's checksum and its ledger entry)
+    against the whole commit, per frame read (the checksum against decoding), per open (the ledger check)
+    and per MB checked by study check (store.csv)."""
     from microg.study.bench import run
 
     run(out, quick, say=click.echo)
