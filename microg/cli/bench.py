@@ -87,6 +87,20 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
     click.echo(f"-> {out / 'power.csv'}")
 
 
+@bench.command("store")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
+              show_default=True, help="Directory for store.csv.")
+@click.option("--quick", is_flag=True, help="A fast smoke run: 40 frame batches, fewer repeats.")
+def store_bench(out: Path, quick: bool) -> None:
+    """What the study log's integrity costs: per frame logged (the batch's checksum and its ledger entry)
+    against the whole commit, per frame read (the checksum against decoding), per open (the ledger check)
+    and per MB checked by study check (store.csv)."""
+    from microg.study.bench import run
+
+    run(out, quick, say=click.echo)
+    click.echo(f"-> {out / 'store.csv'}")
+
+
 @bench.command("display")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
               show_default=True, help="Directory for display_latency.csv and webxr_latency.csv.")

@@ -7,6 +7,7 @@ import functools
 import click
 
 from microg.study.assignment import ParticipantError
+from microg.study.framelog import DamagedFramesError
 from microg.study.inputs import InputError
 from microg.study.protocol import ProtocolError
 from microg.study.questionnaire import RatingError
@@ -14,8 +15,8 @@ from microg.study.store import StoreError
 from microg.study.xdf import XdfError
 
 COMMANDS: list = []
-EXPECTED = (ProtocolError, ParticipantError, StoreError, InputError, RatingError, XdfError, FileExistsError,
-            FileNotFoundError)
+EXPECTED = (ProtocolError, ParticipantError, StoreError, DamagedFramesError, InputError, RatingError, XdfError,
+            FileExistsError, FileNotFoundError)
 
 study_dir_argument = click.argument("study_dir", type=click.Path(file_okay=False, path_type=str))
 

@@ -10,8 +10,9 @@ import click
 
 from microg.paths import protocol_file
 
+from microg.study import ledger
 from microg.study.protocol import load_protocol
-from microg.study.store import check_integrity, create_study, describe_counts, open_study
+from microg.study.store import DATABASE, archived, check_integrity, create_study, describe_counts, open_study
 from .common import clear_errors, study_dir_argument
 
 
@@ -69,25 +70,45 @@ def status(study_dir: str) -> None:
         if store.problems:
             click.echo(f"the study is damaged ({len(store.problems)} problem(s) above); see: microg study check "
                        f"{study_dir}", err=True)
+        if archived(store.dir / DATABASE):
+            click.echo("read only here (an archive): the commands that write into a study refuse it")
+
+
+def _head(value: str) -> ledger.Head:
+    try:
+        return ledger.parse_head(value)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--head") from None
 
 
 @study.command("check")
 @study_dir_argument
+@click.option("--head", "heads", multiple=True, metavar="ENTRY:LINK",
+              help="A ledger head noted earlier (as this command prints it, or from an export's export.json): check "
+                   "that the study's ledger still holds it, i.e. was not rewritten since (repeatable).")
 @clear_errors
-def check(study_dir: str) -> None:
-    """The full integrity check of STUDY_DIR's database (read only): the append-only triggers, the
-    stored protocol against its SHA-256, every finished task run's frames and events, participant
-    ids, SQLite's own check and every frame batch. Exit status 1 when something is wrong."""
+def check(study_dir: str, heads: tuple[str, ...]) -> None:
+    """The full integrity check of STUDY_DIR's database (read only): every fact in the ledger's hash
+    chain and against the chain's head beside the database (and any --head), every frame batch
+    against its checksum, the append-only triggers, the stored protocol against its SHA-256, every
+    finished task run's frames and events, participant ids, SQLite's own check. Prints the ledger's
+    head to note elsewhere. Exit status 1 when something is wrong."""
+    given = [(_head(value), f"--head {value}") for value in heads]
     with open_study(study_dir, readonly=True, accept_damaged=True) as store:
-        problems = check_integrity(store.db, full=True)
+        problems = check_integrity(store.db, store.dir, full=True, heads=given)
         runs, frames = store.db.execute("SELECT (SELECT COUNT(*) FROM task_runs), "
                                         "(SELECT COALESCE(SUM(count), 0) FROM frames)").fetchone()
+        head = ledger.head_of(store.db)
+        witnessed = (store.dir / ledger.HEAD_FILE).exists()
     if problems:
         for problem in problems:
             click.echo(f"damaged: {problem}")
         raise click.ClickException(f"{study_dir}: {len(problems)} problem(s); nothing was changed. Keep a copy of "
                                    "the study folder; microg export --accept-damaged exports it, marked as damaged")
-    click.echo(f"{study_dir}: sound ({runs} task runs, {frames} frames, protocol and triggers as written)")
+    click.echo(f"{study_dir}: sound ({runs} task runs, {frames} frames; every fact and frame batch as committed, "
+               "protocol and triggers as written)")
+    click.echo(f"ledger head: {head}" + ("" if witnessed else f" (no {ledger.HEAD_FILE} beside the database: the "
+                                                               "chain was checked within the database only)"))
 
 
 COMMANDS = [study]

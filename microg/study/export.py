@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 import shutil
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -27,8 +28,8 @@ import pyarrow.parquet as pq
 from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
 from microg.skeleton import HandFrame
 
-from . import framelog
-from .store import DATABASE, FINAL_RUN, Store, StoreError, open_study
+from . import framelog, ledger
+from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
 
 
 def _status(last_status: str | None) -> str:
@@ -146,6 +147,34 @@ def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 PARTIAL = ".partial"
 """An export is written into ``<out>.partial`` and renamed to ``<out>`` when complete."""
+MANIFEST = "export.json"
+
+
+def refuse_links(*paths: Path) -> None:
+    """Refuse to write through a symbolic link (dangling or not): the files would land wherever it
+    points, and replacing it would replace what it points to."""
+    for path in paths:
+        if path.is_symlink():
+            raise FileExistsError(f"{path} is a symbolic link (to {os.readlink(path)}); microg writes an export into "
+                                  "a real folder, never through a link: give the folder itself, or another")
+
+
+def check_output(out_dir: Path, overwrite: bool) -> None:
+    """Refuse an export folder that the export would write through, replace by mistake or cannot
+    write: a symbolic link (``refuse_links``), an existing folder without ``overwrite``, one that is
+    not an earlier export (no ``export.json``; ``overwrite`` replaces exports only, never a folder
+    of other files, nor the study), a read-only place."""
+    refuse_links(out_dir, out_dir.with_name(out_dir.name + PARTIAL))
+    if out_dir.exists():
+        if not overwrite:
+            raise FileExistsError(f"{out_dir} exists; export into another folder or pass --overwrite")
+        if not out_dir.is_dir() or (any(out_dir.iterdir()) and not (out_dir / MANIFEST).is_file()):
+            raise FileExistsError(f"{out_dir} exists and is not an export (it has no {MANIFEST}); --overwrite "
+                                  "replaces an earlier export only: export into another folder")
+    parent = nearest_folder(out_dir)
+    if not writable(parent):
+        raise StoreError(f"{out_dir}: cannot write into {parent}: the folder is read-only (an archived study "
+                         "is exported elsewhere: give --out a writable folder)")
 
 
 def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),
@@ -156,32 +185,43 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
 
     The export is atomic: it is written into ``<out_dir>.partial`` and renamed at the end, so a
     folder named ``out_dir`` always holds a complete export. An existing ``out_dir`` is replaced
-    only with ``overwrite``; a ``.partial`` folder left by an earlier export that was cut off is
-    reported through ``say`` and replaced. A study that fails its integrity check is exported only
-    with ``accept_damaged``, and its ``export.json`` lists the problems. A write that fails (a full
-    disk) removes the partial folder and leaves ``out_dir`` as it was.
+    only with ``overwrite`` and only if it is an earlier export (``check_output``: never through a
+    symbolic link); a ``.partial`` folder left by an earlier export that was cut off is reported
+    through ``say`` and replaced. A study that fails its integrity check is exported only with
+    ``accept_damaged``, and its ``export.json`` lists the problems. Every frame batch is verified
+    against its checksum as it is read: a damaged one stops the export, or with ``accept_damaged``
+    (every batch verified first) its run is left out of the frames and Motion-BIDS and listed. A
+    write that fails (a full disk) removes the partial folder and leaves ``out_dir`` as it was.
+    ``export.json`` also records the ledger's head, for checking the study against it later.
     """
     out_dir = Path(out_dir)
     unknown = set(formats) - {"csv", "parquet"}
     if unknown or not formats:
         raise ValueError(f"formats = {list(formats)}: choose from csv, parquet")
-    if out_dir.exists() and not overwrite:
-        raise FileExistsError(f"{out_dir} exists; export into another folder or pass --overwrite")
+    check_output(out_dir, overwrite)
     partial = out_dir.with_name(out_dir.name + PARTIAL)
     with open_study(study_dir, readonly=True, accept_damaged=accept_damaged) as store:
         for problem in store.problems:
             say(f"warning: exporting a damaged study: {problem}")
+        damage = list(framelog.damaged(store.db)) if accept_damaged and (frames or bids) else []
+        for _, problem in damage:
+            say(f"warning: left out of the frames and Motion-BIDS: {problem}")
         if partial.exists():
             say(f"note: {partial} holds an earlier export that was cut off before it finished; it is replaced now")
             shutil.rmtree(partial)
         try:
-            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress)
+            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress, damage)
         except OSError as error:
             shutil.rmtree(partial, ignore_errors=True)
             full = error.errno == errno.ENOSPC
             raise StoreError(f"{partial}: {'the disk is full' if full else 'cannot write the export'} "
                              f"({error.strerror or error}); the export stopped and was removed, {out_dir} is as it "
                              f"was. {'Free space on that disk' if full else 'Fix that'}, then export again") from None
+        except framelog.DamagedFramesError as error:
+            shutil.rmtree(partial, ignore_errors=True)
+            raise StoreError(f"{store.dir}: {error}. Nothing was exported ({out_dir} is as it was). See every damaged "
+                             f"batch with: microg study check {store.dir}; microg export --accept-damaged exports the "
+                             f"study without the damaged runs' frames, listed in {MANIFEST}") from None
     if out_dir.exists():
         shutil.rmtree(out_dir)
     partial.rename(out_dir)
@@ -189,12 +229,15 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
 
 
 def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
-                  progress: bool) -> list[Path]:
-    """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it."""
+                  progress: bool, damage: list[tuple[int, str]]) -> list[Path]:
+    """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it.
+    The runs with a damaged frame batch (``damage``: run id, what is wrong) have no frames in it."""
     from tqdm import tqdm
 
     from .bids import write_motion_bids
 
+    head = ledger.head_of(store.db)
+    left_out = {run_id for run_id, _ in damage}
     folder.mkdir(parents=True)
     for name, table in (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store))):
         for fmt in formats:
@@ -202,18 +245,21 @@ def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: 
                 table.to_csv(folder / f"{name}.csv", index=False)
             else:
                 table.to_parquet(folder / f"{name}.parquet", index=False)
-    runs = run_list(store)
+    runs = [run for run in run_list(store) if run["run_id"] not in left_out]
     if frames and runs:
         _write_frames(store, runs, folder, frames_csv, tqdm(total=len(runs), unit="run", desc="frames",
                                                             disable=not progress))
     if bids:
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
-                                                      disable=not progress))
+                                                      disable=not progress), runs)
     written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())
-    (folder / "export.json").write_text(json.dumps({"study": str(store.dir.resolve()),
-                                                    "files": [str(p) for p in written],
-                                                    "damaged": store.problems}, indent=2))
-    return written + [Path("export.json")]
+    head = ledger.head_of(store.db)
+    (folder / MANIFEST).write_text(json.dumps({"study": str(store.dir.resolve()),
+                                               "files": [str(p) for p in written],
+                                               "damaged": store.problems + [problem for _, problem in damage],
+                                               "frames_left_out": sorted(left_out),
+                                               "ledger_head": None if head is None else str(head)}, indent=2))
+    return written + [Path(MANIFEST)]
 
 
 def _write_frames(store: Store, runs: list[dict], folder: Path, csv: bool, bar) -> None:

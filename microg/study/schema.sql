@@ -1,6 +1,7 @@
 -- The study's log store (microg.study.store): tables, then the triggers that keep it append-only
 -- and that log nothing for a session or task run after its end. Opening a study checks they are all here.
--- frames: one row per committed batch of logged frames, encoded by microg.study.framelog.
+-- frames: one row per committed batch of logged frames, encoded by microg.study.framelog, with its checksum.
+-- ledger: one entry per fact committed, in a hash chain (microg.study.ledger).
 CREATE TABLE study (
     id INTEGER PRIMARY KEY CHECK (id = 1),
     name TEXT NOT NULL,
@@ -104,8 +105,17 @@ CREATE TABLE frames (
     count INTEGER NOT NULL CHECK (count > 0),
     t_first REAL NOT NULL,
     t_last REAL NOT NULL,
+    checksum BLOB NOT NULL,
     data BLOB NOT NULL,
     PRIMARY KEY (run_id, first)
+);
+CREATE TABLE ledger (
+    seq INTEGER PRIMARY KEY,
+    fact TEXT NOT NULL,
+    key TEXT NOT NULL,
+    digest BLOB NOT NULL,
+    link BLOB NOT NULL,
+    UNIQUE (fact, key)
 );
 
 CREATE TRIGGER study_no_update BEFORE UPDATE ON study
@@ -137,6 +147,11 @@ CREATE TRIGGER frames_no_update BEFORE UPDATE ON frames
 BEGIN SELECT RAISE(ABORT, 'frames rows are never changed: the log is append-only'); END;
 CREATE TRIGGER frames_no_delete BEFORE DELETE ON frames
 BEGIN SELECT RAISE(ABORT, 'frames rows are never deleted: the log is append-only'); END;
+
+CREATE TRIGGER ledger_no_update BEFORE UPDATE ON ledger
+BEGIN SELECT RAISE(ABORT, 'ledger rows are never changed: the log is append-only'); END;
+CREATE TRIGGER ledger_no_delete BEFORE DELETE ON ledger
+BEGIN SELECT RAISE(ABORT, 'ledger rows are never deleted: the log is append-only'); END;
 
 CREATE TRIGGER task_runs_once BEFORE UPDATE ON task_runs
 WHEN OLD.status != 'running' OR NEW.status = 'running'
