@@ -60,7 +60,8 @@ def test_every_engine_sees_the_same_first_contact_and_pushes_the_cube_the_same_w
         push, ours_push = run["position"][-1] - start, reference["position"][-1] - start
         cosine = push @ ours_push / (np.linalg.norm(push) * np.linalg.norm(ours_push))
         ratio = np.linalg.norm(push) / np.linalg.norm(ours_push)
-        assert cosine > np.cos(np.radians(15)) and 1 / 3 < ratio < 3, f"{name}: pushed {push} m against ours {ours_push} m"
+        assert cosine > np.cos(np.radians(15)) and 1 / 3 < ratio < 3, \
+            f"{name}: pushed the cube {push} m, ours {ours_push} m"
 
 
 def test_the_held_grasp_is_equal_work_whatever_the_drive_but_mocap_fingers_let_a_carried_cube_slip():
