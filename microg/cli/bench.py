@@ -65,7 +65,8 @@ def throughput(out: Path, figures: Path, quick: bool, participants: int | None) 
 @bench.command()
 @_options
 def coldstart(out: Path, figures: Path, quick: bool) -> None:
-    """Fresh process to first physics frame with an empty compile cache, and with a warm one (coldstart.csv)."""
+    """Fresh process to first physics frame with an empty compile cache and with a warm one, and a demo's
+    first run on two workers: what it compiled, and whether any kernel was compiled twice (coldstart.csv)."""
     table = load("coldstart").run(out, figures, quick)
     click.echo(table.to_string(index=False))
     click.echo(f"-> {out / 'coldstart.csv'}")
