@@ -27,7 +27,8 @@ TARGET_S = 20.0
 """Cold start to the first frame (the issue's target)."""
 
 FIRST_FRAME = """
-from microg.sim import HandFrame, PlacedObject, compose_scene, load_object, make_world, step
+from microg.skeleton import HandFrame
+from microg.sim import PlacedObject, compose_scene, load_object, make_world, step
 from microg.paths import object_file
 from microg.participant.scripted import probe_hand
 scene = compose_scene([PlacedObject(load_object(object_file("cube")), (0.0, 0.2, 0.0))], "impulse_penetration")
