@@ -378,9 +378,10 @@ def fastest(measure, repeats: int = REPEATS, metric: str = "us_per_step") -> dic
     return min((measure() for _ in range(repeats)), key=lambda result: result[metric])
 
 
-def live_runs(config: ours.Config, scene, duration: float, batch_duration: float, worlds: int | None) -> dict:
-    """Every engine's runs of one live scene at ``config``'s dt, keyed (engine, variant, driven,
-    worlds): ours first (the reference). ``worlds``: also the batched runs, of that many worlds."""
+def live_runs(config: ours.Config, scene, duration: float, batch_duration: float, worlds: int | None):
+    """The frame times and every engine's runs of one live scene at ``config``'s dt, keyed (engine,
+    variant, driven, worlds), ours in its own loop first (the reference). ``worlds``: also the
+    batched runs, of that many worlds."""
     dt, substeps = config.dt, config.substeps
     frames, positions, velocities = live_track(scene, dt, duration, config.tracking_rate)
     boxes, fingers = list(scene.boxes), positions.shape[1]
@@ -408,14 +409,16 @@ def live_rows(timesteps, duration: float, batch_duration: float, worlds: int, re
     jobs = [(rate, substeps, name) for rate, substeps in timesteps for name in LIVE_SCENES]
     for rate, substeps, name in tqdm(jobs, desc="peers, live scenes", unit="scene"):
         scene, config = LIVE_SCENES[name], ours.Config(rate, substeps, "midpoint", 1)
-        frames, runs = live_runs(config, scene, duration, batch_duration, worlds if substeps == 4 else None)
-        reference = None
+        batched = worlds if config.dt == ours.Config().dt else None
+        frames, runs = live_runs(config, scene, duration, batch_duration, batched)
+        reference = mine = None
         for (engine, variant, driven, count), measure in runs.items():
             metric = time_metric(count)
             result = fastest(measure, repeats, metric)
-            reference = reference or result
+            if reference is None:  # ours in its own loop, the first run
+                reference = result
+                mine = grasp_check(scene, frames, reference, reference)
             check = grasp_check(scene, frames, result, reference)
-            mine = grasp_check(scene, frames, reference, reference)
             rows.append({"engine": engine, "variant": variant if engine == "microg" else engine + ":" + variant,
                          "scenario": name, "tracking_rate": rate, "substeps": substeps, "dt": config.dt,
                          "filter_window": 1, "driven": driven, "worlds": count, "metric": metric, "error": np.nan,
@@ -483,7 +486,7 @@ def run(out: Path, figures: Path, quick: bool = False) -> tuple[pd.DataFrame, pd
     return table, ratios
 
 
-def peer_ratios(table: pd.DataFrame, dt: float = 1 / 440) -> pd.DataFrame:
+def peer_ratios(table: pd.DataFrame, dt: float = ours.Config().dt) -> pd.DataFrame:
     """Ours over each peer at ``dt`` (the default), metric by metric: < 1 means ours is smaller.
     Times pair the same drive (``driven``) and number of worlds; errors do not depend on the drive
     (``driven`` is the peer's)."""

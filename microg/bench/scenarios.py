@@ -296,7 +296,6 @@ class LiveScene:
         keep = lengths > 1e-4
         return centres[keep], widths[keep] / 2
 
-
     def overlaps(self, t: float, position, orientation) -> int:
         """How many of the hand's spheres at t overlap the cube at this pose (w, x, y, z): the
         grasp's contacts counted by geometry alone, the same way for every engine."""
