@@ -2,6 +2,7 @@
 
 - ``trials``: one row per planned task of every session (its last run decides);
 - ``questionnaire``: one row per answer;
+  both name the station that ran the session (``station``; empty for one run in the study itself);
   their columns, types and meanings are ``microg.schema`` (what the analysis reads);
 - ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``).
 
@@ -48,7 +49,8 @@ def trials_table(store: Store) -> pd.DataFrame:
     labels = interaction_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.gender, p.age, p.handedness, p.mr_experience,
-               p.status AS participant_status, s.id AS session, s.simulated, t.task_index, t.phase, t.interaction,
+               p.status AS participant_status, s.id AS session, s.simulated, s.station, t.task_index, t.phase,
+               t.interaction,
                t.object, t.object_code, t.order_position,
                r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
                (SELECT COUNT(*) FROM task_runs c WHERE c.session_id = t.session_id AND c.task_index = t.task_index) AS runs
@@ -71,6 +73,7 @@ def trials_table(store: Store) -> pd.DataFrame:
         "ended_at": r["ended_at"] if r["status"] in FINAL_RUN else None,
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
+        "station": r["station"],
     } for r in rows], columns=TRIAL_COLUMNS)
     return table.astype(TRIAL_DTYPES)
 
@@ -79,8 +82,8 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
     """One row per answer (the module docstring lists the columns)."""
     labels = interaction_labels(store)
     rows = store.db.execute("""
-        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, a.interaction, a.item,
-               a.rating, a.source
+        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, s.station,
+               a.interaction, a.item, a.rating, a.source
         FROM answers a JOIN sessions s ON s.id = a.session_id JOIN participants p ON p.id = s.participant_id
         ORDER BY p.number, a.interaction, a.item""").fetchall()
     table = pd.DataFrame([{
@@ -88,7 +91,7 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
         "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"], "rating": r["rating"],
         "source": r["source"],
         "simulated": bool(r["simulated"]) or r["source"] == "model",
-        "withdrawn": r["participant_status"] == "withdrawn",
+        "withdrawn": r["participant_status"] == "withdrawn", "station": r["station"],
     } for r in rows], columns=QUESTIONNAIRE_COLUMNS)
     return table.astype(QUESTIONNAIRE_DTYPES)
 

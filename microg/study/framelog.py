@@ -146,6 +146,22 @@ def insert(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) 
     return True
 
 
+ROW = "run_id, first, count, t_first, t_last, checksum, data"
+"""A batch's columns in the order ``sound`` and ``copy`` take them."""
+
+
+def copy(db: sqlite3.Connection, row: Sequence, run_id: int, source: sqlite3.Connection) -> None:
+    """Add a batch read from another study's database ``source`` (its columns ``ROW``) as a batch of
+    the run ``run_id`` here: its blob as it is, its checksum computed again for its new place (a
+    station's run merged, ``microg.study.stations``). A batch that does not match its own checksum
+    there raises ``DamagedFramesError`` naming it."""
+    if not sound(row):
+        raise DamagedFramesError(damage(source, row))
+    _, first, n, t_first, t_last, _, blob = row
+    db.execute(f"INSERT INTO {TABLE} ({ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)",
+               (run_id, first, n, t_first, t_last, checksum(run_id, first, n, t_first, t_last, blob), blob))
+
+
 def count(db: sqlite3.Connection, run_id: int) -> int:
     """Frames logged for the run."""
     return db.execute(f"SELECT COALESCE(SUM(count), 0) FROM {TABLE} WHERE run_id = ?", (run_id,)).fetchone()[0]

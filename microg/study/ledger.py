@@ -2,8 +2,8 @@
 changes made behind microg's back are found and named.
 
 A fact is a row as it was written (the study, its protocol, a participant's enrolment, a session,
-a planned task, a task run's start, an event, an answer, a frame batch) or the final state a row
-reaches once (a task run's result, a session's end, a participant's withdrawal): ``FACTS``. The
+a planned task, a task run's start, an event, an answer, a frame batch, a station) or the final
+state a row reaches once (a task run's result, a session's end, a participant's withdrawal): ``FACTS``. The
 transaction that commits a fact adds its ledger entry (``seal``): the fact's digest, SHA-256 of its
 columns as canonical JSON with the fact's name (a frame batch's digest is its checksum,
 ``framelog.checksum``, which covers its row and its blob), and its link, SHA-256 of the previous
@@ -75,13 +75,15 @@ class Fact:
 
 
 FACTS = (
-    Fact("study", "study", ("id",), ("name", "seed", "protocol_id", "created_at", "microg_version", "schema_version")),
+    Fact("study", "study", ("id",), ("name", "seed", "protocol_id", "created_at", "microg_version", "schema_version",
+                                     "station")),
     Fact("protocol", "protocols", ("id",), ("name", "sha256", "resolved", "source_text", "added_at")),
     Fact("participant", "participants", ("id",), ("number", "group_code", "gender", "age", "handedness",
                                                   "mr_experience", "order_row", "object_order", "added_at")),
     Fact("withdrawal", "participants", ("id",), ("status", "withdrawn_at", "withdraw_reason"), open_status="active"),
     Fact("session", "sessions", ("id",), ("participant_id", "protocol_id", "seed", "input", "simulated", "clock",
-                                          "object_order", "microg_version", "python", "platform", "created_at")),
+                                          "object_order", "microg_version", "python", "platform", "created_at",
+                                          "station", "merged_at")),
     Fact("session_end", "sessions", ("id",), ("status", "ended_at"), open_status="running"),
     Fact("task", "tasks", ("session_id", "task_index"), ("phase", "interaction", "object", "object_code",
                                                          "order_position")),
@@ -92,6 +94,7 @@ FACTS = (
     Fact("event", "events", ("id",), ("session_id", "run_id", "t", "wall", "kind", "data")),
     Fact("answer", "answers", ("session_id", "interaction", "item"), ("rating", "source", "t", "wall")),
     Fact("frames", "frames", ("run_id", "first"), ("count", "t_first", "t_last", "checksum"), checksummed=True),
+    Fact("station", "stations", ("name",), ("participants", "made_at")),
 )
 """Every fact of the store; together they cover every column of every table (a frame batch's blob
 through its checksum)."""
@@ -290,6 +293,7 @@ def describe(db: sqlite3.Connection, fact: Fact, key: tuple) -> str:
         "event": lambda: _event_name(db, first),
         "answer": lambda: f"the answer of session {first} for {key[1]} {key[2]}",
         "frames": lambda: f"frames of {run_name(db, first)}, the batch from frame {key[1]}",
+        "station": lambda: f"station {first}",
     }
     try:
         return names[fact.name]()

@@ -50,7 +50,8 @@ from .assignment import Enrolled, Participant, ParticipantError, assign_group, a
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
+"""5: the checksums and the ledger; 6: stations (``microg.study.stations``)."""
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
 RUN_STATUSES = FINAL_RUN + ("running", "interrupted")
 OUTCOMES = ("completed", "timeout")
@@ -264,13 +265,15 @@ class Store:
         self.problems = list(problems)
         """What the integrity check on open found (empty for a sound study)."""
         self._locks: dict[int, int] = {}
-        row = self.db.execute("SELECT s.name, s.seed, p.resolved FROM study s JOIN protocols p ON p.id = s.protocol_id"
-                              ).fetchone()
+        row = self.db.execute("SELECT s.name, s.seed, s.station, p.resolved FROM study s "
+                              "JOIN protocols p ON p.id = s.protocol_id").fetchone()
         where = study_dir / DATABASE
         if row is None:
             raise StoreError(f"{where}: the study row or its protocol is missing; see: microg study check {study_dir}")
         self.name: str = row["name"]
         self.seed: int = row["seed"]
+        self.station: str | None = row["station"]
+        """The station's name in a station's study (``microg.study.stations``), else None."""
         try:
             resolved = json.loads(row["resolved"])
         except (TypeError, ValueError) as error:
@@ -350,6 +353,10 @@ class Store:
         """Enrol a participant: validate, assign a group and an object order (``like``'s, for a
         re-simulated study that must keep the original's), commit."""
         check_participant(participant, self.protocol)
+        if self.station is not None:
+            raise ParticipantError(f"{self.dir} is station {self.station}'s study: participants are enrolled in the "
+                                   "central study, which assigns their group and object order across the stations; "
+                                   f"enrol {participant.id} there and make a station for them (microg study station)")
         with self.transaction() as db:
             if db.execute("SELECT 1 FROM participants WHERE id = ?", (participant.id,)).fetchone():
                 raise ParticipantError(f"participant {participant.id} is already in study {self.name!r}; "
@@ -417,6 +424,10 @@ class Store:
     def participant(self, participant_id: str) -> ParticipantRecord:
         row = self.db.execute("SELECT * FROM participants WHERE id = ?", (participant_id,)).fetchone()
         if row is None:
+            if self.station is not None:
+                raise ParticipantError(f"participant {participant_id!r} is not one of station {self.station}'s "
+                                       f"participants ({self.dir}: see microg participant list); the central study "
+                                       "gives a station its participants (microg study station)")
             raise ParticipantError(f"no participant {participant_id!r} in study {self.name!r} "
                                    "(add one with: microg participant add)")
         return self._participant(row)
@@ -443,10 +454,10 @@ class Store:
         with self.transaction() as db:
             cursor = db.execute(
                 "INSERT INTO sessions (participant_id, protocol_id, seed, input, simulated, clock, object_order, "
-                "microg_version, python, platform, status, created_at) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?)",
+                "microg_version, python, platform, status, created_at, station) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?)",
                 (participant_id, protocol_id, seed, input_spec, int(simulated), clock, json.dumps(record.object_order),
-                 __version__, sys.version.split()[0], platform.platform(), utc_now()))
+                 __version__, sys.version.split()[0], platform.platform(), utc_now(), self.station))
             session_id = cursor.lastrowid
             ledger.seal(db, "session", session_id)
             for t in plan_tasks(self.protocol, record.group, record.object_order):
@@ -631,9 +642,10 @@ def describe_counts(counts: dict[str, int]) -> str:
 # ---------------------------------------------------------------- creating and opening
 
 
-def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
+def create_study(study_dir: str | Path, protocol: Protocol, seed: int, station: str | None = None) -> Store:
     """A new study database in ``study_dir`` (created; it must not hold a study already). A study
-    that cannot be created whole (a full disk) leaves no database behind."""
+    that cannot be created whole (a full disk) leaves no database behind. ``station``: the study is
+    that station's (``microg.study.stations.make_station`` fills it)."""
     study_dir = Path(study_dir)
     path = study_dir / DATABASE
     if path.exists():
@@ -655,8 +667,8 @@ def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
         protocol_id = connection.execute(
             "INSERT INTO protocols (name, sha256, resolved, source_text, added_at) VALUES (?, ?, ?, ?, ?)",
             (protocol.name, protocol.sha256, canonical_json(protocol.resolved), main_text, now)).lastrowid
-        connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
-                           (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION))
+        connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
+                           (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION, station))
         ledger.seal(connection, "protocol", protocol_id)
         ledger.seal(connection, "study", 1)
         connection.execute("COMMIT")
@@ -738,7 +750,7 @@ def _squeeze(sql: str) -> str:
 
 
 def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full: bool = False,
-                    heads: Sequence[tuple[ledger.Head, str]] = ()) -> list[str]:
+                    heads: Sequence[tuple[ledger.Head, str]] = (), snapshot: bool = True) -> list[str]:
     """What is wrong with a study database, each naming the table, row and value (empty: sound).
 
     Checked on every open: the ledger (``ledger.check``: every fact's digest, every link, and the
@@ -748,7 +760,8 @@ def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full:
     frames it counted (a completed run at least one, with its time); every ended session has its
     end event; participant ids are ASCII letters and digits, one per BIDS label. ``full`` adds
     SQLite's own integrity check and every frame batch against its checksum, then decoded
-    (``microg study check``).
+    (``microg study check``). ``snapshot``: read in a transaction of its own; without it, in the
+    caller's (a merge checks what it wrote before it commits).
     """
     problems = []
     heads = list(heads)
@@ -758,7 +771,8 @@ def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full:
         problems.append(str(error))
     else:
         heads += [] if head is None else [(head, str(study_dir / ledger.HEAD_FILE))]
-    db.execute("BEGIN")  # one snapshot: a session writing meanwhile does not tear the picture
+    if snapshot:
+        db.execute("BEGIN")  # one snapshot: a session writing meanwhile does not tear the picture
     try:
         try:
             problems += ledger.check(db, heads)
@@ -822,7 +836,8 @@ def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full:
                          if r[0] != "ok"]
             problems += [problem for _, problem in framelog.damaged(db)]
     finally:
-        db.execute("COMMIT")
+        if snapshot:
+            db.execute("COMMIT")
     return problems
 
 
