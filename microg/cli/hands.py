@@ -12,6 +12,8 @@ from microg.skeleton import BONES, DIGITS, SIDES
 from microg.hands import RecordingError, load_recording, write_recording
 from microg.hands.recording import SUFFIX, UNKNOWN, RecordingInfo, record
 
+from .common import announce_page, page_certificate, page_options
+
 
 def _default_output(path: Path) -> Path:
     name = path.name
@@ -158,19 +160,21 @@ def filter_report_command(recording: Path, windows: str, side: str | None, plot:
               help="With --input webxr: the protocol whose workspace the headset places (a file, or the name "
                    "of a shipped protocol); the joints are recorded in its tracker frame.")
 @click.option("--host", default="127.0.0.1", show_default=True,
-              help="With --input webxr: the address the page listens on (anything but 127.0.0.1 needs the "
-                   "one-time token printed with the address).")
+              help="With --input webxr: the address the page listens on (anything but 127.0.0.1 is served over "
+                   "HTTPS and needs the one-time token printed with the address).")
 @click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
               help="With --input webxr: the page's port (0: a free one; fix it for adb reverse).")
+@page_options
 def record_command(output: Path, input_kind: str, duration: float | None, max_frames: int | None, overwrite: bool,
-                   protocol_name: str, host: str, port: int) -> None:
+                   protocol_name: str, host: str, port: int, cert: str | None, key: str | None,
+                   qr: str | None) -> None:
     """Record live hands to a recording file: a Leap Motion (needs Ultraleap's SDK, bindings and a
     device), or a headset's hand tracking through the participant's page (--input webxr)."""
     if output.exists() and not overwrite:
         raise click.ClickException(f"{output}: already exists (use --overwrite to replace it)")
     limits = {"duration": duration, "max_frames": max_frames, "overwrite": overwrite}
     if input_kind == "webxr":
-        _record_webxr(output, protocol_name, host, port, limits)
+        _record_webxr(output, protocol_name, host, port, limits, (cert, key, qr))
         return
     from microg.hands.leap_device import LeapSource, LeapUnavailable
 
@@ -205,17 +209,24 @@ class _Announced:
         self.source.close()
 
 
-def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict) -> None:
-    """``record --input webxr``: serve the participant's page, record the hands it streams."""
+def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict,
+                  page: tuple[str | None, str | None, str | None]) -> None:
+    """``record --input webxr``: serve the participant's page, record the hands it streams; away from
+    127.0.0.1 over HTTPS (``page``: --cert, --key, --qr), by default with the certificate microg
+    keeps for this user (there is no study folder to keep it in)."""
     from microg.hands.webxr import WebXRSource
     from microg.paths import protocol_file
+    from microg.skeleton.cache import user_cache_dir
     from microg.study.protocol import Phase, ProtocolError, load_protocol
     from microg.view.display import ParticipantDisplay
+    from microg.view.tls import FOLDER
 
     try:
         protocol = load_protocol(protocol_file(protocol_name))
     except (ProtocolError, OSError) as error:
         raise click.ClickException(str(error)) from None
+    cert, key, qr = page
+    certificate = page_certificate(user_cache_dir() / "microg" / FOLDER, host, cert, key)
     source = WebXRSource(protocol.tracking_rate)
 
     def say(kind: str, data: dict) -> None:
@@ -223,12 +234,10 @@ def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits
         click.echo(f"{kind}: {json.dumps(data)}")
 
     try:
-        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say) as display:
+        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say, certificate=certificate) as display:
             display.phase(Phase("recording", 0.0, "Your hand movements are being recorded. Move as the researcher "
                                                   "asks you to."))
-            click.echo(f"participant view: {display.url}")
-            if display.token:
-                click.echo(f"  (one-time token {display.token}: the address above carries it)")
+            announce_page(display, qr)
             click.echo(f"enter mixed reality in the headset's browser and place the workspace; recording to {output} "
                        "starts with the first hand frame; Ctrl-C stops")
             info = RecordingInfo(source="webxr", device=source.device, frame_rate=float("nan"), start_time=UNKNOWN,

@@ -19,7 +19,7 @@ from microg.study.protocol import ProtocolError
 from microg.study.replay import ReplayError, ReplayInputs
 from microg.study.store import PlannedTask, Store, describe_counts, open_study, plan_tasks
 
-from .common import clear_errors, study_dir_argument
+from .common import PAGE_OPTIONS, announce_page, clear_errors, page_certificate, study_dir_argument
 
 QUESTIONNAIRE_DEFAULT = {"leap": "ask", "webxr": "ask", "lsl": "ask", "replay": "skip", "simulated": "model"}
 LIVE = ("leap", "webxr", "lsl")
@@ -59,6 +59,9 @@ class SessionOptions:
     """None: on for live input."""
     host: str
     port: int
+    cert: str | None
+    key: str | None
+    qr: str | None
     eye: str | None
     look_at: str | None
     fov: float | None
@@ -157,10 +160,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             operator = DisplayOperator(display, operator)
             display.on_event = log.emit  # what the page measured or decided: display_clock, display_placement
             sinks.append(display)
-            click.echo(f"participant view: {display.url}")
-            if display.token:
-                click.echo(f"  (one-time token {display.token}: the address above carries it; "
-                           f"the page refuses to connect without it)")
+            announce_page(display, options.qr)
         outputs = Outputs(sinks=tuple(sinks), markers=markers, progress=not options.quiet)
         go_on = resume_session if resume else run_session
         try:
@@ -182,6 +182,7 @@ def _outcome(store: Store, participant_id: str, status: str) -> str:
 def _display(store: Store, options: SessionOptions, kind: str):
     from microg.study.protocol import Viewpoint
     from microg.view.display import ParticipantDisplay
+    from microg.view.tls import FOLDER
 
     default = store.protocol.viewpoint
     viewpoint = Viewpoint(_point(options.eye, "--eye") or default.eye,
@@ -191,7 +192,9 @@ def _display(store: Store, options: SessionOptions, kind: str):
     if kind == "webxr":
         from microg.hands.webxr import WebXRSource
         hands = WebXRSource(store.protocol.tracking_rate)
-    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands) as display:
+    certificate = page_certificate(store.dir / FOLDER, options.host, options.cert, options.key)
+    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands,
+                            certificate=certificate) as display:
         yield display
 
 
@@ -214,10 +217,12 @@ def session_options(command):
                           "live input (leap, webxr), off for replay and simulated."),
         click.option("--host", default="127.0.0.1", show_default=True,
                      help="Address the participant's view listens on; anything but 127.0.0.1 (e.g. the LAN "
-                          "address for a headset on Wi-Fi) requires a one-time token, printed with the address. "
-                          "A headset on USB reaches 127.0.0.1 through `adb reverse tcp:PORT tcp:PORT`."),
+                          "address for a headset on Wi-Fi) serves it over HTTPS and requires a one-time token, "
+                          "printed with the address. A headset on USB reaches 127.0.0.1 through "
+                          "`adb reverse tcp:PORT tcp:PORT`."),
         click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
                      help="Port of the participant's view (0: a free one; fix it for adb reverse)."),
+        *PAGE_OPTIONS,
         click.option("--eye", default=None, help="Screen mode: the participant's eyes X,Y,Z (m, tracker frame); "
                                                  "default: the protocol's display.eye, else framing the places."),
         click.option("--look-at", "look_at", default=None, help="Screen mode: the point X,Y,Z the view centres on."),

@@ -21,8 +21,10 @@ handed on from the thread that drives the display (the session's, whose store co
 use) at its next call.
 
 Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
-one-time token (printed with the address). The WebSocket refuses any Origin but the page's own and
-any Host but the served one, so a web page open elsewhere in the browser cannot read the session.
+one-time token (printed with the address), and the page and its WebSocket are served over TLS with
+the ``certificate`` given (``microg.view.tls``): WebXR needs a secure context, which plain HTTP is
+on the machine itself only. The WebSocket refuses any Origin but the page's own (its scheme too)
+and any Host but the served one, so a web page open elsewhere in the browser cannot read the session.
 """
 
 from __future__ import annotations
@@ -46,10 +48,10 @@ from microg.study.store import PlannedTask
 from microg.task import Moment
 
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
+from .tls import LOCALHOST, Certificate
 
 PAGE = Path(__file__).with_name("page")
 """The page's files: index.html, participant.js, style.css, and vendor/ (three.js, installed by setup)."""
-LOCALHOST = "127.0.0.1"
 ANSWER_POLL_S = 0.25
 """While waiting for an answer, the display hands on the page's events this often (s)."""
 
@@ -63,9 +65,15 @@ class ParticipantDisplay:
     """The page's server (see the module docstring). ``url`` is what the participant opens."""
 
     def __init__(self, protocol: Protocol, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
-                 hands=None, on_event=None):
+                 hands=None, on_event=None, certificate: Certificate | None = None):
         self.protocol, self.host, self.hands, self.on_event = protocol, host, hands, on_event
         self.viewpoint = protocol.viewpoint if viewpoint is None else viewpoint
+        if host != LOCALHOST and certificate is None:
+            raise ValueError(f"the participant's page on {host} is served over HTTPS (a browser offers WebXR to a "
+                             "secure page only): give it a certificate (microg.view.tls)")
+        self.certificate = certificate
+        self._tls = None if certificate is None else certificate.context()
+        self.scheme = "http" if certificate is None else "https"
         self.token = None if host == LOCALHOST else secrets.token_urlsafe(12)
         self._port = port
         self._frame: str | None = None
@@ -118,7 +126,7 @@ class ParticipantDisplay:
 
     @property
     def url(self) -> str:
-        return f"http://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
+        return f"{self.scheme}://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
 
     @property
     def connected(self) -> int:
@@ -277,7 +285,7 @@ class ParticipantDisplay:
 
         self._stop = asyncio.Event()
         self._loop = asyncio.get_running_loop()
-        async with serve(self._connection, self.host, self._port, process_request=self._http,
+        async with serve(self._connection, self.host, self._port, process_request=self._http, ssl=self._tls,
                          origins=None, compression=None, max_size=2 ** 20) as server:
             self._port = server.sockets[0].getsockname()[1]
             self._started.set()
@@ -285,7 +293,7 @@ class ParticipantDisplay:
 
     def _allowed_origins(self) -> set[str]:
         hosts = {self.host, "localhost"} if self.host == LOCALHOST else {self.host}
-        return {f"http://{h}:{self._port}" for h in hosts} | {f"https://{h}:{self._port}" for h in hosts}
+        return {f"{self.scheme}://{h}:{self._port}" for h in hosts}
 
     def _refusal(self, request) -> str | None:
         """Why a request must be refused (a foreign Host or Origin, a missing token), or None."""
