@@ -15,7 +15,9 @@ protocol with its object files, as JSON, plus the file's own text), ``participan
 protocol, seed, package and Python version, input, clock), ``tasks`` (the session's planned
 tasks), ``task_runs`` (each time a task is run; a run cut off by a crash is marked
 ``interrupted`` on resume and the task runs again), ``events``, ``answers`` and ``frames``
-(batches of logged frames, written and read by ``microg.study.framelog`` only).
+(batches of logged frames, written and read by ``microg.study.framelog`` only), ``stations`` (the
+stations made from the study, ``microg.study.stations``; a session merged from one names it and
+when it was merged, and a station's own study names its station in ``study``).
 
 Every statement goes through ``StudyConnection``, so a database that is locked by another program
 (longer than ``BUSY_TIMEOUT_S``), a full disk, a damaged file or a refused change ends in a
