@@ -13,7 +13,7 @@ from tqdm import tqdm
 
 from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
-from microg.study.protocol import Phase
+from microg.study.protocol import FOV_RANGE, Phase
 from microg.study.model_rater import ModelRater
 from microg.study.questionnaire import TerminalRater
 from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
@@ -244,7 +244,7 @@ def session_options(command):
         click.option("--eye", default=None, help="Screen mode: the participant's eyes X,Y,Z (m, tracker frame); "
                                                  "default: the protocol's display.eye, else framing the places."),
         click.option("--look-at", "look_at", default=None, help="Screen mode: the point X,Y,Z the view centres on."),
-        click.option("--fov", type=click.FloatRange(10, 120), default=None,
+        click.option("--fov", type=click.FloatRange(*FOV_RANGE), default=None,
                      help="Screen mode: vertical field of view (degrees) the screen spans from the eyes; "
                           "default: the protocol's display.fov_deg, else 40."),
         click.option("--pace", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
