@@ -663,10 +663,10 @@ def _read_task(top: _Reader) -> TaskRules:
     t = top.table("task")
     t.text("kind", "pick_and_place", ("pick_and_place",))
     places = t.raw("places")
-    if not isinstance(places, list) or not places or len(places) > MAX_PLACES:
-        raise t.fail("places", places if isinstance(places, list) and len(places) <= MAX_PLACES else
-                     f"<{type(places).__name__} of {len(places) if isinstance(places, list) else 1}>",
-                     f"must be a list of 1 to {MAX_PLACES} positions [x, y, z] (m)")
+    if not isinstance(places, list) or not places:
+        raise t.fail("places", places, "must be a non-empty list of positions [x, y, z] (m)")
+    if len(places) > MAX_PLACES:
+        raise ProtocolError(f"{t.where}: {t.prefix}places: {len(places)} positions; at most {MAX_PLACES}")
     place_reader = _Reader(t.where, {f"places[{i}]": p for i, p in enumerate(places)}, t.prefix)
     task = TaskRules(
         start=t.vector("start"),
