@@ -365,3 +365,21 @@ def test_absurd_sizes_in_protocol_and_object_files_name_file_key_and_value(tmp_p
     for part in expected:
         assert part in result.output, (part, result.output)
     assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize("verb, message", [
+    (["session", "run", "{study}", "--participant", "P01", "--input", "replay:{deep}", "--quiet"],
+     "{deep}: not a replay manifest: its tables or arrays are nested too deeply"),
+    (["report", "--trials", "{deep}", "--columns", "{deep}", "--out", "{out}"],
+     "{deep}: not a TOML file of column names: nested too deeply"),
+])
+def test_toml_nested_too_deeply_is_named_by_every_reader(tmp_path, verb, message):
+    study, deep = tmp_path / "study", tmp_path / "deep.toml"
+    deep.write_text("x = " + "[" * 2000 + "]" * 2000 + "\n")
+    CliRunner().invoke(main, ["study", "init", str(study), "--protocol", str(PROTOCOLS / "tiny.toml")])
+    CliRunner().invoke(main, ["participant", "add", str(study), "--id", "P01", "--gender", "female", "--age", "24",
+                              "--handedness", "right", "--mr-experience", "yes"])
+    names = dict(study=study, deep=deep, out=tmp_path / "out")
+    result = CliRunner().invoke(main, [a.format(**names) for a in verb])
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert message.format(**names) in result.output
