@@ -39,6 +39,7 @@ def replayed(folder, recording) -> np.ndarray:
         return framelog.read(store.db, store.runs(store.session_of("P01").id)[0].id)
 
 
+@pytest.mark.slow
 def test_a_leapjs_recording_stamped_in_2100_replays_to_the_same_object_path(tmp_path):
     document = json.loads(gzip.decompress((LEAP_RECORDINGS / "grab.json.gz").read_bytes()))
     for frame in document["frames"]:
@@ -53,6 +54,7 @@ def test_a_leapjs_recording_stamped_in_2100_replays_to_the_same_object_path(tmp_
         assert np.array_equal(original[name], shifted[name], equal_nan=True), name
 
 
+@pytest.mark.slow
 def test_a_recording_in_unix_seconds_replays_within_its_own_rounding(tmp_path):
     recording = load_recording(LEAP_RECORDINGS / "grab.json.gz")
     unix = tmp_path / "grab-unix.arrows"
