@@ -115,6 +115,8 @@ def read_columns(path: str | Path) -> dict:
         mapping = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise AnalysisInputError(f"{path}: not a readable TOML file of column names ({error})") from None
+    except RecursionError:
+        raise AnalysisInputError(f"{path}: not a TOML file of column names: nested too deeply") from None
     for key, value in mapping.items():
         if key not in COLUMN_OPTIONS:
             raise AnalysisInputError(f"{path}: unknown key {key!r} (known: {', '.join(COLUMN_OPTIONS)})")

@@ -1,9 +1,13 @@
-"""What the verbs share: turning the study's errors into clear command-line errors, and how the
-participant's page is served and announced (its certificate, its address as text and QR code)."""
+"""What the verbs share: the study's errors and the system's (a folder that may not be entered, a
+full disk) as clear command-line errors, paths that must exist, the old spellings of renamed
+options, and how the participant's page is served and announced (its certificate, its address as
+text and QR code)."""
 
 from __future__ import annotations
 
 import functools
+import getpass
+import os
 from pathlib import Path
 
 import click
@@ -20,8 +24,6 @@ COMMANDS: list = []
 EXPECTED = (ProtocolError, ParticipantError, StoreError, DamagedFramesError, InputError, RatingError, XdfError,
             FileExistsError, FileNotFoundError)
 
-study_dir_argument = click.argument("study_dir", type=click.Path(file_okay=False, path_type=str))
-
 
 def clear_errors(command):
     """Report the study's own errors as ``Error: <message>`` (exit status 1), without a traceback."""
@@ -32,6 +34,66 @@ def clear_errors(command):
         except EXPECTED as error:
             raise click.ClickException(str(error)) from None
     return wrapper
+
+
+EFFECTIVE_IDS = os.access in os.supports_effective_ids
+"""Whether permissions can be checked for the user the process acts as (POSIX), not the one who started it."""
+
+
+def _user() -> str:
+    """The name of the user the process acts as."""
+    try:
+        import pwd
+
+        return pwd.getpwuid(os.geteuid()).pw_name
+    except (ImportError, KeyError):
+        return getpass.getuser()
+
+
+def system_error(error: OSError) -> str:
+    """What a failed file operation means, naming the file: for a permission, the folder that may not
+    be entered or the file or folder that may not be read or written, and by whom."""
+    if not isinstance(error, PermissionError):
+        return f"{error.filename}: {error.strerror or error}"
+    path = Path(os.path.abspath(error.filename))
+    user = f"user {_user()}"
+    for folder in reversed(path.parents):
+        if folder.is_dir() and not os.access(folder, os.X_OK, effective_ids=EFFECTIVE_IDS):
+            return f"{folder}: permission denied: {user} may not enter this folder (to reach {error.filename})"
+    if path.exists():
+        return f"{error.filename}: permission denied: {user} may not {'open' if path.is_dir() else 'read or write'} it"
+    return f"{error.filename}: permission denied: {user} may not create it in {path.parent}"
+
+
+class ExistingPath(click.Path):
+    """``click.Path(exists=True)`` that tells a path it may not look at from a missing one."""
+
+    def __init__(self, **kwargs):
+        super().__init__(exists=True, **kwargs)
+
+    def convert(self, value, param, ctx):
+        try:
+            os.stat(value)
+        except PermissionError as error:
+            self.fail(system_error(error), param, ctx)
+        except (OSError, ValueError):
+            pass  # click says what is wrong with it
+        return super().convert(value, param, ctx)
+
+
+study_dir_argument = click.argument("study_dir", type=click.Path(file_okay=False, path_type=str))
+SEED = click.IntRange(0, 2**63 - 1)
+"""A seed: a whole number the study database stores (SQLite integers are 64-bit)."""
+
+
+def renamed(old: str, new: str, *, flag: bool = False):
+    """A hidden option for the old spelling of a renamed one: given, it says what it became."""
+    def refuse(ctx: click.Context, param: click.Parameter, value) -> None:
+        if value if flag else value is not None:
+            raise click.UsageError(f"{old} is now {new}", ctx)
+
+    return click.option(old, f"renamed_{old.lstrip('-').replace('-', '_')}", is_flag=flag, hidden=True,
+                        expose_value=False, callback=refuse)
 
 
 def picture_size(text: str) -> tuple[int, int]:

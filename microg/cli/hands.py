@@ -12,7 +12,7 @@ from microg.skeleton import BONES, DIGITS, SIDES
 from microg.hands import RecordingError, load_recording, write_recording
 from microg.hands.recording import SUFFIX, UNKNOWN, RecordingInfo, record
 
-from .common import announce_page, page_certificate, page_options
+from .common import ExistingPath, announce_page, page_certificate, page_options, renamed
 
 
 def _default_output(path: Path) -> Path:
@@ -49,10 +49,13 @@ def hands() -> None:
 
 
 @hands.command("import")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("file", type=ExistingPath(dir_okay=False, path_type=Path))
 @click.option("--out", "output", type=click.Path(dir_okay=False, path_type=Path),
               help=f"Recording to write (default: ./NAME{SUFFIX}).")
 @click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+@renamed("-o", "--out")
+@renamed("--output", "--out")
+@renamed("--force", "--overwrite", flag=True)
 def import_command(file: Path, output: Path | None, overwrite: bool) -> None:
     """Convert a LeapJS v2 recording (JSON, plain or .gz) to the project's recording format."""
     recording = _load(file)
@@ -65,7 +68,7 @@ def import_command(file: Path, output: Path | None, overwrite: bool) -> None:
 
 
 @hands.command()
-@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("recording", type=ExistingPath(dir_okay=False, path_type=Path))
 def info(recording: Path) -> None:
     """Show a recording's metadata, timing, hands and bone lengths (either format)."""
     rec = _load(recording)
@@ -113,7 +116,7 @@ def info(recording: Path) -> None:
 
 
 @hands.command("filter-report")
-@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("recording", type=ExistingPath(dir_okay=False, path_type=Path))
 @click.option("--windows", default="1-7", show_default=True, help="Window sizes F: a range (1-7) or a list (1,3,5).")
 @click.option("--side", type=click.Choice(SIDES), help="Hand to measure (default: the one tracked most).")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), help="Save the trade-off plot here (PNG).")
@@ -156,6 +159,7 @@ def filter_report_command(recording: Path, windows: str, side: str | None, plot:
               help="Seconds to record (default: until Ctrl-C).")
 @click.option("--frames", "max_frames", type=click.IntRange(min=1), help="Frames to record at most.")
 @click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+@renamed("--force", "--overwrite", flag=True)
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
               help="With --input webxr: the protocol whose workspace the headset places (a file, or the name "
                    "of a shipped protocol); the joints are recorded in its tracker frame.")

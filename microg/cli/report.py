@@ -6,14 +6,16 @@ from pathlib import Path
 
 import click
 
-FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+from .common import ExistingPath, renamed
+
+FILE = ExistingPath(dir_okay=False, path_type=Path)
 
 
 @click.command("report")
-@click.argument("study", required=False, type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("study", required=False, type=ExistingPath(file_okay=False, path_type=Path))
 @click.option("--trials", type=FILE, help="Exported trials table (CSV or Parquet), instead of a STUDY folder.")
 @click.option("--likert", type=FILE, help="Exported questionnaire table (CSV or Parquet), with --trials.")
-@click.option("--compare", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+@click.option("--compare", type=ExistingPath(file_okay=False, path_type=Path), default=None,
               help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
                    "also writes OUT/comparison.md and its CSVs, the two side by side.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output directory.")
@@ -42,6 +44,8 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option("--columns", "columns_file", type=FILE,
               help="TOML file of column names (subject, group, within, interaction_column, dv, counts, completed, "
                    "phase, label, item, rating); the options above win.")  # fmt: skip
+@renamed("--system", "--interaction")
+@renamed("--system-column", "--interaction-column")
 def report(
     study: Path | None,
     trials: Path | None,

@@ -4,6 +4,8 @@ with the participant's view served by the session itself (``--display``)."""
 from __future__ import annotations
 
 import contextlib
+import signal
+import threading
 from dataclasses import dataclass
 
 import click
@@ -11,7 +13,7 @@ from tqdm import tqdm
 
 from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
-from microg.study.protocol import Phase
+from microg.study.protocol import FOV_RANGE, Phase
 from microg.study.model_rater import ModelRater
 from microg.study.questionnaire import TerminalRater
 from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
@@ -110,7 +112,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
                                    f"microg session run {store.dir} --participant {participant_id} --input ...")
     spec = input_spec or (existing.input if existing else None)
     if spec is None:
-        raise click.ClickException("give --input leap, webxr, replay:FILE or simulated[:PROFILE]")
+        raise click.ClickException("give --input leap, webxr, lsl:NAME, replay:FILE or simulated[:PROFILE]")
     kind = parse_input(spec)[0]
     shown = options.display if options.display is not None else kind in LIVE
     if kind == "webxr" and not shown:
@@ -125,6 +127,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
     if problems:
         raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
     with contextlib.ExitStack() as stack:
+        stack.enter_context(_pause_on_signals())
         display = stack.enter_context(_display(store, options, kind)) if shown else None
         inputs = open_inputs(spec, store.protocol.group(record.group),
                              webxr=None if display is None else display.hands, align=options.align)
@@ -172,6 +175,25 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
                                        f"{store.dir} --participant {participant_id}") from None
 
 
+@contextlib.contextmanager
+def _pause_on_signals():
+    """SIGTERM (a process manager stopping the session) and SIGHUP (its terminal closed) pause the
+    session as Ctrl-C does: each raises KeyboardInterrupt in the session's thread."""
+    def interrupt(number, frame):
+        raise KeyboardInterrupt(signal.Signals(number).name)
+
+    numbers = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may handle signals
+        yield
+        return
+    previous = {number: signal.signal(number, interrupt) for number in numbers}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def _outcome(store: Store, participant_id: str, status: str) -> str:
     """How a session ended, with how its tasks stand: ``session of P01: incomplete, 6 tasks: 6 aborted``."""
     counts = store.task_counts(store.session_of(participant_id).id)
@@ -199,9 +221,10 @@ def _display(store: Store, options: SessionOptions, kind: str):
 
 
 INPUT_HELP = ("leap (live tracking), webxr (a headset's hand tracking, through the participant's page), "
-              "replay:FILE (a recording, replayed for each task) or simulated[:PROFILE] (a simulated "
-              "participant; PROFILE practice (skill grows with each task done), veteran or beginner; "
-              "default: the group's simulated_profile).")
+              "lsl:NAME (another tracker's hands, from the Lab Streaming Layer stream NAME; needs microg[lsl]), "
+              "replay:FILE (a recording, replayed for each task; a replay manifest, replay:MANIFEST.toml, gives "
+              "each task its own) or simulated[:PROFILE] (a simulated participant; PROFILE practice (skill grows "
+              "with each task done), veteran or beginner; default: the group's simulated_profile).")
 QUESTIONNAIRE_HELP = ("ask (on the participant's page with --display, else in the terminal), model (the rating "
                       "model, answers marked simulated) or skip; default: ask for leap and webxr, model for "
                       "simulated, skip for replay.")
@@ -226,7 +249,7 @@ def session_options(command):
         click.option("--eye", default=None, help="Screen mode: the participant's eyes X,Y,Z (m, tracker frame); "
                                                  "default: the protocol's display.eye, else framing the places."),
         click.option("--look-at", "look_at", default=None, help="Screen mode: the point X,Y,Z the view centres on."),
-        click.option("--fov", type=click.FloatRange(10, 120), default=None,
+        click.option("--fov", type=click.FloatRange(*FOV_RANGE), default=None,
                      help="Screen mode: vertical field of view (degrees) the screen spans from the eyes; "
                           "default: the protocol's display.fov_deg, else 40."),
         click.option("--pace", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,

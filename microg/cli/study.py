@@ -15,7 +15,7 @@ from microg.study import ledger
 from microg.study.protocol import load_protocol
 from microg.study.stations import make_station, merge_stations, stations
 from microg.study.store import DATABASE, archived, check_integrity, create_study, describe_counts, open_study
-from .common import clear_errors, study_dir_argument
+from .common import SEED, clear_errors, study_dir_argument
 
 
 @click.group("study")
@@ -27,7 +27,7 @@ def study() -> None:
 @study_dir_argument
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
               help="Protocol file, or the name of a shipped protocol (paper, paper-microgravity, mallet-microgravity).")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=SEED, default=None,
               help="Seed of every random choice in the study (default: the protocol's, else a fresh one).")
 @clear_errors
 def init(study_dir: str, protocol_name: str, seed: int | None) -> None:

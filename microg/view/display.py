@@ -24,12 +24,17 @@ Security: the server listens on 127.0.0.1 unless given another host; then the pa
 one-time token (printed with the address), and the page and its WebSocket are served over TLS with
 the ``certificate`` given (``microg.view.tls``): WebXR needs a secure context, which plain HTTP is
 on the machine itself only. The WebSocket refuses any Origin but the page's own (its scheme too)
-and any Host but the served one, so a web page open elsewhere in the browser cannot read the session.
+and any Host but the served one (each given exactly once), so a web page open elsewhere in the
+browser cannot read the session. It serves the page's own files by name, from a list made at
+start, and nothing else: no request path reaches the file system. What the page reports drawing is
+kept for the last ``DRAWN_KEPT`` frames only, so a long session (or a page that reports faster)
+keeps a bounded memory.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
 import json
 import mimetypes
 import queue
@@ -54,6 +59,8 @@ PAGE = Path(__file__).with_name("page")
 """The page's files: index.html, participant.js, style.css, and vendor/ (three.js, installed by setup)."""
 ANSWER_POLL_S = 0.25
 """While waiting for an answer, the display hands on the page's events this often (s)."""
+DRAWN_KEPT = 3600
+"""Drawn-frame reports kept: the last minute at 60 Hz."""
 
 
 def now_ms() -> float:
@@ -82,8 +89,9 @@ class ParticipantDisplay:
         """The latest message of each kind a late page needs: workspace, scene, timeline, question."""
         self._events: queue.SimpleQueue[tuple[str, dict]] = queue.SimpleQueue()
         self._answers: queue.Queue[str] = queue.Queue()
-        self.drawn: list[dict] = []
-        """What pages reported drawing: frame index, when its physics was ready, when it was drawn (ms)."""
+        self.drawn: collections.deque[dict] = collections.deque(maxlen=DRAWN_KEPT)
+        """What pages reported drawing, the last ``DRAWN_KEPT`` frames: frame index, when its physics
+        was ready, when it was drawn (ms)."""
         self.clock: dict | None = None
         """The page's clock offset from the session's and its spread (ms), once synced."""
         self.placement: list[float] | None = None
@@ -96,6 +104,8 @@ class ParticipantDisplay:
         self._clients = 0
         self._outboxes: list[asyncio.Queue] = []
         self._fresh: list[asyncio.Event] = []
+        self._files: dict[str, Path] = {}
+        """The page's files by request path: all the server serves."""
 
     # ------------------------------------------------------------ life
 
@@ -110,6 +120,8 @@ class ParticipantDisplay:
         if not (PAGE / "vendor" / "three.module.js").exists():
             raise FileNotFoundError(f"the participant page's three.js is missing from {PAGE / 'vendor'}: "
                                     "install the front-end packages with `make setup` (npm ci)")
+        self._files = {"/" + file.relative_to(PAGE).as_posix(): file for file in PAGE.rglob("*") if file.is_file()}
+        self._files["/"] = PAGE / "index.html"
         self._thread = threading.Thread(target=self._serve, name="participant-display", daemon=True)
         self._thread.start()
         self._started.wait()
@@ -296,7 +308,11 @@ class ParticipantDisplay:
         return {f"{self.scheme}://{h}:{self._port}" for h in hosts}
 
     def _refusal(self, request) -> str | None:
-        """Why a request must be refused (a foreign Host or Origin, a missing token), or None."""
+        """Why a request must be refused (a foreign Host or Origin, or either given more than once; a
+        missing token), or None."""
+        for name in ("Host", "Origin"):
+            if len(given := request.headers.get_all(name)) > 1:
+                return f"{name} given {len(given)} times"
         host = request.headers.get("Host", "")
         if host not in {o.split("://", 1)[1] for o in self._allowed_origins()}:
             return f"Host {host!r} is not this server"
@@ -319,9 +335,8 @@ class ParticipantDisplay:
         path = urlsplit(request.path).path
         if path == "/ws":
             return None
-        name = "index.html" if path == "/" else path.lstrip("/")
-        file = (PAGE / name).resolve()
-        if PAGE.resolve() not in file.parents or not file.is_file():
+        file = self._files.get(path)
+        if file is None:
             return connection.respond(404, "not found\n")
         body = file.read_bytes()
         kind = mimetypes.guess_type(file.name)[0] or "application/octet-stream"

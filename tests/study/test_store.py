@@ -22,6 +22,7 @@ from microg.study import framelog, store as store_module
 from microg.study.assignment import Participant, ParticipantError
 from microg.study.export import export_study
 from microg.study.store import DamagedStudyError, StoreError, open_study
+from tests.waiting import ended
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -57,7 +58,7 @@ def holder(tmp_path):
 def release(child: subprocess.Popen) -> None:
     if child.poll() is None:
         child.stdin.close()
-        child.wait()
+        ended(child, "the process holding the study")
 
 
 @pytest.mark.parametrize("content, message", [
