@@ -46,6 +46,8 @@ TRIALS = (
     Column("withdrawn", "bool", "whether the participant withdrew from the study"),
     Column("session", "Int64", "id of the session in the study's log"),
     Column("task_index", "Int64", "index of the task within its session"),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True),
 )
 
 QUESTIONNAIRE = (
@@ -60,6 +62,8 @@ QUESTIONNAIRE = (
     Column("source", "string", "who gave the rating: participant or model"),
     Column("simulated", "bool", "whether the rating comes from the rating model"),
     Column("withdrawn", "bool", "whether the participant withdrew from the study"),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True),
 )
 
 TRIAL_COLUMNS = tuple(column.name for column in TRIALS)

@@ -46,8 +46,11 @@ from microg.analysis.tables import (
     incomplete_cases,
     is_simulated,
     participant_cells,
-    read_questionnaire,
-    read_trials,
+    QUESTIONNAIRE_TEXT,
+    TRIAL_TEXT,
+    drop_repeated_rows,
+    read_table,
+    text_columns,
     withdrawn,
 )
 
@@ -188,6 +191,7 @@ def analyse_study(
     item: str = "item",
     rating: str = "rating",
     alpha: float = ALPHA,
+    drop_duplicates: bool = False,
 ) -> StudyAnalysis:
     """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per interaction
     model and measure; interaction model vs baseline; the Likert analysis.
@@ -216,6 +220,9 @@ def analyse_study(
         (optional), the questionnaire item and the rating.
     alpha : float
         Level at which a test counts as significant (and simple effects are read).
+    drop_duplicates : bool
+        Rows that repeat an earlier row of their table in every column are refused (a row given twice
+        counts twice); with True they are dropped, and ``warnings`` says which.
 
     Returns
     -------
@@ -236,13 +243,15 @@ def analyse_study(
     2  Group:Time  2.728  0.070
     """
     columns = {"subject": subject, "group": group, "within": within, "interaction": interaction_column}
-    trials = _checked(trials, read_trials, check_trials, **columns, dv=dv, counts=counts, completed=completed,
-                      label=label)  # fmt: skip
+    trials, dropped_rows = _checked(trials, check_trials, TRIAL_TEXT, "trials table", drop_duplicates, **columns,
+                                    dv=dv, counts=counts, completed=completed, label=label)  # fmt: skip
     trials = exclude_phases(trials, excluded_phases, phase)
     if questionnaire is not None:
-        questionnaire = _checked(questionnaire, read_questionnaire, check_questionnaire, subject=subject,
-                                 group=group, interaction=interaction_column, item=item, rating=rating,
-                                 label=label)  # fmt: skip
+        questionnaire, dropped_answers = _checked(questionnaire, check_questionnaire, QUESTIONNAIRE_TEXT,
+                                                  "questionnaire table", drop_duplicates, subject=subject, group=group,
+                                                  interaction=interaction_column, item=item, rating=rating,
+                                                  label=label)  # fmt: skip
+        dropped_rows += dropped_answers
         check_same_groups(trials, questionnaire, subject, group)
     gone = sorted(withdrawn(trials, subject) | withdrawn(questionnaire, subject))
     trials = trials[~trials[subject].isin(gone)]
@@ -284,7 +293,7 @@ def analyse_study(
         dropped=pd.concat([withdrew, *(part.dropped for part in parts)], ignore_index=True)[
             ["analysis", "interaction", "measure", subject, "reason"]
         ],
-        warnings=tuple(note for part in parts for note in part.notes),
+        warnings=tuple(dropped_rows) + tuple(note for part in parts for note in part.notes),
         **{name: per_interaction.tables[name] for name in PER_INTERACTION},
         comparison=pairs.tables["comparison"],
         likert_summary=likert.tables["likert_summary"],
@@ -480,8 +489,16 @@ def _concat(frames: list[pd.DataFrame], columns) -> pd.DataFrame:
     return pd.DataFrame(columns=[*KEYS, *columns])
 
 
-def _checked(table, read, check, **columns) -> pd.DataFrame:
-    return check(table, **columns) if isinstance(table, pd.DataFrame) else read(table, **columns)
+def _checked(table, check, text, source: str, drop_duplicates: bool, **columns) -> tuple[pd.DataFrame, list[str]]:
+    """An input table (a DataFrame, or a file read here) checked by ``check``; with ``drop_duplicates``
+    its repeated rows dropped first, and the note that says so."""
+    if not isinstance(table, pd.DataFrame):
+        table, source = read_table(table, text=text_columns(text, columns)), str(table)
+    notes = []
+    if drop_duplicates:
+        table, note = drop_repeated_rows(table, source)
+        notes += [note] if note else []
+    return check(table, source, **columns), notes
 
 
 def _anova_notes(interaction: str, dv: str, complete: pd.DataFrame, anova: pd.DataFrame, design: _Design) -> list[str]:

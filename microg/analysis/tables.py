@@ -25,6 +25,11 @@ FLAG_COLUMNS = ("completed", "simulated", "withdrawn")
 COLUMN_OPTIONS = ("subject", "group", "within", "interaction_column", "dv", "counts", "completed", "phase", "label",
                   "item", "rating")  # fmt: skip
 """The column names :func:`microg.analysis.analyse_study` takes; ``dv`` and ``counts`` are lists."""
+TRIAL_TEXT = (("subject", "participant"), ("group", "group"), ("within", "object"), ("interaction", "interaction"))
+QUESTIONNAIRE_TEXT = (("subject", "participant"), ("interaction", "interaction"), ("item", "item"))
+"""The identifying columns read as text from a CSV file: (option, default name)."""
+TASK_KEY = ("study", "session", "task_index")
+"""Columns of an exported trials table that name one planned task (with the participant)."""
 
 
 class AnalysisInputError(ValueError):
@@ -110,6 +115,8 @@ def read_columns(path: str | Path) -> dict:
         mapping = tomllib.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise AnalysisInputError(f"{path}: not a readable TOML file of column names ({error})") from None
+    except RecursionError:
+        raise AnalysisInputError(f"{path}: not a TOML file of column names: nested too deeply") from None
     for key, value in mapping.items():
         if key not in COLUMN_OPTIONS:
             raise AnalysisInputError(f"{path}: unknown key {key!r} (known: {', '.join(COLUMN_OPTIONS)})")
@@ -152,10 +159,7 @@ def read_trials(path: str | Path, **columns) -> pd.DataFrame:
     ...
     microg.analysis.tables.AnalysisInputError: ...trials.csv: column 'time_s' value inf is not finite (data row 1, ...)
     """
-    text = [columns.get(key, default) for key, default in
-            (("subject", "participant"), ("group", "group"), ("within", "object"),
-             ("interaction", "interaction"))]  # fmt: skip
-    return check_trials(read_table(path, text=text), source=str(path), **columns)
+    return check_trials(read_table(path, text=text_columns(TRIAL_TEXT, columns)), source=str(path), **columns)
 
 
 def read_questionnaire(path: str | Path, **columns) -> pd.DataFrame:
@@ -183,9 +187,93 @@ def read_questionnaire(path: str | Path, **columns) -> pd.DataFrame:
     >>> read_questionnaire(path)["rating"].tolist()
     [7]
     """
-    text = [columns.get(key, default) for key, default in
-            (("subject", "participant"), ("interaction", "interaction"), ("item", "item"))]  # fmt: skip
-    return check_questionnaire(read_table(path, text=text), source=str(path), **columns)
+    return check_questionnaire(read_table(path, text=text_columns(QUESTIONNAIRE_TEXT, columns)), source=str(path),
+                               **columns)
+
+
+def text_columns(keys: Sequence[tuple[str, str]], columns: dict) -> list[str]:
+    """The names of the identifying columns (``TRIAL_TEXT``, ``QUESTIONNAIRE_TEXT``) under ``columns``."""
+    return [columns.get(key, default) for key, default in keys]
+
+
+def repeated_rows(table: pd.DataFrame) -> pd.DataFrame:
+    """The rows that repeat an earlier row in every column, and the row each repeats.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Any table (empty values count as equal).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``row`` and ``copy_of``: data rows, 1 being the first row after the header.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.tables import repeated_rows
+    >>> repeated_rows(pd.DataFrame({"p": ["a", "b", "a"], "t": [1.5, 2.0, 1.5]}))
+       row  copy_of
+    0    3        1
+    """
+    table = table.reset_index(drop=True)
+    repeats = np.flatnonzero(table.duplicated(keep="first").to_numpy()) if len(table.columns) else []
+    first: dict[int, int] = {}
+    for row, value in enumerate(pd.util.hash_pandas_object(table, index=False).to_numpy() if len(repeats) else ()):
+        first.setdefault(value, row)
+    hashes = pd.util.hash_pandas_object(table.iloc[repeats], index=False).to_numpy() if len(repeats) else []
+    return pd.DataFrame({"row": np.asarray(repeats, dtype=int) + 1,
+                         "copy_of": np.array([first[h] for h in hashes], dtype=int) + 1})
+
+
+def drop_repeated_rows(table: pd.DataFrame, source: str, drop: bool = True) -> tuple[pd.DataFrame, str | None]:
+    """The table without the rows that repeat an earlier row in every column (a table pasted in twice,
+    a row copied), and a sentence for the reader naming them; with ``drop`` False such rows are refused.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A table as read (rows in file order).
+    source : str
+        How the messages name the table (its file).
+    drop : bool
+        Drop the repeated rows (True) or refuse them (False).
+
+    Returns
+    -------
+    tuple of (pandas.DataFrame, str or None)
+        The rows kept (index 0..n-1) and what was dropped (None when nothing was).
+
+    Raises
+    ------
+    AnalysisInputError
+        With ``drop`` False, naming the repeated rows and the rows they repeat.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.tables import drop_repeated_rows
+    >>> kept, note = drop_repeated_rows(pd.DataFrame({"p": ["a", "b", "a"], "t": [1.5, 2.0, 1.5]}), "t.csv")
+    >>> len(kept), note
+    (2, 't.csv: 1 row repeated an earlier row in every column and was dropped (data row 3 repeats row 1)')
+    """
+    table = table.reset_index(drop=True)
+    repeats = repeated_rows(table)
+    if repeats.empty:
+        return table, None
+    n = len(repeats)
+    listed = ", ".join(f"data row {r} repeats row {c}" for r, c in repeats.head(10).itertuples(index=False))
+    listed += f" and {n - 10} more" if n > 10 else ""
+    if not drop:
+        raise AnalysisInputError(
+            f"{source}: {n} row(s) repeat an earlier row in every column: {listed}. A row given twice counts twice "
+            "in every mean and test; remove the copies, or drop them (microg report --drop-duplicates)"
+        )
+    kept = table.drop(index=repeats["row"] - 1).reset_index(drop=True)
+    if n == 1:
+        return kept, f"{source}: 1 row repeated an earlier row in every column and was dropped ({listed})"
+    return kept, f"{source}: {n} rows repeated earlier rows in every column and were dropped ({listed})"
 
 
 def check_trials(
@@ -234,7 +322,10 @@ def check_trials(
         Naming the source, column, value and data row (1 = the first row after the header): a
         missing column, no rows, an empty label, a measure that is not a number, not finite, negative
         or absurdly large, a fractional count, a finished task without a measure, a participant in two
-        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels.
+        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels;
+        rows that repeat an earlier row in every column (:func:`drop_repeated_rows` drops them first
+        where that is wanted), and two different rows of one exported task (same participant,
+        ``session`` and ``task_index``).
 
     Examples
     --------
@@ -247,10 +338,23 @@ def check_trials(
     ...
     microg.analysis.tables.AnalysisInputError: trials table: column 'rt' value 1e+308 is larger than 1e+12 ...
     """
-    trials = trials.reset_index(drop=True)
+    trials, _ = drop_repeated_rows(trials, source, drop=False)
     _require_columns(trials, [subject, group, interaction, within, *dv], source)
     if trials.empty:
         raise AnalysisInputError(f"{source}: no trials (the table has a header but no rows)")
+    key = [subject] + [column for column in TASK_KEY if column in trials.columns]
+    if {"session", "task_index"} <= set(key):
+        twice = trials.duplicated(key, keep=False)
+        if twice.any():
+            rows = np.flatnonzero(twice.to_numpy())
+            first = trials.iloc[rows[0]]
+            same = twice & (trials[key] == first[key]).all(axis=1)
+            numbers = " and ".join(str(r + 1) for r in np.flatnonzero(same.to_numpy()))
+            task = ", ".join(f"{column} {_plain(first[column])!r}" for column in key)
+            raise AnalysisInputError(
+                f"{source}: data rows {numbers} are the same task ({task}) with different values: each planned task "
+                "has one row; keep the right one"
+            )
     out = trials.copy()
     for column in (subject, group, interaction, within):
         out[column] = _labels(trials, column, source, subject)
@@ -570,9 +674,12 @@ def _require(table: pd.DataFrame, column: str, bad: pd.Series, source: str, what
     where = f"data row {row + 1}"
     if subject in table.columns and column != subject:
         where += f", {subject} {table[subject].iloc[row]!r}"
-    value = table[column].iloc[row]
-    value = value.item() if isinstance(value, np.generic) else value
-    raise AnalysisInputError(f"{source}: column {column!r} value {value!r} {what} ({where})")
+    raise AnalysisInputError(f"{source}: column {column!r} value {_plain(table[column].iloc[row])!r} {what} ({where})")
+
+
+def _plain(value):
+    """A table's value as Python writes it (5, not np.int64(5))."""
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def _check_one_each(table: pd.DataFrame, key: str, column: str, source: str) -> None:

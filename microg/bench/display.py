@@ -108,14 +108,14 @@ def missing() -> str:
 
 
 @contextlib.contextmanager
-def chromium(size: tuple[int, int] = (1280, 800)):
-    """A headless Chromium under selenium with a ``size`` viewport; closed on leaving."""
+def chromium(size: tuple[int, int] = (1280, 800), flags: tuple[str, ...] = ()):
+    """A headless Chromium under selenium with a ``size`` viewport and ``FLAGS`` (and ``flags``); closed on leaving."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
 
     options = webdriver.ChromeOptions()
     options.binary_location = shutil.which("chromium") or shutil.which("chromium-browser")
-    for flag in FLAGS:
+    for flag in (*FLAGS, *flags):
         options.add_argument(flag)
     driver = webdriver.Chrome(service=Service(shutil.which("chromedriver")), options=options)
     try:

@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from microg.skeleton import Hand, HandFrame, slot
-from microg.sim import (Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene, kinetic_energy,
-                        make_world, step)
+from microg.sim import (HandFrames, Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene,
+                        kinetic_energy, make_batch, make_world, step, step_batch)
 from microg.hands.filter import HandFilter
 from microg.participant.scripted import probe_hand
 
@@ -184,6 +184,49 @@ def live(config: Config, duration: float = 4.0, scene: LiveScene = LIVE) -> dict
     steps = world.data.steps
     return {"us_per_step": 1e6 * spent / steps, "steps_per_s": steps / spent, "real_time_factor": duration / spent,
             "min_contacts": min(contacts[len(contacts) // 4:]), "cube_speed_max": float(np.abs(world.data.velocity).max())}
+
+
+def live_path(config: Config, duration: float = 4.0, scene: LiveScene = LIVE, per_step: bool = False) -> dict:
+    """CPU microseconds per physics step of the live scene, and the cube's pose after every frame.
+
+    Driven one ``step`` per frame (its substeps in one compiled call: the ``c_loop`` of the peer
+    bench), or with ``per_step`` one ``step`` per physics step (the frames cut at every step, the
+    same physics: ``python_per_step``). Only the ``step`` calls are timed."""
+    frames = live_frames(config, duration, scene)
+    every = 1
+    if per_step:
+        frames, every = physics_steps(frames, config.substeps, 1, config.tracking_rate), config.substeps
+    count = (len(frames) - 1) // every
+    position, orientation = np.empty((count, 3)), np.empty((count, 4))
+
+    def record(world, i):
+        if i and i % every == 0:
+            position[i // every - 1] = world.data.position[0]
+            orientation[i // every - 1] = world.data.orientation[0]
+
+    world, spent = run_frames(live_world(config, scene), frames, record)
+    return {"us_per_step": 1e6 * spent / world.data.steps, "position": position, "orientation": orientation}
+
+
+def live_batch(config: Config, worlds: int, duration: float = 1.0, scene: LiveScene = LIVE) -> dict:
+    """``worlds`` copies of the live scene stepped together by ``step_batch`` on one core: CPU time
+    per world-step (only the ``step_batch`` calls are timed; the frames are stacked outside the
+    clock), and world 0's cube pose after every frame."""
+    frames = live_frames(config, duration, scene)
+    batch = make_batch(live_world(config, scene).model.scene, worlds)
+    position, orientation = np.empty((len(frames) - 1, 3)), np.empty((len(frames) - 1, 4))
+    spent = 0.0
+    for i, frame in enumerate(frames):
+        stacked = HandFrames.stack([frame] * worlds)
+        start = time.process_time()
+        batch = step_batch(batch, stacked)
+        spent += time.process_time() - start
+        if i:
+            first = batch.world(0).data
+            position[i - 1], orientation[i - 1] = first.position[0], first.orientation[0]
+    steps = worlds * batch.world(0).data.steps
+    return {"worlds": worlds, "world_steps_per_s_per_core": steps / spent, "us_per_world_step": 1e6 * spent / steps,
+            "real_time_factor": worlds * duration / spent, "position": position, "orientation": orientation}
 
 
 def filter_cost(config: Config, duration: float = 1.0, scene: LiveScene = LIVE) -> float:

@@ -13,6 +13,9 @@ Nothing here imports an engine.
   Answer: static friction can carry the cube (2 mu gamma delta > m a_max), so the undisturbed
   trajectory keeps the cube where the grasp holds it: any lasting offset is slip. Tracking lag
   and tracking error are measured against the true (noise-free) hand path.
+- ``LIVE`` and ``HOLD``: the paper's scene for time per step, a 19-sphere hand closing on the cube
+  and carrying it (``LIVE``) or holding it still (``HOLD``). Equal work is checked by geometry
+  (``LiveScene.overlaps``): how many spheres touch the cube, and where the cube is.
 """
 
 from __future__ import annotations
@@ -293,5 +296,15 @@ class LiveScene:
         keep = lengths > 1e-4
         return centres[keep], widths[keep] / 2
 
+    def overlaps(self, t: float, position, orientation) -> int:
+        """How many of the hand's spheres at t overlap the cube at this pose (w, x, y, z): the
+        grasp's contacts counted by geometry alone, the same way for every engine."""
+        centres, radii = self.spheres(t)
+        rotation = quat_matrix(np.asarray(orientation) / np.linalg.norm(orientation))
+        return sum(box_overlap(c, r, position, rotation, self.cube.half) > 0.0 for c, r in zip(centres, radii))
+
 
 LIVE = LiveScene()
+HOLD = LiveScene(carry=0.0)
+"""The live scene with the grasp held still once it has closed: the one every peer can do in its
+own idiom (a MuJoCo mocap body has no velocity, so its friction cannot carry the cube)."""

@@ -10,8 +10,23 @@ import click
 
 from microg import __version__
 
+from .common import system_error
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+class _Microg(click.Group):
+    """The root group: a file operation that fails (a folder that may not be entered, a full disk)
+    ends any verb with a message naming the file, not a traceback."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except OSError as error:
+            if error.filename is None:
+                raise
+            raise click.ClickException(system_error(error)) from None
+
+
+@click.group(cls=_Microg, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="microg")
 def main() -> None:
     """Run, log and analyse user studies of hand-object interaction in simulated microgravity."""

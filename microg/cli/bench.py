@@ -65,7 +65,8 @@ def throughput(out: Path, figures: Path, quick: bool, participants: int | None) 
 @bench.command()
 @_options
 def coldstart(out: Path, figures: Path, quick: bool) -> None:
-    """Fresh process to first physics frame with an empty compile cache, and with a warm one (coldstart.csv)."""
+    """Fresh process to first physics frame with an empty compile cache and with a warm one, and a demo's
+    first run on two workers: what it compiled, and whether any kernel was compiled twice (coldstart.csv)."""
     table = load("coldstart").run(out, figures, quick)
     click.echo(table.to_string(index=False))
     click.echo(f"-> {out / 'coldstart.csv'}")
@@ -85,6 +86,20 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
     table = run(out, quick, workers)
     click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.4g}"))
     click.echo(f"-> {out / 'power.csv'}")
+
+
+@bench.command("store")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
+              show_default=True, help="Directory for store.csv.")
+@click.option("--quick", is_flag=True, help="A fast smoke run: 40 frame batches, fewer repeats.")
+def store_bench(out: Path, quick: bool) -> None:
+    """What the study log's integrity costs: per frame logged (the batch's checksum and its ledger entry)
+    against the whole commit, per frame read (the checksum against decoding), per open (the ledger check)
+    and per MB checked by study check (store.csv)."""
+    from microg.study.bench import run
+
+    run(out, quick, say=click.echo)
+    click.echo(f"-> {out / 'store.csv'}")
 
 
 @bench.command("display")

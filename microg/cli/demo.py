@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import clear_errors
+from .common import SEED, clear_errors
 
 
 @click.command()
@@ -13,7 +13,7 @@ from .common import clear_errors
 @click.option("--participants", type=click.IntRange(2), default=30, show_default=True,
               help="Simulated participants to enrol (the paper had 30; at least 2, one per group, for the "
                    "report's between-group test).")
-@click.option("--seed", type=click.IntRange(0), default=1, show_default=True,
+@click.option("--seed", type=SEED, default=1, show_default=True,
               help="Seed of the study: who is enrolled with which demographics, and every session.")
 @click.option("--protocol", default="paper", show_default=True,
               help="A shipped protocol name (paper, paper-microgravity, mallet-microgravity) or a protocol file.")

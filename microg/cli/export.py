@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from microg.study.export import export_study
+from microg.study.export import export_study, refuse_links
 from microg.study.store import open_study
 from .common import clear_errors, study_dir_argument
 
@@ -46,6 +46,7 @@ def export(study_dir: str, out_dir: str | None, formats: tuple[str, ...], frames
 def _export_xdf(study_dir: str, xdf_file: Path, out: Path, formats: tuple[str, ...], overwrite: bool) -> None:
     from microg.study.xdf import line_up, write_lineups
 
+    refuse_links(out)
     with open_study(study_dir, readonly=True) as store:
         lineups = line_up(store, xdf_file)
     for lineup in lineups:

@@ -12,6 +12,8 @@ from microg.skeleton import BONES, DIGITS, SIDES
 from microg.hands import RecordingError, load_recording, write_recording
 from microg.hands.recording import SUFFIX, UNKNOWN, RecordingInfo, record
 
+from .common import ExistingPath, announce_page, page_certificate, page_options, renamed
+
 
 def _default_output(path: Path) -> Path:
     name = path.name
@@ -47,10 +49,13 @@ def hands() -> None:
 
 
 @hands.command("import")
-@click.argument("file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("file", type=ExistingPath(dir_okay=False, path_type=Path))
 @click.option("--out", "output", type=click.Path(dir_okay=False, path_type=Path),
               help=f"Recording to write (default: ./NAME{SUFFIX}).")
 @click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+@renamed("-o", "--out")
+@renamed("--output", "--out")
+@renamed("--force", "--overwrite", flag=True)
 def import_command(file: Path, output: Path | None, overwrite: bool) -> None:
     """Convert a LeapJS v2 recording (JSON, plain or .gz) to the project's recording format."""
     recording = _load(file)
@@ -63,7 +68,7 @@ def import_command(file: Path, output: Path | None, overwrite: bool) -> None:
 
 
 @hands.command()
-@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("recording", type=ExistingPath(dir_okay=False, path_type=Path))
 def info(recording: Path) -> None:
     """Show a recording's metadata, timing, hands and bone lengths (either format)."""
     rec = _load(recording)
@@ -111,7 +116,7 @@ def info(recording: Path) -> None:
 
 
 @hands.command("filter-report")
-@click.argument("recording", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("recording", type=ExistingPath(dir_okay=False, path_type=Path))
 @click.option("--windows", default="1-7", show_default=True, help="Window sizes F: a range (1-7) or a list (1,3,5).")
 @click.option("--side", type=click.Choice(SIDES), help="Hand to measure (default: the one tracked most).")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), help="Save the trade-off plot here (PNG).")
@@ -154,23 +159,26 @@ def filter_report_command(recording: Path, windows: str, side: str | None, plot:
               help="Seconds to record (default: until Ctrl-C).")
 @click.option("--frames", "max_frames", type=click.IntRange(min=1), help="Frames to record at most.")
 @click.option("--overwrite", is_flag=True, help="Replace the output if it exists.")
+@renamed("--force", "--overwrite", flag=True)
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
               help="With --input webxr: the protocol whose workspace the headset places (a file, or the name "
                    "of a shipped protocol); the joints are recorded in its tracker frame.")
 @click.option("--host", default="127.0.0.1", show_default=True,
-              help="With --input webxr: the address the page listens on (anything but 127.0.0.1 needs the "
-                   "one-time token printed with the address).")
+              help="With --input webxr: the address the page listens on (anything but 127.0.0.1 is served over "
+                   "HTTPS and needs the one-time token printed with the address).")
 @click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
               help="With --input webxr: the page's port (0: a free one; fix it for adb reverse).")
+@page_options
 def record_command(output: Path, input_kind: str, duration: float | None, max_frames: int | None, overwrite: bool,
-                   protocol_name: str, host: str, port: int) -> None:
+                   protocol_name: str, host: str, port: int, cert: str | None, key: str | None,
+                   qr: str | None) -> None:
     """Record live hands to a recording file: a Leap Motion (needs Ultraleap's SDK, bindings and a
     device), or a headset's hand tracking through the participant's page (--input webxr)."""
     if output.exists() and not overwrite:
         raise click.ClickException(f"{output}: already exists (use --overwrite to replace it)")
     limits = {"duration": duration, "max_frames": max_frames, "overwrite": overwrite}
     if input_kind == "webxr":
-        _record_webxr(output, protocol_name, host, port, limits)
+        _record_webxr(output, protocol_name, host, port, limits, (cert, key, qr))
         return
     from microg.hands.leap_device import LeapSource, LeapUnavailable
 
@@ -205,17 +213,24 @@ class _Announced:
         self.source.close()
 
 
-def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict) -> None:
-    """``record --input webxr``: serve the participant's page, record the hands it streams."""
+def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict,
+                  page: tuple[str | None, str | None, str | None]) -> None:
+    """``record --input webxr``: serve the participant's page, record the hands it streams; away from
+    127.0.0.1 over HTTPS (``page``: --cert, --key, --qr), by default with the certificate microg
+    keeps for this user (there is no study folder to keep it in)."""
     from microg.hands.webxr import WebXRSource
     from microg.paths import protocol_file
+    from microg.skeleton.cache import user_cache_dir
     from microg.study.protocol import Phase, ProtocolError, load_protocol
     from microg.view.display import ParticipantDisplay
+    from microg.view.tls import FOLDER
 
     try:
         protocol = load_protocol(protocol_file(protocol_name))
     except (ProtocolError, OSError) as error:
         raise click.ClickException(str(error)) from None
+    cert, key, qr = page
+    certificate = page_certificate(user_cache_dir() / "microg" / FOLDER, host, cert, key)
     source = WebXRSource(protocol.tracking_rate)
 
     def say(kind: str, data: dict) -> None:
@@ -223,12 +238,10 @@ def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits
         click.echo(f"{kind}: {json.dumps(data)}")
 
     try:
-        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say) as display:
+        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say, certificate=certificate) as display:
             display.phase(Phase("recording", 0.0, "Your hand movements are being recorded. Move as the researcher "
                                                   "asks you to."))
-            click.echo(f"participant view: {display.url}")
-            if display.token:
-                click.echo(f"  (one-time token {display.token}: the address above carries it)")
+            announce_page(display, qr)
             click.echo(f"enter mixed reality in the headset's browser and place the workspace; recording to {output} "
                        "starts with the first hand frame; Ctrl-C stops")
             info = RecordingInfo(source="webxr", device=source.device, frame_rate=float("nan"), start_time=UNKNOWN,

@@ -6,7 +6,7 @@ import click
 
 from microg.study.assignment import GENDERS, HANDEDNESS, Participant, paper_sample
 from microg.study.store import open_study
-from .common import clear_errors, study_dir_argument
+from .common import SEED, clear_errors, study_dir_argument
 
 
 @click.group("participant")
@@ -39,7 +39,7 @@ def add(study_dir: str, participant_id: str, gender: str, age: int, handedness: 
 
 @participant.command("add-sample")
 @study_dir_argument
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--seed", type=SEED, default=0, show_default=True,
               help="Who gets which demographic value.")
 @clear_errors
 def add_sample(study_dir: str, seed: int) -> None:

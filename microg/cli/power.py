@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from microg.cli.common import clear_errors
+from microg.cli.common import SEED, ExistingPath, clear_errors, renamed
 
 
 def _power_errors(command):
@@ -43,7 +43,7 @@ def _sizes(text: str) -> tuple[int, ...]:
                    "a participant's value per interaction model is the mean over objects).")  # fmt: skip
 @click.option("--effects", "effects_file", type=click.Path(dir_okay=False, path_type=Path),
               help="TOML file of cell means per group and level, with sd + correlation or a covariance per group.")
-@click.option("--pilot", type=click.Path(exists=True, path_type=Path),
+@click.option("--pilot", type=ExistingPath(path_type=Path),
               help="A pilot study (folder) or its exported trials.csv/.parquet: means and covariance estimated "
                    "from it.")  # fmt: skip
 @click.option("--simulated", is_flag=True, help="In-silico studies: the real sessions with simulated participants "
@@ -62,7 +62,7 @@ def _sizes(text: str) -> tuple[int, ...]:
               help="An existing Dask scheduler; default: a local cluster on this machine's cores.")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
               help="Worker processes of the local cluster [default: one per core].")
-@click.option("--seed", type=int, default=1, show_default=True,
+@click.option("--seed", type=SEED, default=1, show_default=True,
               help="Seed of the run; each data set's seed derives from it and the data set's index.")
 @click.option("--resume", is_flag=True, help="Continue the run in --out where it stopped (same settings).")
 @click.option("--batch", type=click.IntRange(min=1), default=100, show_default=True,
@@ -71,6 +71,7 @@ def _sizes(text: str) -> tuple[int, ...]:
               help="--pilot and --simulated: the measure.")
 @click.option("--interaction", default=None, help="--pilot and --simulated: the interaction model whose tasks are read "
               "(with --within object) [default: the first phase's].")  # fmt: skip
+@renamed("--system", "--interaction")
 @clear_errors
 @_power_errors
 def power(protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,

@@ -6,14 +6,16 @@ from pathlib import Path
 
 import click
 
-FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+from .common import ExistingPath, renamed
+
+FILE = ExistingPath(dir_okay=False, path_type=Path)
 
 
 @click.command("report")
-@click.argument("study", required=False, type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("study", required=False, type=ExistingPath(file_okay=False, path_type=Path))
 @click.option("--trials", type=FILE, help="Exported trials table (CSV or Parquet), instead of a STUDY folder.")
 @click.option("--likert", type=FILE, help="Exported questionnaire table (CSV or Parquet), with --trials.")
-@click.option("--compare", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+@click.option("--compare", type=ExistingPath(file_okay=False, path_type=Path), default=None,
               help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
                    "also writes OUT/comparison.md and its CSVs, the two side by side.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output directory.")
@@ -36,9 +38,14 @@ FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option("--dv", multiple=True, help="Column of a measure (repeatable) [time_s, attempts].")
 @click.option("--count", "counts", multiple=True,
               help="A --dv that counts events, analysed also with a count model (repeatable) [attempts].")
+@click.option("--drop-duplicates", is_flag=True,
+              help="Drop rows that repeat an earlier row of their table in every column (the report says which) "
+                   "instead of refusing the table.")
 @click.option("--columns", "columns_file", type=FILE,
               help="TOML file of column names (subject, group, within, interaction_column, dv, counts, completed, "
                    "phase, label, item, rating); the options above win.")  # fmt: skip
+@renamed("--system", "--interaction")
+@renamed("--system-column", "--interaction-column")
 def report(
     study: Path | None,
     trials: Path | None,
@@ -55,6 +62,7 @@ def report(
     interaction_column: str | None,
     dv: tuple[str, ...],
     counts: tuple[str, ...],
+    drop_duplicates: bool,
     columns_file: Path | None,
 ) -> None:
     """Mixed ANOVA, post hoc tests, interaction model vs baseline, Likert analysis and figures of a study.
@@ -97,7 +105,7 @@ def report(
         trials_table, questionnaire = trials, likert
     try:
         path = write_report(trials_table, questionnaire, out, interaction, baseline, int(ss_type), excluded_phases,
-                            **columns)
+                            drop_duplicates=drop_duplicates, **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""
         raise click.ClickException(f"{where}{error}") from error

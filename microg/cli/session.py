@@ -4,6 +4,8 @@ with the participant's view served by the session itself (``--display``)."""
 from __future__ import annotations
 
 import contextlib
+import signal
+import threading
 from dataclasses import dataclass
 
 import click
@@ -11,7 +13,7 @@ from tqdm import tqdm
 
 from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
-from microg.study.protocol import Phase
+from microg.study.protocol import FOV_RANGE, Phase
 from microg.study.model_rater import ModelRater
 from microg.study.questionnaire import TerminalRater
 from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
@@ -19,7 +21,7 @@ from microg.study.protocol import ProtocolError
 from microg.study.replay import ReplayError, ReplayInputs
 from microg.study.store import PlannedTask, Store, describe_counts, open_study, plan_tasks
 
-from .common import clear_errors, study_dir_argument
+from .common import PAGE_OPTIONS, announce_page, clear_errors, page_certificate, study_dir_argument
 
 QUESTIONNAIRE_DEFAULT = {"leap": "ask", "webxr": "ask", "lsl": "ask", "replay": "skip", "simulated": "model"}
 LIVE = ("leap", "webxr", "lsl")
@@ -59,6 +61,9 @@ class SessionOptions:
     """None: on for live input."""
     host: str
     port: int
+    cert: str | None
+    key: str | None
+    qr: str | None
     eye: str | None
     look_at: str | None
     fov: float | None
@@ -107,7 +112,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
                                    f"microg session run {store.dir} --participant {participant_id} --input ...")
     spec = input_spec or (existing.input if existing else None)
     if spec is None:
-        raise click.ClickException("give --input leap, webxr, replay:FILE or simulated[:PROFILE]")
+        raise click.ClickException("give --input leap, webxr, lsl:NAME, replay:FILE or simulated[:PROFILE]")
     kind = parse_input(spec)[0]
     shown = options.display if options.display is not None else kind in LIVE
     if kind == "webxr" and not shown:
@@ -122,6 +127,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
     if problems:
         raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
     with contextlib.ExitStack() as stack:
+        stack.enter_context(_pause_on_signals())
         display = stack.enter_context(_display(store, options, kind)) if shown else None
         inputs = open_inputs(spec, store.protocol.group(record.group),
                              webxr=None if display is None else display.hands, align=options.align)
@@ -157,10 +163,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             operator = DisplayOperator(display, operator)
             display.on_event = log.emit  # what the page measured or decided: display_clock, display_placement
             sinks.append(display)
-            click.echo(f"participant view: {display.url}")
-            if display.token:
-                click.echo(f"  (one-time token {display.token}: the address above carries it; "
-                           f"the page refuses to connect without it)")
+            announce_page(display, options.qr)
         outputs = Outputs(sinks=tuple(sinks), markers=markers, progress=not options.quiet)
         go_on = resume_session if resume else run_session
         try:
@@ -170,6 +173,25 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             raise click.ClickException(f"session {session_record.id} of {participant_id} paused; the task in "
                                        f"progress will run again from its start on: microg session resume "
                                        f"{store.dir} --participant {participant_id}") from None
+
+
+@contextlib.contextmanager
+def _pause_on_signals():
+    """SIGTERM (a process manager stopping the session) and SIGHUP (its terminal closed) pause the
+    session as Ctrl-C does: each raises KeyboardInterrupt in the session's thread."""
+    def interrupt(number, frame):
+        raise KeyboardInterrupt(signal.Signals(number).name)
+
+    numbers = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may handle signals
+        yield
+        return
+    previous = {number: signal.signal(number, interrupt) for number in numbers}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def _outcome(store: Store, participant_id: str, status: str) -> str:
@@ -182,6 +204,7 @@ def _outcome(store: Store, participant_id: str, status: str) -> str:
 def _display(store: Store, options: SessionOptions, kind: str):
     from microg.study.protocol import Viewpoint
     from microg.view.display import ParticipantDisplay
+    from microg.view.tls import FOLDER
 
     default = store.protocol.viewpoint
     viewpoint = Viewpoint(_point(options.eye, "--eye") or default.eye,
@@ -191,14 +214,17 @@ def _display(store: Store, options: SessionOptions, kind: str):
     if kind == "webxr":
         from microg.hands.webxr import WebXRSource
         hands = WebXRSource(store.protocol.tracking_rate)
-    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands) as display:
+    certificate = page_certificate(store.dir / FOLDER, options.host, options.cert, options.key)
+    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands,
+                            certificate=certificate) as display:
         yield display
 
 
 INPUT_HELP = ("leap (live tracking), webxr (a headset's hand tracking, through the participant's page), "
-              "replay:FILE (a recording, replayed for each task) or simulated[:PROFILE] (a simulated "
-              "participant; PROFILE practice (skill grows with each task done), veteran or beginner; "
-              "default: the group's simulated_profile).")
+              "lsl:NAME (another tracker's hands, from the Lab Streaming Layer stream NAME; needs microg[lsl]), "
+              "replay:FILE (a recording, replayed for each task; a replay manifest, replay:MANIFEST.toml, gives "
+              "each task its own) or simulated[:PROFILE] (a simulated participant; PROFILE practice (skill grows "
+              "with each task done), veteran or beginner; default: the group's simulated_profile).")
 QUESTIONNAIRE_HELP = ("ask (on the participant's page with --display, else in the terminal), model (the rating "
                       "model, answers marked simulated) or skip; default: ask for leap and webxr, model for "
                       "simulated, skip for replay.")
@@ -214,14 +240,16 @@ def session_options(command):
                           "live input (leap, webxr), off for replay and simulated."),
         click.option("--host", default="127.0.0.1", show_default=True,
                      help="Address the participant's view listens on; anything but 127.0.0.1 (e.g. the LAN "
-                          "address for a headset on Wi-Fi) requires a one-time token, printed with the address. "
-                          "A headset on USB reaches 127.0.0.1 through `adb reverse tcp:PORT tcp:PORT`."),
+                          "address for a headset on Wi-Fi) serves it over HTTPS and requires a one-time token, "
+                          "printed with the address. A headset on USB reaches 127.0.0.1 through "
+                          "`adb reverse tcp:PORT tcp:PORT`."),
         click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
                      help="Port of the participant's view (0: a free one; fix it for adb reverse)."),
+        *PAGE_OPTIONS,
         click.option("--eye", default=None, help="Screen mode: the participant's eyes X,Y,Z (m, tracker frame); "
                                                  "default: the protocol's display.eye, else framing the places."),
         click.option("--look-at", "look_at", default=None, help="Screen mode: the point X,Y,Z the view centres on."),
-        click.option("--fov", type=click.FloatRange(10, 120), default=None,
+        click.option("--fov", type=click.FloatRange(*FOV_RANGE), default=None,
                      help="Screen mode: vertical field of view (degrees) the screen spans from the eyes; "
                           "default: the protocol's display.fov_deg, else 40."),
         click.option("--pace", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,

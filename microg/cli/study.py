@@ -1,5 +1,6 @@
 """``microg study init``: create a study from a protocol; ``microg study status``: where it stands;
-``microg study check``: the study database's full integrity check."""
+``microg study check``: the study database's full integrity check; ``microg study station`` and
+``microg study merge``: several stations run one study (``microg.study.stations``)."""
 
 from __future__ import annotations
 
@@ -10,21 +11,23 @@ import click
 
 from microg.paths import protocol_file
 
+from microg.study import ledger
 from microg.study.protocol import load_protocol
-from microg.study.store import check_integrity, create_study, describe_counts, open_study
-from .common import clear_errors, study_dir_argument
+from microg.study.stations import make_station, merge_stations, stations
+from microg.study.store import DATABASE, archived, check_integrity, create_study, describe_counts, open_study
+from .common import SEED, clear_errors, study_dir_argument
 
 
 @click.group("study")
 def study() -> None:
-    """Create a study, see where it stands, check its database."""
+    """Create a study, see where it stands, check its database, run it at several stations."""
 
 
 @study.command("init")
 @study_dir_argument
 @click.option("--protocol", "protocol_name", default="paper", show_default=True,
               help="Protocol file, or the name of a shipped protocol (paper, paper-microgravity, mallet-microgravity).")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=SEED, default=None,
               help="Seed of every random choice in the study (default: the protocol's, else a fresh one).")
 @clear_errors
 def init(study_dir: str, protocol_name: str, seed: int | None) -> None:
@@ -66,28 +69,105 @@ def status(study_dir: str) -> None:
                 state = f"session {session.id} {session.status}, {describe_counts(store.task_counts(session.id))} " \
                         f"({session.input})"
             click.echo(f"  {p.id:>6} {p.group} {p.participant.gender:<11} {p.status:<9} {state}")
+        if store.station is not None:
+            click.echo(f"station {store.station}'s study (made with microg study station): it runs the participants "
+                       "above, enrolled centrally; bring its sessions into the central study with: microg study merge")
+        else:
+            for made in stations(store.db):
+                merged = store.db.execute("SELECT COUNT(*) FROM sessions WHERE station = ?", (made.name,)).fetchone()[0]
+                click.echo(f"  station {made.name} (made {made.made_at}): {', '.join(made.participants)}; "
+                           f"{merged} session(s) merged")
         if store.problems:
             click.echo(f"the study is damaged ({len(store.problems)} problem(s) above); see: microg study check "
                        f"{study_dir}", err=True)
+        if archived(store.dir / DATABASE):
+            click.echo("read only here (an archive): the commands that write into a study refuse it")
+
+
+def _head(value: str) -> ledger.Head:
+    try:
+        return ledger.parse_head(value)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--head") from None
 
 
 @study.command("check")
 @study_dir_argument
+@click.option("--head", "heads", multiple=True, metavar="ENTRY:LINK",
+              help="A ledger head noted earlier (as this command prints it, or from an export's export.json): check "
+                   "that the study's ledger still holds it, i.e. was not rewritten since (repeatable).")
 @clear_errors
-def check(study_dir: str) -> None:
-    """The full integrity check of STUDY_DIR's database (read only): the append-only triggers, the
-    stored protocol against its SHA-256, every finished task run's frames and events, participant
-    ids, SQLite's own check and every frame batch. Exit status 1 when something is wrong."""
+def check(study_dir: str, heads: tuple[str, ...]) -> None:
+    """The full integrity check of STUDY_DIR's database (read only): every fact in the ledger's hash
+    chain and against the chain's head beside the database (and any --head), every frame batch
+    against its checksum, the append-only triggers, the stored protocol against its SHA-256, every
+    finished task run's frames and events, participant ids, SQLite's own check. Prints the ledger's
+    head to note elsewhere. Exit status 1 when something is wrong."""
+    given = [(_head(value), f"--head {value}") for value in heads]
     with open_study(study_dir, readonly=True, accept_damaged=True) as store:
-        problems = check_integrity(store.db, full=True)
+        problems = check_integrity(store.db, store.dir, full=True, heads=given)
         runs, frames = store.db.execute("SELECT (SELECT COUNT(*) FROM task_runs), "
                                         "(SELECT COALESCE(SUM(count), 0) FROM frames)").fetchone()
+        head = ledger.head_of(store.db)
+        witnessed = (store.dir / ledger.HEAD_FILE).exists()
     if problems:
         for problem in problems:
             click.echo(f"damaged: {problem}")
         raise click.ClickException(f"{study_dir}: {len(problems)} problem(s); nothing was changed. Keep a copy of "
                                    "the study folder; microg export --accept-damaged exports it, marked as damaged")
-    click.echo(f"{study_dir}: sound ({runs} task runs, {frames} frames, protocol and triggers as written)")
+    click.echo(f"{study_dir}: sound ({runs} task runs, {frames} frames; every fact and frame batch as committed, "
+               "protocol and triggers as written)")
+    click.echo(f"ledger head: {head}" + ("" if witnessed else f" (no {ledger.HEAD_FILE} beside the database: the "
+                                                               "chain was checked within the database only)"))
+
+
+@study.command("station")
+@study_dir_argument
+@click.option("--name", required=True, help="The station's name (letters, digits, '-', '_'), e.g. B; used once.")
+@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=str),
+              help="A new folder for the station's study (copy it to the station's machine).")
+@click.option("--participant", "participants", multiple=True,
+              help="A participant the station may run (repeat); default: every active participant with no session "
+                   "here and given to no station yet.")
+@clear_errors
+def station(study_dir: str, name: str, out_dir: str, participants: tuple[str, ...]) -> None:
+    """Make a station's study from the central study STUDY_DIR: the same protocol and seed, and the
+    participants it may run with the groups and object orders assigned here (so the balance holds
+    across stations). Run its sessions there as usual; bring them back with microg study merge."""
+    with open_study(study_dir) as central:
+        with make_station(central, name, out_dir, participants,
+                          say=lambda text: click.echo(text, err=True)) as made:
+            people = [p.id for p in made.participants()]
+    click.echo(f"made station {name} in {out_dir}: it may run {', '.join(people)}")
+    click.echo(f"next, on the station: microg session run {out_dir} --participant {people[0]} --input ...; then "
+               f"here: microg study merge {study_dir} {out_dir}")
+
+
+@study.command("merge")
+@study_dir_argument
+@click.argument("station_dirs", nargs=-1, required=True, type=click.Path(file_okay=False, path_type=str))
+@clear_errors
+def merge(study_dir: str, station_dirs: tuple[str, ...]) -> None:
+    """Bring the ended sessions of the stations' studies STATION_DIRS into the central study
+    STUDY_DIR: append-only, in one transaction, idempotent (a session merged before adds nothing),
+    each session keeping its station and when it was merged; withdrawals at a station carry over.
+    Both sides' integrity is checked; any conflict (another protocol, a participant run at two
+    stations, a session that differs from the one merged before) is listed and nothing is merged."""
+    with open_study(study_dir) as central:
+        outcomes = merge_stations(central, station_dirs)
+        head = ledger.head_of(central.db)
+    for outcome in outcomes:
+        parts = [f"merged {len(outcome.merged)} session(s)" + (f" ({', '.join(outcome.merged)})" if outcome.merged
+                                                               else "")]
+        if outcome.already:
+            parts.append(f"{len(outcome.already)} merged before, unchanged ({', '.join(outcome.already)})")
+        if outcome.withdrawn:
+            parts.append(f"withdrew {', '.join(outcome.withdrawn)} as at the station")
+        click.echo(f"station {outcome.station} ({outcome.folder}): " + "; ".join(parts))
+        if outcome.running:
+            click.echo(f"  still running at the station, not merged: {', '.join(outcome.running)} (finish or resume "
+                       "them there, then merge again)")
+    click.echo(f"ledger head: {head}")
 
 
 COMMANDS = [study]

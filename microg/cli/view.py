@@ -8,7 +8,7 @@ import click
 
 from microg.view import HAND_MODES
 
-from .common import clear_errors, picture_size, study_dir_argument
+from .common import clear_errors, picture_size, renamed, study_dir_argument
 
 
 @click.command("view")
@@ -32,6 +32,7 @@ from .common import clear_errors, picture_size, study_dir_argument
 @click.option("--title/--no-title", default=True, show_default=True, help="A title line over the strip.")
 @click.option("--overwrite", is_flag=True, help="Replace OUT if it exists.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
+@renamed("--study", "the argument STUDY_DIR (microg view STUDY_DIR)")
 @clear_errors
 def view(study_dir: str, session: str | None, task_index: int | None, run: int | None, hands: str,
          seconds: tuple[float, ...], port: int, out: Path | None, size: str, fps: float, speed: float, title: bool,

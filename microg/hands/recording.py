@@ -13,6 +13,11 @@ holding ``track_id``, ``palm_position`` (3), ``palm_orientation`` (4, w x y z), 
 5 digits x 5 joints x 3, digit-major) and ``widths`` (20), in metres, float64. A null struct is a
 hand the tracker did not see; NaN inside it is a value the tracker marked unknown. float64 throughout
 keeps a record-replay round trip exact.
+
+A recording loaded for use (``load_recording``: replay, import, the filter report) has its clock
+counted from its first frame, once, as it is read: a recorder whose clock reads far from zero (Unix
+seconds, as a headset's page stamps frames: 1.8e9 s) leaves each time only a few significant digits
+below the millisecond, and the physics works on differences of such times.
 """
 
 from __future__ import annotations
@@ -257,7 +262,8 @@ def read_recording(path: str | Path) -> Recording:
 
 
 def load_recording(path: str | Path) -> Recording:
-    """Read a recording of either kind, told apart by content: the project's format or LeapJS v2 JSON."""
+    """Read a recording of either kind, told apart by content: the project's format or LeapJS v2 JSON,
+    with its clock counted from its first frame (module docstring; LeapJS's is rebased in microseconds)."""
     from .leapjs import read_leapjs
 
     path = Path(path)
@@ -267,7 +273,7 @@ def load_recording(path: str | Path) -> Recording:
     except OSError as error:
         raise RecordingError(f"{path}: cannot open: {error}") from None
     if head == STREAM_START:
-        return read_recording(path)
+        return from_first_frame(read_recording(path))
     if head[:2] == b"\x1f\x8b":
         try:
             with gzip.open(path, "rb") as stream:
@@ -278,6 +284,15 @@ def load_recording(path: str | Path) -> Recording:
         return read_leapjs(path)
     raise RecordingError(f"{path}: neither a microg hand recording ({SUFFIX}) nor LeapJS v2 JSON "
                          f"(plain or gzip); the file starts with {head!r}")
+
+
+def from_first_frame(recording: Recording) -> Recording:
+    """``recording`` with its frames' times counted from the first frame's (exact: two times within a
+    factor of two of each other subtract without rounding)."""
+    if not recording.frames or recording.frames[0].timestamp == 0.0:
+        return recording
+    origin = recording.frames[0].timestamp
+    return replace(recording, frames=tuple(HandFrame.made(f.timestamp - origin, f.hands) for f in recording.frames))
 
 
 class ReplaySource:

@@ -32,13 +32,17 @@ by ping/pong, a burst of 12 every 10 s: the mean offset of the 4 quickest of the
 trips (each is off by at most half its round trip), with their spread; the display logs each
 measurement (``display_clock``). A frame's timestamp (s) is the page's
 read time plus the latest measured offset, so frames are on the session's clock within the
-offset's spread. Frames before the first sync, malformed hands and hands no real hand could be
-(``Hand`` refuses them) are refused and counted.
+offset's spread, counted from the source's first frame: the session's clock is Unix time (1.8e9 s,
+where a double keeps a quarter of a microsecond and the physics loses a tenth of a millimetre on
+the object's path over a task), and its differences are what the physics and the task use. Frames
+before the first sync, malformed hands and hands no real hand could be (``Hand`` refuses them) are
+refused and counted.
 
 A live source serves the newest frames: frames more than ``backlog_s`` older than the newest one
 waiting (the session fell behind: between tasks, while the researcher starts the next one, or
 while the physics compiles for a new scene) are dropped and counted in ``frames_dropped`` (the
-guard treats them as missing frames).
+guard treats them as missing frames); so are frames beyond the newest ``WAITING_FRAMES`` (a page or
+a script that sends faster than any headset tracks, or with a clock that stands still).
 """
 
 from __future__ import annotations
@@ -67,6 +71,8 @@ SKELETON = np.array([[1, 1, 2, 3, 4]] + [[5 + 5 * f + j for j in range(N_BONES +
 """(5, 5) index into ``XR_JOINTS`` of each joint of the project's skeleton."""
 WAIT_SLICE_S = 0.5
 """``next_frame`` waits in slices this long, so Ctrl-C reaches a session waiting for the page."""
+WAITING_FRAMES = 256
+"""The most frames waiting for the session: a quarter of a second at 1 kHz."""
 
 
 def hand_from_webxr(side: str, joints, radii, track_id: int = 0) -> Hand:
@@ -114,6 +120,8 @@ class WebXRSource:
         the round trip on its own clock."""
         self._frames: deque[tuple[HandFrame, float]] = deque()
         self._backlog_s = backlog_s
+        self._origin: tuple[float, float] | None = None
+        """The first frame's read time and clock offset (ms): the frames' clock starts there."""
         self._times: deque[float] = deque(maxlen=64)
         self._arrived = threading.Condition()
         self._closed = False
@@ -151,12 +159,15 @@ class WebXRSource:
                 self.refused += 1
                 continue
             hands.setdefault(side, hand)
-        frame = HandFrame((t + offset) / 1e3, tuple(hands.values()))
+        if self._origin is None:
+            self._origin = (t, offset)
+        frame = HandFrame(((t - self._origin[0]) + (offset - self._origin[1])) / 1e3, tuple(hands.values()))
         with self._arrived:
             self.clock = clock
             self._times.append(t)
             self._frames.append((frame, t))
-            while frame.timestamp - self._frames[0][0].timestamp > self._backlog_s:
+            while (len(self._frames) > WAITING_FRAMES
+                   or frame.timestamp - self._frames[0][0].timestamp > self._backlog_s):
                 self._frames.popleft()
                 self.frames_dropped += 1
             self._arrived.notify_all()

@@ -20,7 +20,10 @@ repeated measures (compound symmetry) or a full covariance per group::
     cube = { cube = 400.0, flat_cuboid = 200.0, long_cuboid = 200.0 }
     ...
 
-Every error names the file, the key and the value.
+Every error names the file, the key and the value. The numbers must lie where the analysis can
+resolve them in double precision: every SD between ``MIN_SD`` and ``MAX_SD`` and every mean within
+``MAX_MEAN_SDS`` SDs of zero (the ANOVA sums the squared values: with means 10^5 SDs from zero, the
+SD is lost to rounding and the exact power of the paper's design is off by 0.03).
 """
 
 from __future__ import annotations
@@ -34,6 +37,15 @@ import numpy as np
 import pandas as pd
 
 from microg.power.design import Design, PowerInputError
+
+MIN_SD, MAX_SD = 1e-50, 1e50
+"""The SDs (and square roots of the variances) the analysis handles: their squares and the sums of
+squares over participants stay normal double-precision numbers."""
+MAX_MEAN_SDS = 1e4
+"""How far from zero a mean may lie, in the smallest SD; the exact power of the paper's design is
+the same to 1e-11 up to here, and off by 0.03 at 1e5."""
+MAX_FILE_BYTES = 1 << 20
+"""An effects file is a few hundred bytes; anything over a megabyte is not one."""
 
 
 @dataclass(frozen=True)
@@ -140,17 +152,28 @@ def read_effects(path: str | Path, design: Design) -> Effects:
     Raises
     ------
     PowerInputError
-        Naming the file, key and value: an unknown or missing group or level, a mean that is not a
-        number, SD <= 0, a correlation outside (-1/(k-1), 1), a covariance that is not symmetric
-        positive definite, or both forms at once.
+        Naming the file, key and value: a file that is not UTF-8 TOML, an unknown or missing group or
+        level, a mean that is not a number, an SD outside [MIN_SD, MAX_SD], a mean more than
+        MAX_MEAN_SDS SDs from zero, a correlation outside (-1/(k-1), 1), a covariance that is not
+        symmetric positive definite, or both forms at once.
     """
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
+        with open(path, "rb") as stream:
+            raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         raise PowerInputError(f"{path}: cannot read effects file: {error.strerror}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise PowerInputError(f"{path}: over {MAX_FILE_BYTES >> 20} MiB: not an effects file (a few lines of TOML)")
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError as error:
+        raise PowerInputError(f"{path}: not UTF-8 text (byte {raw[error.start]:#04x} at position {error.start}); "
+                              "save the effects file as UTF-8") from None
     except tomllib.TOMLDecodeError as error:
         raise PowerInputError(f"{path}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise PowerInputError(f"{path}: not an effects file: its tables or arrays are nested too deeply") from None
     return _effects(data, design, str(path))
 
 
@@ -175,8 +198,8 @@ def _effects(data: dict, design: Design, where: str) -> Effects:
             if data.get(key) is None:
                 raise PowerInputError(f"{where}: missing key {key} (or a [covariance.<group>] table per group)")
         sd = _number(data["sd"], "sd", fail)
-        if sd <= 0:
-            raise fail("sd", data["sd"], "must be a positive number")
+        if not MIN_SD <= sd <= MAX_SD:
+            raise fail("sd", data["sd"], f"must be a positive number from {MIN_SD:g} to {MAX_SD:g}")
         rho = _number(data["correlation"], "correlation", fail)
         low = -1 / (k - 1)
         if not low < rho < 1:
@@ -184,7 +207,18 @@ def _effects(data: dict, design: Design, where: str) -> Effects:
                        f"must lie in ({low:.4g}, 1) for {k} levels of {d.within}: otherwise the covariance of "
                        "the repeated measures is not positive definite")
         covariances = np.array([compound_symmetry(sd, rho, k)] * len(d.groups))
+    _check_means(means, covariances, d, fail)
     return Effects(d, means, covariances, where)
+
+
+def _check_means(means: np.ndarray, covariances: np.ndarray, design: Design, fail) -> None:
+    """Every mean within ``MAX_MEAN_SDS`` of the smallest SD of zero."""
+    smallest = float(np.sqrt(np.diagonal(covariances, axis1=1, axis2=2).min()))
+    i, j = np.unravel_index(np.argmax(np.abs(means)), means.shape)
+    if abs(means[i, j]) > MAX_MEAN_SDS * smallest:
+        raise fail(f"means.{design.groups[i]}.{design.levels[j]}", float(means[i, j]),
+                   f"lies {abs(means[i, j]) / smallest:.5g} SDs (SD {smallest:g}) from zero; the analysis resolves "
+                   f"means up to {MAX_MEAN_SDS:g} SDs from zero: give the measure in other units or shift it")
 
 
 def _cell(data: dict, table: str, group: str, level: str, design: Design, where: str):
@@ -211,10 +245,15 @@ def _cell(data: dict, table: str, group: str, level: str, design: Design, where:
 
 
 def _number(value, key: str, fail) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) \
-            or not math.isfinite(value):
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise fail(key, value, "must be a finite number")
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:
+        raise fail(key, value, "too large for a double-precision number") from None
+    if not math.isfinite(number):
+        raise fail(key, value, "must be a finite number")
+    return number
 
 
 def _covariance(data: dict, group: str, design: Design, where: str, fail) -> np.ndarray:
@@ -234,8 +273,9 @@ def _covariance(data: dict, group: str, design: Design, where: str, fail) -> np.
         rows.append([_number(row[b], f"covariance.{group}.{a}.{b}", fail) for b in d.levels])
     matrix = np.array(rows)
     for i, a in enumerate(d.levels):
-        if matrix[i, i] <= 0:
-            raise fail(f"covariance.{group}.{a}.{a}", float(matrix[i, i]), "a variance must be positive")
+        if not MIN_SD**2 <= matrix[i, i] <= MAX_SD**2:
+            raise fail(f"covariance.{group}.{a}.{a}", float(matrix[i, i]),
+                       f"a variance must be a positive number from {MIN_SD**2:g} to {MAX_SD**2:g}")
         for j, b in enumerate(d.levels):
             if not math.isclose(matrix[i, j], matrix[j, i], rel_tol=1e-9, abs_tol=1e-12):
                 raise fail(f"covariance.{group}.{a}.{b}", float(matrix[i, j]),

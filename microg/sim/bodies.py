@@ -17,6 +17,9 @@ An object file is TOML (see ``protocols/objects/``)::
 
 The body frame is the principal frame, centred at the centre of mass, so the body inertia is
 diagonal. A mesh's mass properties come from the solid it bounds (``mesh.load_mesh``).
+
+An object file describes something a hand can pick up: its mass must lie in ``MASS_LIMITS`` and
+its extent along each axis in ``SIZE_LIMITS`` (a mesh written in millimetres is 1000 times too big).
 """
 
 from __future__ import annotations
@@ -32,16 +35,36 @@ from .mesh import MeshError, MeshShape, load_mesh
 
 SHAPES = ("box", "sphere", "mesh")
 BOX, SPHERE, MESH = 0, 1, 2
+MASS_LIMITS = (1e-4, 1e3)
+"""kg: from a tenth of a gram to a tonne (the physics' tests span 1 g to 10 kg)."""
+SIZE_LIMITS = (1e-3, 10.0)
+"""m: an object's extent along a body axis, from a millimetre to ten metres."""
 
 
 class SceneError(ValueError):
     """A scene, object or hand input that the physics cannot accept; the message names the field."""
 
 
-def _positive(where: str, name: str, value: object) -> float:
-    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) or value <= 0:
+def _float(value: object) -> float | None:
+    """``value`` as a float when it is a finite number (not a bool, not an integer beyond floats), else None."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def _positive(where: str, name: str, value: object, limits: tuple[float, float] | None = None,
+              unit: str = "") -> float:
+    """``value`` as a float, if it is a positive number (within ``limits``, when given)."""
+    number = _float(value)
+    if number is None or number <= 0:
         raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")
-    return float(value)
+    if limits is not None and not limits[0] <= number <= limits[1]:
+        raise SceneError(f"{where}: {name} = {value!r}: must lie from {limits[0]:g} to {limits[1]:g}{unit}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -55,7 +78,7 @@ class Material:
     def validate(self, where: str) -> None:
         e, mu, phi = self.restitution, self.static_friction, self.dynamic_friction
         for name, value in (("restitution", e), ("static_friction", mu), ("dynamic_friction", phi)):
-            if not isinstance(value, (int, float)) or not math.isfinite(value):
+            if _float(value) is None:
                 raise SceneError(f"{where}: material.{name} = {value!r}: must be a number")
         if not 0 < e < 1:
             raise SceneError(f"{where}: material.restitution = {e}: must lie in (0, 1) (paper, Eq. 10)")
@@ -120,9 +143,11 @@ def load_object(path: str | Path) -> ObjectSpec:
     """Read an object file; errors name the file, the field and the value."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, tomllib.TOMLDecodeError) as error:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise SceneError(f"{path}: cannot read object file: {error}") from None
+    except RecursionError:
+        raise SceneError(f"{path}: not an object file: its tables or arrays are nested too deeply") from None
     return object_from_dict(data, str(path), path.parent)
 
 
@@ -138,8 +163,17 @@ def _mesh_object(data: dict, where: str, folder: Path,
         raise SceneError(f"{where}: mesh = {name!r}: {error}") from None
     if ("mass" in data) == ("density" in data):
         raise SceneError(f"{where}: a mesh object needs exactly one of 'mass' and 'density'")
-    mass = data["mass"] if "mass" in data else _positive(where, "density", data["density"]) * mesh.volume
     extent = mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)
+    if not (SIZE_LIMITS[0] <= extent.min() and extent.max() <= SIZE_LIMITS[1]):
+        raise SceneError(f"{where}: mesh = {name!r}: extent {[round(float(v), 6) for v in extent]} m: must lie from "
+                         f"{SIZE_LIMITS[0]:g} to {SIZE_LIMITS[1]:g} m along each axis (a mesh is in metres)")
+    if "mass" in data:
+        mass = _positive(where, "mass", data["mass"], MASS_LIMITS, " kg")
+    else:
+        mass = _positive(where, "density", data["density"]) * mesh.volume
+        if not MASS_LIMITS[0] <= mass <= MASS_LIMITS[1]:
+            raise SceneError(f"{where}: density = {data['density']!r}: gives a mass of {mass:g} kg; the mass must "
+                             f"lie from {MASS_LIMITS[0]:g} to {MASS_LIMITS[1]:g} kg")
     return mesh, tuple(float(v) for v in extent), mass
 
 
@@ -154,31 +188,40 @@ def object_from_dict(data: dict, where: str, folder: Path = Path("."), mesh_cont
     for required in ("name", "shape"):
         if required not in data:
             raise SceneError(f"{where}: missing field {required!r}")
+    if not isinstance(data["name"], str) or not data["name"].strip():
+        raise SceneError(f"{where}: name = {data['name']!r}: must be a non-empty string")
     shape, mesh = data["shape"], None
+    if shape not in SHAPES:
+        raise SceneError(f"{where}: shape = {shape!r}: must be one of {SHAPES}")
     if shape != "mesh":
         for misplaced in ("mesh", "density"):
             if misplaced in data:
                 raise SceneError(f"{where}: {misplaced} = {data[misplaced]!r}: only for shape = 'mesh'")
         if "mass" not in data:
             raise SceneError(f"{where}: missing field 'mass'")
-        mass = data["mass"]
+        mass = _positive(where, "mass", data["mass"], MASS_LIMITS, " kg")
     if shape == "mesh":
         mesh, size, mass = _mesh_object(data, where, folder, mesh_content)
     elif shape == "sphere":
-        radius = _positive(where, "radius", data.get("radius"))
+        radius = _positive(where, "radius", data.get("radius"), tuple(v / 2 for v in SIZE_LIMITS), " m")
         size = (2 * radius,) * 3
     else:
         size = data.get("size")
         if not isinstance(size, list) or len(size) != 3:
             raise SceneError(f"{where}: size = {size!r}: must be three edge lengths [x, y, z] in metres")
-        size = tuple(_positive(where, f"size.{axis}", v) for axis, v in zip("xyz", size))
+        size = tuple(_positive(where, f"size.{axis}", v, SIZE_LIMITS, " m") for axis, v in zip("xyz", size))
     material = data.get("material", {})
+    if not isinstance(material, dict):
+        raise SceneError(f"{where}: material = {material!r}: must be a table ([material]) of restitution, "
+                         "static_friction and dynamic_friction")
     known_material = {"restitution", "static_friction", "dynamic_friction"}
     if set(material) - known_material:
         raise SceneError(f"{where}: unknown field material.{sorted(set(material) - known_material)[0]}")
     inertia = data.get("inertia")
-    if inertia is not None and (not isinstance(inertia, list) or len(inertia) != 3):
-        raise SceneError(f"{where}: inertia = {inertia!r}: must be three principal moments")
+    if inertia is not None:
+        if not isinstance(inertia, list) or len(inertia) != 3:
+            raise SceneError(f"{where}: inertia = {inertia!r}: must be three principal moments")
+        inertia = [_positive(where, f"inertia[{i}]", v, unit=" kg m^2") for i, v in enumerate(inertia)]
     spec = ObjectSpec(name=data["name"], shape=shape, size=size, mass=mass,
                       material=Material(**material), inertia=tuple(inertia) if inertia else None, mesh=mesh)
     spec.validate(where)

@@ -157,9 +157,10 @@ def _motion_sidecar(run: dict, channels: list[dict], samples: int, duration: flo
     } | {f"{kind}ChannelCount": 0 for kind in ABSENT_CHANNELS}
 
 
-def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]:
-    """Write the study's task runs as a Motion-BIDS dataset into the new folder ``out_dir``;
-    returns the files. ``bar`` (a tqdm bar) counts the runs written."""
+def write_motion_bids(store: Store, out_dir: str | Path, bar=None, runs: list[dict] | None = None) -> list[Path]:
+    """Write the study's task runs (``runs``, of ``run_list``; default: every run with frames) as a
+    Motion-BIDS dataset into the new folder ``out_dir``; returns the files. ``bar`` (a tqdm bar)
+    counts the runs written."""
     out_dir = Path(out_dir)
     protocol = store.protocol
     rate = protocol.tracking_rate
@@ -197,7 +198,7 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None) -> list[Path]
     instructions = " ".join(" ".join(p.text.split()) for p in protocol.timeline if p.name == "instructions") or "n/a"
     with ThreadPoolExecutor(max_workers=WRITERS) as background:
         writing: list[Future] = []
-        for run in run_list(store):
+        for run in run_list(store) if runs is None else runs:
             frames = framelog.frame_columns(framelog.read(store.db, run["run_id"]))
             sides = [s for s in SIDES if not np.isnan(frames[f"{s}_palm_x"]).all()]
             channels = _channels(sides, run["object"])

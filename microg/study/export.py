@@ -2,6 +2,7 @@
 
 - ``trials``: one row per planned task of every session (its last run decides);
 - ``questionnaire``: one row per answer;
+  both name the station that ran the session (``station``; empty for one run in the study itself);
   their columns, types and meanings are ``microg.schema`` (what the analysis reads);
 - ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``).
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import errno
 import json
+import os
 import shutil
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -27,8 +29,8 @@ import pyarrow.parquet as pq
 from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
 from microg.skeleton import HandFrame
 
-from . import framelog
-from .store import DATABASE, FINAL_RUN, Store, StoreError, open_study
+from . import framelog, ledger
+from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
 
 
 def _status(last_status: str | None) -> str:
@@ -47,7 +49,8 @@ def trials_table(store: Store) -> pd.DataFrame:
     labels = interaction_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.gender, p.age, p.handedness, p.mr_experience,
-               p.status AS participant_status, s.id AS session, s.simulated, t.task_index, t.phase, t.interaction,
+               p.status AS participant_status, s.id AS session, s.simulated, s.station, t.task_index, t.phase,
+               t.interaction,
                t.object, t.object_code, t.order_position,
                r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
                (SELECT COUNT(*) FROM task_runs c WHERE c.session_id = t.session_id AND c.task_index = t.task_index) AS runs
@@ -70,6 +73,7 @@ def trials_table(store: Store) -> pd.DataFrame:
         "ended_at": r["ended_at"] if r["status"] in FINAL_RUN else None,
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
+        "station": r["station"],
     } for r in rows], columns=TRIAL_COLUMNS)
     return table.astype(TRIAL_DTYPES)
 
@@ -78,8 +82,8 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
     """One row per answer (the module docstring lists the columns)."""
     labels = interaction_labels(store)
     rows = store.db.execute("""
-        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, a.interaction, a.item,
-               a.rating, a.source
+        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, s.station,
+               a.interaction, a.item, a.rating, a.source
         FROM answers a JOIN sessions s ON s.id = a.session_id JOIN participants p ON p.id = s.participant_id
         ORDER BY p.number, a.interaction, a.item""").fetchall()
     table = pd.DataFrame([{
@@ -87,7 +91,7 @@ def questionnaire_table(store: Store) -> pd.DataFrame:
         "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"], "rating": r["rating"],
         "source": r["source"],
         "simulated": bool(r["simulated"]) or r["source"] == "model",
-        "withdrawn": r["participant_status"] == "withdrawn",
+        "withdrawn": r["participant_status"] == "withdrawn", "station": r["station"],
     } for r in rows], columns=QUESTIONNAIRE_COLUMNS)
     return table.astype(QUESTIONNAIRE_DTYPES)
 
@@ -146,6 +150,34 @@ def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 PARTIAL = ".partial"
 """An export is written into ``<out>.partial`` and renamed to ``<out>`` when complete."""
+MANIFEST = "export.json"
+
+
+def refuse_links(*paths: Path) -> None:
+    """Refuse to write through a symbolic link (dangling or not): the files would land wherever it
+    points, and replacing it would replace what it points to."""
+    for path in paths:
+        if path.is_symlink():
+            raise FileExistsError(f"{path} is a symbolic link (to {os.readlink(path)}); microg writes an export into "
+                                  "a real folder, never through a link: give the folder itself, or another")
+
+
+def check_output(out_dir: Path, overwrite: bool) -> None:
+    """Refuse an export folder that the export would write through, replace by mistake or cannot
+    write: a symbolic link (``refuse_links``), an existing folder without ``overwrite``, one that is
+    not an earlier export (no ``export.json``; ``overwrite`` replaces exports only, never a folder
+    of other files, nor the study), a read-only place."""
+    refuse_links(out_dir, out_dir.with_name(out_dir.name + PARTIAL))
+    if out_dir.exists():
+        if not overwrite:
+            raise FileExistsError(f"{out_dir} exists; export into another folder or pass --overwrite")
+        if not out_dir.is_dir() or (any(out_dir.iterdir()) and not (out_dir / MANIFEST).is_file()):
+            raise FileExistsError(f"{out_dir} exists and is not an export (it has no {MANIFEST}); --overwrite "
+                                  "replaces an earlier export only: export into another folder")
+    parent = nearest_folder(out_dir)
+    if not writable(parent):
+        raise StoreError(f"{out_dir}: cannot write into {parent}: the folder is read-only (an archived study "
+                         "is exported elsewhere: give --out a writable folder)")
 
 
 def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),
@@ -156,32 +188,43 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
 
     The export is atomic: it is written into ``<out_dir>.partial`` and renamed at the end, so a
     folder named ``out_dir`` always holds a complete export. An existing ``out_dir`` is replaced
-    only with ``overwrite``; a ``.partial`` folder left by an earlier export that was cut off is
-    reported through ``say`` and replaced. A study that fails its integrity check is exported only
-    with ``accept_damaged``, and its ``export.json`` lists the problems. A write that fails (a full
-    disk) removes the partial folder and leaves ``out_dir`` as it was.
+    only with ``overwrite`` and only if it is an earlier export (``check_output``: never through a
+    symbolic link); a ``.partial`` folder left by an earlier export that was cut off is reported
+    through ``say`` and replaced. A study that fails its integrity check is exported only with
+    ``accept_damaged``, and its ``export.json`` lists the problems. Every frame batch is verified
+    against its checksum as it is read: a damaged one stops the export, or with ``accept_damaged``
+    (every batch verified first) its run is left out of the frames and Motion-BIDS and listed. A
+    write that fails (a full disk) removes the partial folder and leaves ``out_dir`` as it was.
+    ``export.json`` also records the ledger's head, for checking the study against it later.
     """
     out_dir = Path(out_dir)
     unknown = set(formats) - {"csv", "parquet"}
     if unknown or not formats:
         raise ValueError(f"formats = {list(formats)}: choose from csv, parquet")
-    if out_dir.exists() and not overwrite:
-        raise FileExistsError(f"{out_dir} exists; export into another folder or pass --overwrite")
+    check_output(out_dir, overwrite)
     partial = out_dir.with_name(out_dir.name + PARTIAL)
     with open_study(study_dir, readonly=True, accept_damaged=accept_damaged) as store:
         for problem in store.problems:
             say(f"warning: exporting a damaged study: {problem}")
+        damage = list(framelog.damaged(store.db)) if accept_damaged and (frames or bids) else []
+        for _, problem in damage:
+            say(f"warning: left out of the frames and Motion-BIDS: {problem}")
         if partial.exists():
             say(f"note: {partial} holds an earlier export that was cut off before it finished; it is replaced now")
             shutil.rmtree(partial)
         try:
-            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress)
+            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress, damage)
         except OSError as error:
             shutil.rmtree(partial, ignore_errors=True)
             full = error.errno == errno.ENOSPC
             raise StoreError(f"{partial}: {'the disk is full' if full else 'cannot write the export'} "
                              f"({error.strerror or error}); the export stopped and was removed, {out_dir} is as it "
                              f"was. {'Free space on that disk' if full else 'Fix that'}, then export again") from None
+        except framelog.DamagedFramesError as error:
+            shutil.rmtree(partial, ignore_errors=True)
+            raise StoreError(f"{store.dir}: {error}. Nothing was exported ({out_dir} is as it was). See every damaged "
+                             f"batch with: microg study check {store.dir}; microg export --accept-damaged exports the "
+                             f"study without the damaged runs' frames, listed in {MANIFEST}") from None
     if out_dir.exists():
         shutil.rmtree(out_dir)
     partial.rename(out_dir)
@@ -189,12 +232,15 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
 
 
 def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
-                  progress: bool) -> list[Path]:
-    """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it."""
+                  progress: bool, damage: list[tuple[int, str]]) -> list[Path]:
+    """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it.
+    The runs with a damaged frame batch (``damage``: run id, what is wrong) have no frames in it."""
     from tqdm import tqdm
 
     from .bids import write_motion_bids
 
+    head = ledger.head_of(store.db)
+    left_out = {run_id for run_id, _ in damage}
     folder.mkdir(parents=True)
     for name, table in (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store))):
         for fmt in formats:
@@ -202,18 +248,21 @@ def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: 
                 table.to_csv(folder / f"{name}.csv", index=False)
             else:
                 table.to_parquet(folder / f"{name}.parquet", index=False)
-    runs = run_list(store)
+    runs = [run for run in run_list(store) if run["run_id"] not in left_out]
     if frames and runs:
         _write_frames(store, runs, folder, frames_csv, tqdm(total=len(runs), unit="run", desc="frames",
                                                             disable=not progress))
     if bids:
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
-                                                      disable=not progress))
+                                                      disable=not progress), runs)
     written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())
-    (folder / "export.json").write_text(json.dumps({"study": str(store.dir.resolve()),
-                                                    "files": [str(p) for p in written],
-                                                    "damaged": store.problems}, indent=2))
-    return written + [Path("export.json")]
+    head = ledger.head_of(store.db)
+    (folder / MANIFEST).write_text(json.dumps({"study": str(store.dir.resolve()),
+                                               "files": [str(p) for p in written],
+                                               "damaged": store.problems + [problem for _, problem in damage],
+                                               "frames_left_out": sorted(left_out),
+                                               "ledger_head": None if head is None else str(head)}, indent=2))
+    return written + [Path(MANIFEST)]
 
 
 def _write_frames(store: Store, runs: list[dict], folder: Path, csv: bool, bar) -> None:

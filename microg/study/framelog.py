@@ -12,12 +12,17 @@ a batch is one row: the batch's columns side by side, compressed with zstd. The 
 exactly as the physics received them (float64, so a run simulates again bit for bit; a bone's
 width, constant over a track, costs next to nothing compressed); what the physics computed (the
 object's state, the rendered phalanges, timers) is kept as float32, 0.1 micrometre at arm's length.
+Each batch carries its checksum (``checksum``: SHA-256 of its place in the run, its times and its
+blob), written with it and verified by every ``read``, so a damaged batch is never decoded as if it
+were sound; the ledger (``microg.study.ledger``) chains the checksums with the rest of the log.
 """
 
 from __future__ import annotations
 
+import hashlib
 import sqlite3
-from typing import Sequence
+import struct
+from typing import Iterator, Sequence
 
 import numpy as np
 import pandas as pd
@@ -25,6 +30,8 @@ import pyarrow as pa
 
 from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
 from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
+
+from .ledger import run_name
 
 STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL
 """A frame's ``stage`` is stored as its index here."""
@@ -111,14 +118,48 @@ def frames_of(moments: Sequence[Moment]) -> np.ndarray:
 # ---------------------------------------------------------------- the store's side
 
 TABLE = "frames"
-"""``frames(run_id, first, count, t_first, t_last, data)``: one row per committed batch."""
+"""``frames(run_id, first, count, t_first, t_last, checksum, data)``: one row per committed batch."""
+HEADER = struct.Struct("<qqqdd")
+"""What the checksum covers besides the blob: run_id, first, count, t_first, t_last."""
 
 
-def insert(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) -> None:
-    """Add a batch of ``FRAME`` records (frames ``first`` .. ``first + len(frames) - 1`` of the run)."""
-    if len(frames):
-        db.execute(f"INSERT INTO {TABLE} (run_id, first, count, t_first, t_last, data) VALUES (?, ?, ?, ?, ?, ?)",
-                   (run_id, first, len(frames), float(frames["t"][0]), float(frames["t"][-1]), encode(frames)))
+class DamagedFramesError(ValueError):
+    """A frame batch does not match its checksum: it was damaged or changed after it was written."""
+
+
+def checksum(run_id: int, first: int, count: int, t_first: float, t_last: float, blob: bytes) -> bytes:
+    """SHA-256 of a batch's row: where it lies in its run, its times and its blob (about 0.7 us per
+    frame here, ``microg bench store``)."""
+    digest = hashlib.sha256(HEADER.pack(run_id, first, count, t_first, t_last))
+    digest.update(blob)
+    return digest.digest()
+
+
+def insert(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) -> bool:
+    """Add a batch of ``FRAME`` records (frames ``first`` .. ``first + len(frames) - 1`` of the run)
+    with its checksum; False when there was nothing to add."""
+    if not len(frames):
+        return False
+    row = (run_id, first, len(frames), float(frames["t"][0]), float(frames["t"][-1]), encode(frames))
+    db.execute(f"INSERT INTO {TABLE} (run_id, first, count, t_first, t_last, checksum, data) "
+               "VALUES (?, ?, ?, ?, ?, ?, ?)", row[:5] + (checksum(*row),) + row[5:])
+    return True
+
+
+ROW = "run_id, first, count, t_first, t_last, checksum, data"
+"""A batch's columns in the order ``sound`` and ``copy`` take them."""
+
+
+def copy(db: sqlite3.Connection, row: Sequence, run_id: int, source: sqlite3.Connection) -> None:
+    """Add a batch read from another study's database ``source`` (its columns ``ROW``) as a batch of
+    the run ``run_id`` here: its blob as it is, its checksum computed again for its new place (a
+    station's run merged, ``microg.study.stations``). A batch that does not match its own checksum
+    there raises ``DamagedFramesError`` naming it."""
+    if not sound(row):
+        raise DamagedFramesError(damage(source, row))
+    _, first, n, t_first, t_last, _, blob = row
+    db.execute(f"INSERT INTO {TABLE} ({ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)",
+               (run_id, first, n, t_first, t_last, checksum(run_id, first, n, t_first, t_last, blob), blob))
 
 
 def count(db: sqlite3.Connection, run_id: int) -> int:
@@ -127,13 +168,47 @@ def count(db: sqlite3.Connection, run_id: int) -> int:
 
 
 def read(db: sqlite3.Connection, run_id: int, start: int = 0) -> np.ndarray:
-    """The run's logged frames from frame ``start`` on (``FRAME`` records, in order)."""
-    rows = db.execute(f"SELECT first, count, data FROM {TABLE} WHERE run_id = ? AND first + count > ? ORDER BY first",
-                      (run_id, start)).fetchall()
+    """The run's logged frames from frame ``start`` on (``FRAME`` records, in order), each batch
+    verified against its checksum first (``DamagedFramesError`` naming the run and the batch)."""
+    rows = db.execute(f"SELECT run_id, first, count, t_first, t_last, checksum, data FROM {TABLE} "
+                      "WHERE run_id = ? AND first + count > ? ORDER BY first", (run_id, start)).fetchall()
     if not rows:
         return np.empty(0, dtype=FRAME)
-    frames = np.concatenate([decode(data, n) for _, n, data in rows])
-    return frames[start - rows[0][0]:]
+    for row in rows:
+        if not sound(row):
+            raise DamagedFramesError(damage(db, row))
+    frames = np.concatenate([decode(row[6], row[2]) for row in rows])
+    return frames[start - rows[0][1]:]
+
+
+def sound(row: Sequence) -> bool:
+    """Whether a frames row (all its columns, in order) matches its checksum."""
+    run_id, first, n, t_first, t_last, stored, blob = row
+    try:
+        return checksum(run_id, first, n, t_first, t_last, blob) == stored
+    except (TypeError, struct.error):  # a column of the wrong type is damage too
+        return False
+
+
+def damaged(db: sqlite3.Connection) -> Iterator[tuple[int, str]]:
+    """(run id, what is wrong) for every batch of the study that does not match its checksum or
+    does not decode: the whole log read once (``microg study check``, an export that accepts damage)."""
+    for row in db.execute(f"SELECT run_id, first, count, t_first, t_last, checksum, data FROM {TABLE} "
+                          "ORDER BY run_id, first"):
+        if not sound(row):
+            yield row[0], damage(db, row)
+            continue
+        try:
+            decode(row[6], row[2])
+        except (ValueError, OSError) as error:
+            yield row[0], (f"frames of {run_name(db, row[0])}, the batch from frame {row[1]} ({row[2]} frames): "
+                           f"matches its checksum but does not decode ({error})")
+
+
+def damage(db: sqlite3.Connection, row: Sequence) -> str:
+    """What a batch that fails its checksum is: the participant, session, task and run, the batch."""
+    return (f"frames of {run_name(db, row[0])}, the batch from frame {row[1]} ({row[2]} frames): does not match "
+            "its checksum: damaged or changed after it was written")
 
 
 def hand_frames(frames: np.ndarray) -> list[HandFrame]:

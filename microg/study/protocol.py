@@ -11,6 +11,10 @@ Every error names the file, the key and the value::
 
     protocols/mine.toml: task.hold_s = -3: must be a positive number (seconds)
 
+Values must also be sizes a study can have (``LIMITS`` below): a protocol file of at most a
+megabyte, whole numbers the study database stores, positions within ``MAX_DISTANCE`` of the
+tracker, a session of at most a day, a physics that steps at most ``MAX_STEP_RATE`` times a second.
+
 Each section of the file has its own reader below (``_read_scene``, ``_read_groups``, ...); the
 checks that span sections (every object in every phase's world, object codes, the timeline's
 minutes) run once all sections are read. What only simulated participants need (skill profiles,
@@ -54,6 +58,31 @@ SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_
 """Physics settings a protocol may set besides gravity (see ``microg.sim.Scene``)."""
 LABEL = re.compile(r"[A-Za-z0-9]+")
 """What a name must be when it becomes a BIDS label or a file name part (ASCII letters and digits)."""
+
+# ---------------------------------------------------------------- LIMITS: sizes a study can have
+MAX_FILE_BYTES = 1 << 20
+"""A protocol or object file is a few kilobytes; a megabyte is not one."""
+MAX_INTEGER = 2**63 - 1
+"""Whole numbers (seeds, counts) are stored by the study database, whose integers are 64-bit."""
+MAX_DISTANCE = 10.0
+"""m: positions (start, places, workspace, the eyes) lie within this of the tracker."""
+MAX_GRAVITY = 100.0
+"""m/s^2: ten times Earth's."""
+MAX_MINUTES = 24 * 60
+"""A session is one sitting: at most a day."""
+MAX_STEP_RATE = 100_000
+"""Physics steps per second of session time (tracking_rate x substeps); a step of the paper's scene
+costs about 12 us here, so more would run slower than real time."""
+MAX_FILTER_WINDOW = 100
+"""Frames in the window filter (F); its lag is (F - 1) / 2 frames: 0.45 s at 110 Hz."""
+MAX_FRAME_BATCH = 10_000
+"""Frames per database transaction: a crash loses at most these (90 s at 110 Hz)."""
+MAX_PLACES = 100
+MAX_SCALE_POINTS = 101
+"""Answers a questionnaire scale offers (the paper's has 11); the page shows one button each."""
+MAX_AGE = 150
+FOV_RANGE = (10.0, 120.0)
+"""Degrees: the vertical field of view a screen may span from the eyes (as ``--fov``)."""
 
 
 class ProtocolError(ValueError):
@@ -267,9 +296,12 @@ def canonical_json(data: dict) -> str:
 def _read_text(path: Path, what: str) -> str:
     """A file's text, or ProtocolError naming the file and why it cannot be read."""
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as stream:
+            raw = stream.read(MAX_FILE_BYTES + 1)
     except OSError as error:
         raise ProtocolError(f"{path}: cannot read {what}: {error.strerror or error}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ProtocolError(f"{path}: over {MAX_FILE_BYTES >> 20} MiB: not a {what} (a few kilobytes of TOML)")
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as error:
@@ -279,10 +311,16 @@ def _read_text(path: Path, what: str) -> str:
 
 def _read_toml(path: Path) -> tuple[dict, str]:
     text = _read_text(path, "protocol file")
+    return _parse_toml(text, str(path), "protocol file"), text
+
+
+def _parse_toml(text: str, where: str, what: str) -> dict:
     try:
-        return tomllib.loads(text), text
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
-        raise ProtocolError(f"{path}: not valid TOML: {error}") from None
+        raise ProtocolError(f"{where}: not valid TOML: {error}") from None
+    except RecursionError:
+        raise ProtocolError(f"{where}: not a {what}: its tables or arrays are nested too deeply") from None
 
 
 def _merge(base: dict, override: dict) -> dict:
@@ -349,7 +387,7 @@ def _mesh_file(text: str, object_file: Path) -> Path | None:
     names what is wrong)."""
     try:
         name = tomllib.loads(text).get("mesh")
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return None
     path = object_file.parent / name if isinstance(name, str) and name else None
     return path if path is not None and path.is_file() else None
@@ -406,7 +444,13 @@ _MISSING = object()
 
 
 def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite number that is not a bool (and not an integer beyond what a float holds)."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 class _Reader:
@@ -441,18 +485,23 @@ class _Reader:
             raise self.fail(key, value, f"must be ASCII letters and digits only ({why})")
         return value
 
-    def number(self, key: str, default=_MISSING, *, positive: bool = True, unit: str = "") -> float:
+    def number(self, key: str, default=_MISSING, *, positive: bool = True, unit: str = "",
+               maximum: float | None = None) -> float:
         value = self.raw(key, default)
         if not _is_number(value) or (positive and value <= 0) or (not positive and value < 0):
             raise self.fail(key, value, f"must be a {'positive' if positive else 'non-negative'} number{unit}")
+        if maximum is not None and value > maximum:
+            raise self.fail(key, value, f"must be at most {maximum:g}{unit}")
         return float(value)
 
-    def integer(self, key: str, default=_MISSING, minimum: int = 1):
+    def integer(self, key: str, default=_MISSING, minimum: int = 1, maximum: int = MAX_INTEGER):
         value = self.raw(key, default)
         if value is None and default is None:
             return None
         if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
             raise self.fail(key, value, f"must be a whole number >= {minimum}")
+        if value > maximum:
+            raise self.fail(key, value, f"must be a whole number from {minimum} to {maximum}")
         return value
 
     def boolean(self, key: str, default=_MISSING) -> bool:
@@ -461,11 +510,15 @@ class _Reader:
             raise self.fail(key, value, "must be true or false")
         return value
 
-    def vector(self, key: str, length: int = 3, default=_MISSING) -> tuple[float, ...]:
+    def vector(self, key: str, length: int = 3, default=_MISSING, maximum: float | None = MAX_DISTANCE,
+               unit: str = " (metres, tracker frame: x right, y up, z toward the user)") -> tuple[float, ...]:
+        """A list of ``length`` finite numbers, each at most ``maximum`` from zero (positions: within
+        ``MAX_DISTANCE`` of the tracker)."""
         value = self.raw(key, default)
         if not isinstance(value, list) or len(value) != length or not all(_is_number(v) for v in value):
-            raise self.fail(key, value, f"must be a list of {length} finite numbers"
-                            + (" (metres, tracker frame: x right, y up, z toward the user)" if length == 3 else ""))
+            raise self.fail(key, value, f"must be a list of {length} finite numbers{unit if length == 3 else ''}")
+        if maximum is not None and max(abs(v) for v in value) > maximum:
+            raise self.fail(key, value, f"each number must lie within {maximum:g} of zero{unit}")
         return tuple(float(v) for v in value)
 
     def strings(self, key: str, default=_MISSING) -> tuple[str, ...]:
@@ -510,14 +563,25 @@ def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None,
     """``[scene]``: gravity, table height, physics options, and hand tracking's window filter F and
     jump distance."""
     scene = top.table("scene")
-    gravity = scene.vector("gravity")
+    gravity = scene.vector("gravity", maximum=MAX_GRAVITY, unit=" (m/s^2)")
     table_height = scene.raw("table_height", "none")
     if table_height == "none":
         table_height = None
-    elif not _is_number(table_height):
-        raise scene.fail("table_height", table_height, 'must be a height (m) or "none"')
+    elif not _is_number(table_height) or abs(table_height) > MAX_DISTANCE:
+        raise scene.fail("table_height", table_height, f'must be a height (m, within {MAX_DISTANCE:g} of the '
+                                                       'tracker) or "none"')
     options = {key: scene.raw(key) for key in SCENE_OPTIONS if key in scene.data}
-    filter_window = scene.integer("filter_window", FILTER_WINDOW)
+    for key in options:  # the physics checks them all; here only that they are numbers it can hold
+        if key == "substeps":
+            scene.integer(key)
+        elif key != "angular_integrator":
+            scene.number(key)
+    steps = float(options.get("tracking_rate", Scene.tracking_rate)) * options.get("substeps", Scene.substeps)
+    if steps > MAX_STEP_RATE:
+        key = "substeps" if "substeps" in options else "tracking_rate"
+        raise scene.fail(key, options[key], f"the physics would step {steps:g} times a second "
+                                            f"(tracking_rate x substeps); at most {MAX_STEP_RATE} run")
+    filter_window = scene.integer("filter_window", FILTER_WINDOW, maximum=MAX_FILTER_WINDOW)
     jump_distance = scene.number("jump_distance", GuardConfig.jump_distance, unit="m")
     scene.done()
     return gravity, None if table_height is None else float(table_height), options, filter_window, jump_distance
@@ -532,8 +596,8 @@ def _read_participants(top: _Reader) -> tuple[_Reader, int, str, tuple[int, int]
     if age_range is not None:
         if not (isinstance(age_range, list) and len(age_range) == 2
                 and all(isinstance(a, int) and not isinstance(a, bool) for a in age_range)
-                and 0 < age_range[0] <= age_range[1]):
-            raise people.fail("age_range", age_range, "must be [youngest, oldest] in whole years")
+                and 0 < age_range[0] <= age_range[1] <= MAX_AGE):
+            raise people.fail("age_range", age_range, f"must be [youngest, oldest] in whole years (at most {MAX_AGE})")
         age_range = tuple(age_range)
     people.done()
     return people, total, balance, age_range
@@ -569,12 +633,10 @@ def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: di
         raise reader.fail(key, name, "no object file for this object in the protocol's data")
     where = files.get(name) or f"{reader.where}: object file {name}.toml (as kept with the protocol)"
     mesh = meshes.get(name)
+    data = _parse_toml(text, where, "object file")
     try:
-        data = tomllib.loads(text)
         spec = object_from_dict(data, where, Path(files[name]).parent if name in files else Path("."),
                                 base64.b64decode(mesh) if isinstance(mesh, str) else None)
-    except tomllib.TOMLDecodeError as error:
-        raise ProtocolError(f"{where}: not valid TOML: {error}") from None
     except SceneError as error:
         raise ProtocolError(str(error)) from None
     except (TypeError, ValueError) as error:
@@ -603,12 +665,14 @@ def _read_task(top: _Reader) -> TaskRules:
     places = t.raw("places")
     if not isinstance(places, list) or not places:
         raise t.fail("places", places, "must be a non-empty list of positions [x, y, z] (m)")
+    if len(places) > MAX_PLACES:
+        raise ProtocolError(f"{t.where}: {t.prefix}places: {len(places)} positions; at most {MAX_PLACES}")
     place_reader = _Reader(t.where, {f"places[{i}]": p for i, p in enumerate(places)}, t.prefix)
     task = TaskRules(
         start=t.vector("start"),
-        start_orientation=t.vector("start_orientation", 4, [1.0, 0.0, 0.0, 0.0]),
+        start_orientation=t.vector("start_orientation", 4, [1.0, 0.0, 0.0, 0.0], maximum=None),
         places=tuple(place_reader.vector(f"places[{i}]") for i in range(len(places))),
-        place_radius=t.number("place_radius", unit=" (m)"),
+        place_radius=t.number("place_radius", unit=" (m)", maximum=MAX_DISTANCE),
         hold_s=t.number("hold_s", unit=" (seconds)"),
         timeout_s=t.number("timeout_s", unit=" (seconds)"),
         grasp_settle_s=t.number("grasp_settle_s", 0.1, positive=False, unit=" (seconds)"),
@@ -616,6 +680,9 @@ def _read_task(top: _Reader) -> TaskRules:
         workspace_min=t.vector("workspace_min"),
         workspace_max=t.vector("workspace_max"),
     )
+    if len(task.places) * task.hold_s >= task.timeout_s:
+        raise t.fail("timeout_s", task.timeout_s, f"the {len(task.places)} holds of hold_s = {task.hold_s:g} s take "
+                     "longer: no task could be completed")
     if abs(math.hypot(*task.start_orientation) - 1.0) > 1e-6:
         raise t.fail("start_orientation", list(task.start_orientation), "must be a unit quaternion [w, x, y, z]")
     if not all(lo < hi for lo, hi in zip(task.workspace_min, task.workspace_max)):
@@ -699,6 +766,9 @@ def _read_questionnaire(top: _Reader) -> Questionnaire | None:
     scale_max = q.integer("scale_max", minimum=1)
     if scale_max <= scale_min:
         raise q.fail("scale_max", scale_max, f"must exceed scale_min = {scale_min}")
+    if scale_max - scale_min + 1 > MAX_SCALE_POINTS:
+        raise q.fail("scale_max", scale_max, f"the scale from scale_min = {scale_min} offers "
+                     f"{scale_max - scale_min + 1} answers; at most {MAX_SCALE_POINTS}")
     items = []
     for it in q.tables("items"):
         items.append(Item(name=it.text("name"), question=it.text("question"), low=it.text("low"),
@@ -740,7 +810,9 @@ def _read_display(top: _Reader) -> Viewpoint:
     view = top.table("display", {})
     viewpoint = Viewpoint(view.vector("eye") if "eye" in view.data else None,
                           view.vector("look_at") if "look_at" in view.data else None,
-                          view.number("fov_deg", 40.0, unit=" (degrees)"))
+                          view.number("fov_deg", 40.0, unit=" (degrees)", maximum=FOV_RANGE[1]))
+    if viewpoint.fov_deg < FOV_RANGE[0]:
+        raise view.fail("fov_deg", viewpoint.fov_deg, f"must lie from {FOV_RANGE[0]:g} to {FOV_RANGE[1]:g} (degrees)")
     view.done()
     return viewpoint
 
@@ -828,7 +900,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     title = top.text("title", "")
     top.text("description", "")
     seed = top.integer("seed", None, minimum=0)
-    duration = top.number("duration_minutes", unit=" (minutes)")
+    duration = top.number("duration_minutes", unit=" (minutes)", maximum=MAX_MINUTES)
     gravity, table_height, options, filter_window, jump_distance = _read_scene(top)
     people, total, balance, age_range = _read_participants(top)
     groups = _read_groups(top, people, total, resolved.get("population_files", {}))
@@ -839,7 +911,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     questionnaire = _read_questionnaire(top)
     timeline = _read_timeline(top, groups, phases, training, questionnaire)
     logging = top.table("logging", {})
-    frame_batch = logging.integer("frame_batch", 64)
+    frame_batch = logging.integer("frame_batch", 64, maximum=MAX_FRAME_BATCH)
     logging.done()
     viewpoint = _read_display(top)
     dataset = _read_dataset(top)

@@ -68,6 +68,8 @@ def read_manifest(path: Path) -> tuple[Entry, ...]:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise ReplayError(f"{path}: cannot read the replay manifest: {error}") from None
+    except RecursionError:
+        raise ReplayError(f"{path}: not a replay manifest: its tables or arrays are nested too deeply") from None
     default = _align(path, "align", data.pop("align", None))
     tasks = data.pop("task", None)
     if data:
@@ -89,7 +91,7 @@ def read_manifest(path: Path) -> tuple[Entry, ...]:
         window = [table.get(k) for k in ("start_s", "end_s")]
         for key, value in zip(("start_s", "end_s"), window):
             if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                      or not math.isfinite(value) or value < 0):
+                                      or not 0 <= value < math.inf):
                 raise ReplayError(f"{where}.{key} = {value!r}: must be seconds >= 0 from the recording's start")
         if None not in window and window[1] <= window[0]:
             raise ReplayError(f"{where}.end_s = {window[1]!r}: must be after start_s = {window[0]!r}")

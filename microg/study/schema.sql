@@ -1,6 +1,8 @@
 -- The study's log store (microg.study.store): tables, then the triggers that keep it append-only
 -- and that log nothing for a session or task run after its end. Opening a study checks they are all here.
--- frames: one row per committed batch of logged frames, encoded by microg.study.framelog.
+-- frames: one row per committed batch of logged frames, encoded by microg.study.framelog, with its checksum.
+-- ledger: one entry per fact committed, in a hash chain (microg.study.ledger).
+-- stations: the stations made from a central study; a station's study holds its own row (microg.study.stations).
 CREATE TABLE study (
     id INTEGER PRIMARY KEY CHECK (id = 1),
     name TEXT NOT NULL,
@@ -8,7 +10,8 @@ CREATE TABLE study (
     protocol_id INTEGER NOT NULL REFERENCES protocols(id),
     created_at TEXT NOT NULL,
     microg_version TEXT NOT NULL,
-    schema_version INTEGER NOT NULL
+    schema_version INTEGER NOT NULL,
+    station TEXT
 );
 CREATE TABLE protocols (
     id INTEGER PRIMARY KEY,
@@ -47,7 +50,9 @@ CREATE TABLE sessions (
     platform TEXT NOT NULL,
     status TEXT NOT NULL CHECK (status IN ('running', 'completed', 'incomplete', 'aborted')),
     created_at TEXT NOT NULL,
-    ended_at TEXT
+    ended_at TEXT,
+    station TEXT,
+    merged_at TEXT
 );
 CREATE TABLE tasks (
     session_id INTEGER NOT NULL REFERENCES sessions(id),
@@ -104,8 +109,22 @@ CREATE TABLE frames (
     count INTEGER NOT NULL CHECK (count > 0),
     t_first REAL NOT NULL,
     t_last REAL NOT NULL,
+    checksum BLOB NOT NULL,
     data BLOB NOT NULL,
     PRIMARY KEY (run_id, first)
+);
+CREATE TABLE stations (
+    name TEXT PRIMARY KEY,
+    participants TEXT NOT NULL,
+    made_at TEXT NOT NULL
+);
+CREATE TABLE ledger (
+    seq INTEGER PRIMARY KEY,
+    fact TEXT NOT NULL,
+    key TEXT NOT NULL,
+    digest BLOB NOT NULL,
+    link BLOB NOT NULL,
+    UNIQUE (fact, key)
 );
 
 CREATE TRIGGER study_no_update BEFORE UPDATE ON study
@@ -138,6 +157,16 @@ BEGIN SELECT RAISE(ABORT, 'frames rows are never changed: the log is append-only
 CREATE TRIGGER frames_no_delete BEFORE DELETE ON frames
 BEGIN SELECT RAISE(ABORT, 'frames rows are never deleted: the log is append-only'); END;
 
+CREATE TRIGGER stations_no_update BEFORE UPDATE ON stations
+BEGIN SELECT RAISE(ABORT, 'stations rows are never changed: the log is append-only'); END;
+CREATE TRIGGER stations_no_delete BEFORE DELETE ON stations
+BEGIN SELECT RAISE(ABORT, 'stations rows are never deleted: the log is append-only'); END;
+
+CREATE TRIGGER ledger_no_update BEFORE UPDATE ON ledger
+BEGIN SELECT RAISE(ABORT, 'ledger rows are never changed: the log is append-only'); END;
+CREATE TRIGGER ledger_no_delete BEFORE DELETE ON ledger
+BEGIN SELECT RAISE(ABORT, 'ledger rows are never deleted: the log is append-only'); END;
+
 CREATE TRIGGER task_runs_once BEFORE UPDATE ON task_runs
 WHEN OLD.status != 'running' OR NEW.status = 'running'
   OR NEW.session_id IS NOT OLD.session_id OR NEW.task_index IS NOT OLD.task_index OR NEW.run IS NOT OLD.run
@@ -146,6 +175,7 @@ BEGIN SELECT RAISE(ABORT, 'a finished task run is never changed'); END;
 CREATE TRIGGER sessions_once BEFORE UPDATE ON sessions
 WHEN OLD.status != 'running' OR NEW.status = 'running' OR NEW.participant_id IS NOT OLD.participant_id
   OR NEW.seed IS NOT OLD.seed OR NEW.protocol_id IS NOT OLD.protocol_id OR NEW.created_at IS NOT OLD.created_at
+  OR NEW.station IS NOT OLD.station OR NEW.merged_at IS NOT OLD.merged_at
 BEGIN SELECT RAISE(ABORT, 'a finished session is never changed'); END;
 CREATE TRIGGER participants_withdraw_only BEFORE UPDATE ON participants
 WHEN OLD.status != 'active' OR NEW.status != 'withdrawn' OR NEW.id IS NOT OLD.id OR NEW.number IS NOT OLD.number

@@ -15,7 +15,9 @@ protocol with its object files, as JSON, plus the file's own text), ``participan
 protocol, seed, package and Python version, input, clock), ``tasks`` (the session's planned
 tasks), ``task_runs`` (each time a task is run; a run cut off by a crash is marked
 ``interrupted`` on resume and the task runs again), ``events``, ``answers`` and ``frames``
-(batches of logged frames, written and read by ``microg.study.framelog`` only).
+(batches of logged frames, written and read by ``microg.study.framelog`` only), ``stations`` (the
+stations made from the study, ``microg.study.stations``; a session merged from one names it and
+when it was merged, and a station's own study names its station in ``study``).
 
 Every statement goes through ``StudyConnection``, so a database that is locked by another program
 (longer than ``BUSY_TIMEOUT_S``), a full disk, a damaged file or a refused change ends in a
@@ -39,18 +41,19 @@ import sys
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Sequence
 
 import numpy as np
 
 from microg import __version__
 
-from . import framelog
+from . import framelog, ledger
 from .assignment import Enrolled, Participant, ParticipantError, assign_group, assign_order, check_participant
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 6
+"""5: the checksums and the ledger; 6: stations (``microg.study.stations``)."""
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
 RUN_STATUSES = FINAL_RUN + ("running", "interrupted")
 OUTCOMES = ("completed", "timeout")
@@ -204,13 +207,43 @@ def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...]) ->
     return tasks
 
 
+def writable(path: Path) -> bool:
+    """Whether ``path`` (a file or folder) may be written: this process may (its permissions, a
+    read-only mount) and someone may (a copy marked read-only, ``chmod a-w``, is read-only to root
+    as well, who could otherwise write anything)."""
+    try:
+        return os.access(path, os.W_OK) and bool(path.stat().st_mode & 0o222)
+    except OSError:
+        return False
+
+
+def nearest_folder(path: Path) -> Path:
+    """The folder that holds ``path`` or would hold it once made: its nearest existing ancestor."""
+    return next(p for p in (path.absolute().parent, *path.absolute().parents) if p.exists())
+
+
+def archived(path: Path) -> bool:
+    """Whether the study database ``path`` is read-only where it lies (a copied archive, a published
+    data set, a read-only mount): it or its folder cannot be written."""
+    return not (writable(path.parent) and writable(path))
+
+
+def _wal_holds_commits(path: Path) -> bool:
+    wal = path.with_name(DATABASE + "-wal")
+    return wal.exists() and wal.stat().st_size > 0
+
+
 def _connect(path: Path, readonly: bool = False) -> StudyConnection:
     """A connection to ``path``: WAL, durable commits and foreign keys; read-only ones never write
-    into the file (and may be shared by the view's threads)."""
+    into the file (and may be shared by the view's threads). An archived study is opened immutable
+    (no shared-memory file, no locks: nothing can change it), unless its write-ahead log holds
+    commits not yet in the database file, which only WAL's shared memory reads."""
     try:
         if readonly:
-            connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, isolation_level=None,
-                                         timeout=BUSY_TIMEOUT_S, check_same_thread=False, factory=StudyConnection)
+            immutable = archived(path) and not _wal_holds_commits(path)
+            connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro{'&immutable=1' if immutable else ''}",
+                                         uri=True, isolation_level=None, timeout=BUSY_TIMEOUT_S,
+                                         check_same_thread=False, factory=StudyConnection)
         else:
             connection = sqlite3.connect(path, isolation_level=None, timeout=BUSY_TIMEOUT_S, factory=StudyConnection)
     except sqlite3.Error as error:
@@ -234,13 +267,15 @@ class Store:
         self.problems = list(problems)
         """What the integrity check on open found (empty for a sound study)."""
         self._locks: dict[int, int] = {}
-        row = self.db.execute("SELECT s.name, s.seed, p.resolved FROM study s JOIN protocols p ON p.id = s.protocol_id"
-                              ).fetchone()
+        row = self.db.execute("SELECT s.name, s.seed, s.station, p.resolved FROM study s "
+                              "JOIN protocols p ON p.id = s.protocol_id").fetchone()
         where = study_dir / DATABASE
         if row is None:
             raise StoreError(f"{where}: the study row or its protocol is missing; see: microg study check {study_dir}")
         self.name: str = row["name"]
         self.seed: int = row["seed"]
+        self.station: str | None = row["station"]
+        """The station's name in a station's study (``microg.study.stations``), else None."""
         try:
             resolved = json.loads(row["resolved"])
         except (TypeError, ValueError) as error:
@@ -251,9 +286,12 @@ class Store:
     # ------------------------------------------------------------ plumbing
 
     @contextmanager
-    def transaction(self) -> Iterator[sqlite3.Connection]:
+    def transaction(self, head: bool = True) -> Iterator[sqlite3.Connection]:
         """One atomic, durable write: everything inside commits together or not at all (a failed
-        commit, e.g. on a full disk, rolls back too)."""
+        commit, e.g. on a full disk, rolls back too). The facts written inside seal their ledger
+        entries inside; after the commit the ledger's head goes into the study folder, unless not
+        ``head``: a frame batch or an event within a task run, whose entries the run's end covers
+        (writing a file costs 1-2 ms here, as much as the batch's whole commit)."""
         self.db.execute("BEGIN IMMEDIATE")
         try:
             yield self.db
@@ -265,6 +303,8 @@ class Store:
                 except StoreError:
                     pass  # the database rolls the transaction back itself when the connection closes
             raise
+        if head:
+            ledger.write_head(self.dir, self.db)
 
     def commit_for(self, simulated: bool) -> None:
         """Set how durable the coming commits are, for a live or a simulated session. A live
@@ -315,6 +355,10 @@ class Store:
         """Enrol a participant: validate, assign a group and an object order (``like``'s, for a
         re-simulated study that must keep the original's), commit."""
         check_participant(participant, self.protocol)
+        if self.station is not None:
+            raise ParticipantError(f"{self.dir} is station {self.station}'s study: participants are enrolled in the "
+                                   "central study, which assigns their group and object order across the stations; "
+                                   f"enrol {participant.id} there and make a station for them (microg study station)")
         with self.transaction() as db:
             if db.execute("SELECT 1 FROM participants WHERE id = ?", (participant.id,)).fetchone():
                 raise ParticipantError(f"participant {participant.id} is already in study {self.name!r}; "
@@ -337,6 +381,7 @@ class Store:
                        "order_row, object_order, added_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                        (p.id, number, group, p.gender, p.age, p.handedness, int(p.mr_experience), row,
                         json.dumps(order), utc_now()))
+            ledger.seal(db, "participant", p.id)
         return self.participant(participant.id)
 
     def withdraw(self, participant_id: str, reason: str) -> None:
@@ -360,6 +405,7 @@ class Store:
             with self.transaction() as db:
                 db.execute("UPDATE participants SET status = 'withdrawn', withdrawn_at = ?, withdraw_reason = ? "
                            "WHERE id = ?", (utc_now(), reason, participant_id))
+                ledger.seal(db, "withdrawal", participant_id)
                 if running:
                     t = self.last_time(session.id)
                     for run_id in self._open_runs(session.id):
@@ -380,6 +426,10 @@ class Store:
     def participant(self, participant_id: str) -> ParticipantRecord:
         row = self.db.execute("SELECT * FROM participants WHERE id = ?", (participant_id,)).fetchone()
         if row is None:
+            if self.station is not None:
+                raise ParticipantError(f"participant {participant_id!r} is not one of station {self.station}'s "
+                                       f"participants ({self.dir}: see microg participant list); the central study "
+                                       "gives a station its participants (microg study station)")
             raise ParticipantError(f"no participant {participant_id!r} in study {self.name!r} "
                                    "(add one with: microg participant add)")
         return self._participant(row)
@@ -406,14 +456,17 @@ class Store:
         with self.transaction() as db:
             cursor = db.execute(
                 "INSERT INTO sessions (participant_id, protocol_id, seed, input, simulated, clock, object_order, "
-                "microg_version, python, platform, status, created_at) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?)",
+                "microg_version, python, platform, status, created_at, station) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?)",
                 (participant_id, protocol_id, seed, input_spec, int(simulated), clock, json.dumps(record.object_order),
-                 __version__, sys.version.split()[0], platform.platform(), utc_now()))
+                 __version__, sys.version.split()[0], platform.platform(), utc_now(), self.station))
             session_id = cursor.lastrowid
-            db.executemany("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)",
-                           [(session_id, t.index, t.phase, interaction or t.interaction, t.object, t.object_code,
-                             t.order_position) for t in plan_tasks(self.protocol, record.group, record.object_order)])
+            ledger.seal(db, "session", session_id)
+            for t in plan_tasks(self.protocol, record.group, record.object_order):
+                db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)", (
+                    session_id, t.index, t.phase, interaction or t.interaction, t.object, t.object_code,
+                    t.order_position))
+                ledger.seal(db, "task", session_id, t.index)
         return self.session(session_id)
 
     @staticmethod
@@ -463,13 +516,16 @@ class Store:
     @staticmethod
     def _insert_events(db: sqlite3.Connection, session_id: int, run_id: int | None, events: list[Event]) -> None:
         wall = utc_now()
-        db.executemany("INSERT INTO events (session_id, run_id, t, wall, kind, data) VALUES (?, ?, ?, ?, ?, ?)",
-                       [(session_id, run_id, e.t, wall, e.kind, canonical_json(e.data)) for e in events])
+        for e in events:
+            event_id = db.execute("INSERT INTO events (session_id, run_id, t, wall, kind, data) "
+                                  "VALUES (?, ?, ?, ?, ?, ?)",
+                                  (session_id, run_id, e.t, wall, e.kind, canonical_json(e.data))).lastrowid
+            ledger.seal(db, "event", event_id)
 
     def log(self, session_id: int, events: list[Event], run_id: int | None = None) -> None:
         """Commit events now."""
         if events:
-            with self.transaction() as db:
+            with self.transaction(head=run_id is None) as db:
                 self._insert_events(db, session_id, run_id, events)
 
     def begin_run(self, session_id: int, task: PlannedTask, source: str, seed: int, t: float) -> int:
@@ -481,6 +537,7 @@ class Store:
                 "INSERT INTO task_runs (session_id, task_index, run, status, source, seed, started_at, started_wall) "
                 "VALUES (?, ?, ?, 'running', ?, ?, ?, ?)",
                 (session_id, task.index, number, source, seed, t, utc_now())).lastrowid
+            ledger.seal(db, "run", run_id)
             self._insert_events(db, session_id, run_id, [Event(t, "task_start", {
                 "task": task.index, "run": number, "phase": task.phase, "interaction": task.interaction,
                 "object": task.object})])
@@ -489,8 +546,13 @@ class Store:
     def add_frames(self, run_id: int, first: int, frames: np.ndarray) -> None:
         """Commit a batch of logged frames (``framelog.FRAME`` records), the run's frames ``first`` on."""
         if len(frames):
-            with self.transaction() as db:
-                framelog.insert(db, run_id, first, frames)
+            with self.transaction(head=False) as db:
+                self._insert_frames(db, run_id, first, frames)
+
+    @staticmethod
+    def _insert_frames(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) -> None:
+        if framelog.insert(db, run_id, first, frames):
+            ledger.seal(db, "frames", run_id, first)
 
     def end_run(self, run_id: int, status: str, t: float, *, time_s: float | None = None,
                 attempts: int | None = None, reason: str | None = None, frames: tuple[int, np.ndarray] = (0, ()),
@@ -507,11 +569,12 @@ class Store:
         if status not in RUN_STATUSES or status == "running":
             raise ValueError(f"end_run(status = {status!r}): must be one of {RUN_STATUSES[:-2] + ('interrupted',)}")
         session_id, = db.execute("SELECT session_id FROM task_runs WHERE id = ?", (run_id,)).fetchone()
-        framelog.insert(db, run_id, *frames)
+        self._insert_frames(db, run_id, *frames)
         count = framelog.count(db, run_id)
         db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
                    "frames = ?, ended_wall = ? WHERE id = ?",
                    (status, reason, t, time_s, attempts, count, utc_now(), run_id))
+        ledger.seal(db, "result", run_id)
         logged = list(events) + [Event(t, "task_end", {
             "status": status, "time_s": time_s, "attempts": attempts, "reason": reason})]
         self._insert_events(db, session_id, run_id, logged)
@@ -533,6 +596,7 @@ class Store:
         with self.transaction() as db:
             db.execute("INSERT INTO answers VALUES (?, ?, ?, ?, ?, ?, ?)",
                        (session_id, interaction, item, rating, source, t, utc_now()))
+            ledger.seal(db, "answer", session_id, interaction, item)
             self._insert_events(db, session_id, None, [Event(t, "answer", {
                 "interaction": interaction, "item": item, "rating": rating, "source": source})])
 
@@ -542,6 +606,7 @@ class Store:
         data = {"status": status, "reason": reason} | ({"tasks": counts} if counts is not None else {})
         self._insert_events(db, session_id, None, [Event(t, "session_end", data)])
         db.execute("UPDATE sessions SET status = ?, ended_at = ? WHERE id = ?", (status, utc_now(), session_id))
+        ledger.seal(db, "session_end", session_id)
 
     def task_counts(self, session_id: int) -> dict[str, int]:
         """How the session's planned tasks stand, by their last run: completed, timeout, aborted,
@@ -579,15 +644,18 @@ def describe_counts(counts: dict[str, int]) -> str:
 # ---------------------------------------------------------------- creating and opening
 
 
-def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
+def create_study(study_dir: str | Path, protocol: Protocol, seed: int, station: str | None = None) -> Store:
     """A new study database in ``study_dir`` (created; it must not hold a study already). A study
-    that cannot be created whole (a full disk) leaves no database behind."""
+    that cannot be created whole (a full disk) leaves no database behind. ``station``: the study is
+    that station's (``microg.study.stations.make_station`` fills it)."""
     study_dir = Path(study_dir)
     path = study_dir / DATABASE
     if path.exists():
         raise StoreError(f"{path} exists: {study_dir} already holds a study; a study is never overwritten")
     if not isinstance(seed, int) or seed < 0:
         raise StoreError(f"seed = {seed!r}: must be a whole number >= 0")
+    if not writable(study_dir if study_dir.is_dir() else nearest_folder(study_dir)):
+        raise StoreError(f"{study_dir}: cannot create a study there: the folder is read-only")
     try:
         study_dir.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -601,8 +669,10 @@ def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
         protocol_id = connection.execute(
             "INSERT INTO protocols (name, sha256, resolved, source_text, added_at) VALUES (?, ?, ?, ?, ?)",
             (protocol.name, protocol.sha256, canonical_json(protocol.resolved), main_text, now)).lastrowid
-        connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?)",
-                           (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION))
+        connection.execute("INSERT INTO study VALUES (1, ?, ?, ?, ?, ?, ?, ?)",
+                           (protocol.name, seed, protocol_id, now, __version__, SCHEMA_VERSION, station))
+        ledger.seal(connection, "protocol", protocol_id)
+        ledger.seal(connection, "study", 1)
         connection.execute("COMMIT")
     except BaseException:
         if connection is not None:
@@ -610,6 +680,7 @@ def create_study(study_dir: str | Path, protocol: Protocol, seed: int) -> Store:
         for leftover in (path, path.with_name(DATABASE + "-wal"), path.with_name(DATABASE + "-shm")):
             leftover.unlink(missing_ok=True)
         raise
+    ledger.write_head(study_dir, connection)
     return Store(study_dir, connection)
 
 
@@ -632,15 +703,30 @@ def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged:
     if head != SQLITE_HEADER:
         raise StoreError(f"{path}: not a SQLite database (it starts with {head!r}); a study's {DATABASE} is "
                          "written by microg study init")
+    if not readonly and archived(path):
+        raise StoreError(f"{study_dir} is read-only (it or its {DATABASE} cannot be written: a copied archive, a "
+                         "published data set, a read-only mount), and this command writes into the study. Copy the "
+                         "study folder to a writable place to carry on there; reading works as it is (microg study "
+                         "status, study check, export, report, view)")
     connection = _connect(path, readonly)
     try:
-        if not connection.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'study'").fetchone():
+        try:
+            is_study = connection.execute("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'study'"
+                                          ).fetchone()
+        except StoreError as error:
+            if readonly and archived(path) and _wal_holds_commits(path):
+                raise StoreError(f"{path}: the study is read-only and its {DATABASE}-wal holds commits not yet in "
+                                 f"{DATABASE} (the copy was made while a session was writing); SQLite reads them "
+                                 f"only through a {DATABASE}-shm file beside it, which cannot be made here. Copy "
+                                 f"the study folder to a writable place and read it there ({error})") from None
+            raise
+        if not is_study:
             raise StoreError(f"{path}: a SQLite database but not a microg study (it has no study table)")
         row = connection.execute("SELECT schema_version FROM study").fetchone()
         if row is None or row[0] != SCHEMA_VERSION:
             raise StoreError(f"{path}: schema version {None if row is None else row[0]}, this microg "
                              f"{__version__} reads {SCHEMA_VERSION}")
-        problems = check_integrity(connection)
+        problems = check_integrity(connection, study_dir)
         if problems and not accept_damaged:
             raise DamagedStudyError(
                 f"{path}: the study is damaged:\n" + "\n".join(f"  - {p}" for p in problems)
@@ -665,18 +751,35 @@ def _squeeze(sql: str) -> str:
     return " ".join(sql.split())
 
 
-def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
+def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full: bool = False,
+                    heads: Sequence[tuple[ledger.Head, str]] = (), snapshot: bool = True) -> list[str]:
     """What is wrong with a study database, each naming the table, row and value (empty: sound).
 
-    Checked on every open: the append-only triggers are all there as ``schema.sql`` writes them;
-    each stored protocol matches its SHA-256; every finished task run has its start and end events
-    and exactly the frames it counted (a completed run at least one, with its time); every ended
-    session has its end event; participant ids are ASCII letters and digits, one per BIDS label.
-    ``full`` adds SQLite's own integrity check and decodes every frame batch (``microg study check``).
+    Checked on every open: the ledger (``ledger.check``: every fact's digest, every link, and the
+    head in ``<study_dir>/ledger-head.json`` and in ``heads``); the append-only triggers are all
+    there as ``schema.sql`` writes them; each stored protocol matches its SHA-256; every finished
+    task run has its start and end events, its end event says its result, and it has exactly the
+    frames it counted (a completed run at least one, with its time); every ended session has its
+    end event; participant ids are ASCII letters and digits, one per BIDS label. ``full`` adds
+    SQLite's own integrity check and every frame batch against its checksum, then decoded
+    (``microg study check``). ``snapshot``: read in a transaction of its own; without it, in the
+    caller's (a merge checks what it wrote before it commits).
     """
     problems = []
-    db.execute("BEGIN")  # one snapshot: a session writing meanwhile does not tear the picture
+    heads = list(heads)
+    try:  # the head is read before the snapshot, so the snapshot holds every entry the head names
+        head = ledger.read_head(study_dir) if study_dir is not None else None
+    except ValueError as error:
+        problems.append(str(error))
+    else:
+        heads += [] if head is None else [(head, str(study_dir / ledger.HEAD_FILE))]
+    if snapshot:
+        db.execute("BEGIN")  # one snapshot: a session writing meanwhile does not tear the picture
     try:
+        try:
+            problems += ledger.check(db, heads)
+        except sqlite3.Error as error:
+            raise database_error(error, db.path) from None
         present = {r[0]: r[1] for r in db.execute("SELECT name, sql FROM sqlite_master WHERE type = 'trigger'")}
         for name, sql in _schema_triggers().items():
             if name not in present:
@@ -694,7 +797,8 @@ def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
                                 f"{row[1][:12]}... (it hashes to {digest[:12]}...): it was changed after the study "
                                 "was created")
         for row in db.execute("""
-                SELECT r.id, r.session_id, r.task_index, r.run, r.status, r.frames, r.time_s,
+                SELECT r.id, r.session_id, r.task_index, r.run, r.status, r.reason, r.frames, r.time_s, r.attempts,
+                       (SELECT e.data FROM events e WHERE e.run_id = r.id AND e.kind = 'task_end') AS ended,
                        (SELECT COALESCE(SUM(f.count), 0) FROM frames f WHERE f.run_id = r.id) AS stored,
                        (SELECT COALESCE(MAX(f.first + f.count), 0) FROM frames f WHERE f.run_id = r.id) AS span,
                        (SELECT COUNT(*) FROM events e WHERE e.run_id = r.id AND e.kind = 'task_start') AS starts,
@@ -705,6 +809,8 @@ def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
             if row["starts"] != 1 or row["ends"] != 1:
                 problems.append(f"{run}: has {row['starts']} task_start and {row['ends']} task_end events, not one of "
                                 "each: it was not written by a session")
+            else:
+                problems += _result_against_end_event(run, row)
             if row["stored"] != row["frames"] or row["span"] != row["stored"]:
                 problems.append(f"{run}: frames = {row['frames']}, but {row['stored']} frames are stored "
                                 f"(spanning {row['span']}): frames are missing")
@@ -730,12 +836,18 @@ def check_integrity(db: sqlite3.Connection, full: bool = False) -> list[str]:
         if full:
             problems += [f"SQLite integrity check: {r[0]}" for r in db.execute("PRAGMA integrity_check")
                          if r[0] != "ok"]
-            for row in db.execute("SELECT run_id, first, count, data FROM frames ORDER BY run_id, first"):
-                try:
-                    framelog.decode(row["data"], row["count"])
-                except (ValueError, OSError) as error:
-                    problems.append(f"frames of task run {row['run_id']} from frame {row['first']}: the batch of "
-                                    f"{row['count']} frames does not decode ({error})")
+            problems += [problem for _, problem in framelog.damaged(db)]
     finally:
-        db.execute("COMMIT")
+        if snapshot:
+            db.execute("COMMIT")
     return problems
+
+
+def _result_against_end_event(run: str, row: sqlite3.Row) -> list[str]:
+    """Where a finished run's row and its task_end event disagree about its result."""
+    try:
+        said = json.loads(row["ended"])
+    except (TypeError, ValueError):
+        return [f"{run}: its task_end event is not readable JSON"]
+    return [f"{run}: {name} = {row[name]!r}, but its task_end event says {said.get(name)!r}"
+            for name in ("status", "time_s", "attempts", "reason") if said.get(name) != row[name]]

@@ -21,13 +21,20 @@ handed on from the thread that drives the display (the session's, whose store co
 use) at its next call.
 
 Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
-one-time token (printed with the address). The WebSocket refuses any Origin but the page's own and
-any Host but the served one, so a web page open elsewhere in the browser cannot read the session.
+one-time token (printed with the address), and the page and its WebSocket are served over TLS with
+the ``certificate`` given (``microg.view.tls``): WebXR needs a secure context, which plain HTTP is
+on the machine itself only. The WebSocket refuses any Origin but the page's own (its scheme too)
+and any Host but the served one (each given exactly once), so a web page open elsewhere in the
+browser cannot read the session. It serves the page's own files by name, from a list made at
+start, and nothing else: no request path reaches the file system. What the page reports drawing is
+kept for the last ``DRAWN_KEPT`` frames only, so a long session (or a page that reports faster)
+keeps a bounded memory.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
 import json
 import mimetypes
 import queue
@@ -46,12 +53,14 @@ from microg.study.store import PlannedTask
 from microg.task import Moment
 
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
+from .tls import LOCALHOST, Certificate
 
 PAGE = Path(__file__).with_name("page")
 """The page's files: index.html, participant.js, style.css, and vendor/ (three.js, installed by setup)."""
-LOCALHOST = "127.0.0.1"
 ANSWER_POLL_S = 0.25
 """While waiting for an answer, the display hands on the page's events this often (s)."""
+DRAWN_KEPT = 3600
+"""Drawn-frame reports kept: the last minute at 60 Hz."""
 
 
 def now_ms() -> float:
@@ -63,9 +72,15 @@ class ParticipantDisplay:
     """The page's server (see the module docstring). ``url`` is what the participant opens."""
 
     def __init__(self, protocol: Protocol, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
-                 hands=None, on_event=None):
+                 hands=None, on_event=None, certificate: Certificate | None = None):
         self.protocol, self.host, self.hands, self.on_event = protocol, host, hands, on_event
         self.viewpoint = protocol.viewpoint if viewpoint is None else viewpoint
+        if host != LOCALHOST and certificate is None:
+            raise ValueError(f"the participant's page on {host} is served over HTTPS (a browser offers WebXR to a "
+                             "secure page only): give it a certificate (microg.view.tls)")
+        self.certificate = certificate
+        self._tls = None if certificate is None else certificate.context()
+        self.scheme = "http" if certificate is None else "https"
         self.token = None if host == LOCALHOST else secrets.token_urlsafe(12)
         self._port = port
         self._frame: str | None = None
@@ -74,8 +89,9 @@ class ParticipantDisplay:
         """The latest message of each kind a late page needs: workspace, scene, timeline, question."""
         self._events: queue.SimpleQueue[tuple[str, dict]] = queue.SimpleQueue()
         self._answers: queue.Queue[str] = queue.Queue()
-        self.drawn: list[dict] = []
-        """What pages reported drawing: frame index, when its physics was ready, when it was drawn (ms)."""
+        self.drawn: collections.deque[dict] = collections.deque(maxlen=DRAWN_KEPT)
+        """What pages reported drawing, the last ``DRAWN_KEPT`` frames: frame index, when its physics
+        was ready, when it was drawn (ms)."""
         self.clock: dict | None = None
         """The page's clock offset from the session's and its spread (ms), once synced."""
         self.placement: list[float] | None = None
@@ -88,6 +104,8 @@ class ParticipantDisplay:
         self._clients = 0
         self._outboxes: list[asyncio.Queue] = []
         self._fresh: list[asyncio.Event] = []
+        self._files: dict[str, Path] = {}
+        """The page's files by request path: all the server serves."""
 
     # ------------------------------------------------------------ life
 
@@ -102,6 +120,8 @@ class ParticipantDisplay:
         if not (PAGE / "vendor" / "three.module.js").exists():
             raise FileNotFoundError(f"the participant page's three.js is missing from {PAGE / 'vendor'}: "
                                     "install the front-end packages with `make setup` (npm ci)")
+        self._files = {"/" + file.relative_to(PAGE).as_posix(): file for file in PAGE.rglob("*") if file.is_file()}
+        self._files["/"] = PAGE / "index.html"
         self._thread = threading.Thread(target=self._serve, name="participant-display", daemon=True)
         self._thread.start()
         self._started.wait()
@@ -118,7 +138,7 @@ class ParticipantDisplay:
 
     @property
     def url(self) -> str:
-        return f"http://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
+        return f"{self.scheme}://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
 
     @property
     def connected(self) -> int:
@@ -277,7 +297,7 @@ class ParticipantDisplay:
 
         self._stop = asyncio.Event()
         self._loop = asyncio.get_running_loop()
-        async with serve(self._connection, self.host, self._port, process_request=self._http,
+        async with serve(self._connection, self.host, self._port, process_request=self._http, ssl=self._tls,
                          origins=None, compression=None, max_size=2 ** 20) as server:
             self._port = server.sockets[0].getsockname()[1]
             self._started.set()
@@ -285,10 +305,14 @@ class ParticipantDisplay:
 
     def _allowed_origins(self) -> set[str]:
         hosts = {self.host, "localhost"} if self.host == LOCALHOST else {self.host}
-        return {f"http://{h}:{self._port}" for h in hosts} | {f"https://{h}:{self._port}" for h in hosts}
+        return {f"{self.scheme}://{h}:{self._port}" for h in hosts}
 
     def _refusal(self, request) -> str | None:
-        """Why a request must be refused (a foreign Host or Origin, a missing token), or None."""
+        """Why a request must be refused (a foreign Host or Origin, or either given more than once; a
+        missing token), or None."""
+        for name in ("Host", "Origin"):
+            if len(given := request.headers.get_all(name)) > 1:
+                return f"{name} given {len(given)} times"
         host = request.headers.get("Host", "")
         if host not in {o.split("://", 1)[1] for o in self._allowed_origins()}:
             return f"Host {host!r} is not this server"
@@ -311,9 +335,8 @@ class ParticipantDisplay:
         path = urlsplit(request.path).path
         if path == "/ws":
             return None
-        name = "index.html" if path == "/" else path.lstrip("/")
-        file = (PAGE / name).resolve()
-        if PAGE.resolve() not in file.parents or not file.is_file():
+        file = self._files.get(path)
+        if file is None:
             return connection.respond(404, "not found\n")
         body = file.read_bytes()
         kind = mimetypes.guess_type(file.name)[0] or "application/octet-stream"

@@ -4,11 +4,17 @@ One loop (``View.tick``) moves the playback cursor and draws the frame under it;
 the same loop (``View.poll``) reads what the session committed since the last poll. A live view
 is a replay that follows the newest frame of the newest run (``Playback.follow``): pausing or
 seeking leaves the live edge, the "follow live" box goes back to it.
+
+The time slider is both the cursor's display and a control, so its value is only ever changed on
+viser's event loop: the loop sets a page's seek and the view takes it there at once (``seeks``),
+and the tick hands its own updates to the loop. Read later from another thread, a seek could
+already have been overwritten by the next tick's cursor.
 """
 
 from __future__ import annotations
 
 import asyncio
+import collections
 import contextlib
 import io
 import threading
@@ -215,6 +221,9 @@ class View:
         self.track: Track | None = None
         self.layout: TaskLayout | None = None
         self.hands = hands
+        self.seeks: collections.deque[float] = collections.deque(maxlen=1)
+        """The newest time the page's slider asked for (put on viser's event loop), until the next tick
+        moves there (a deque's append and pop are atomic across threads)."""
         with contextlib.redirect_stdout(io.StringIO()):  # viser's banner; ``serve`` says where the view is
             self.server = viser.ViserServer(host=HOST, port=port, label="microg view", verbose=False)
         _refuse_foreign_pages(self.server)
@@ -284,11 +293,9 @@ class View:
                 self.playback.speed = float(self.speed_choice.value.rstrip("x"))
 
         @self.time_slider.on_update
-        def _(event) -> None:
+        async def _(event) -> None:  # on viser's event loop, right after it took the page's value
             if event.client_id is not None:
-                with self.lock:
-                    self.playback.seconds, self.playback.follow = float(self.time_slider.value), False
-                    self.follow_box.value = False
+                self.seeks.append(float(self.time_slider.value))
 
         @self.hands_choice.on_update
         def _(event) -> None:
@@ -366,14 +373,23 @@ class View:
             if self.track is None or not len(self.track.frames):
                 self.hud.content = self._waiting_text()
                 return
+            if self.seeks:
+                seek = self.seeks.pop()
+                self.playback.seconds, self.playback.follow = min(max(seek, 0.0), self.track.duration), False
+                self.follow_box.value = False
             self.playback.advance(elapsed, self.track.duration)
             scene = self.track.scene(self.track.index_at(self.playback.seconds), len(self.layout.places))
             with self.server.atomic():
                 self.drawer.draw(scene, self.hands)
                 self.hud.content = self._hud(scene)
-                self.time_slider.max = max(self.track.duration, 0.01)
-                self.time_slider.value = round(self.playback.seconds, 2)
                 self.play_button.label = "Pause" if self.playback.playing else "Play"
+            self.server.get_event_loop().call_soon_threadsafe(self._show_cursor, max(self.track.duration, 0.01),
+                                                              round(self.playback.seconds, 2))
+
+    def _show_cursor(self, duration: float, seconds: float) -> None:
+        """The slider's range and value, on viser's event loop (module docstring)."""
+        self.time_slider.max = duration
+        self.time_slider.value = seconds
 
     def _waiting_text(self) -> str:
         if self.session is None:

@@ -13,6 +13,7 @@ from click.testing import CliRunner
 from microg.analysis import (
     AnalysisInputError,
     analyse_study,
+    check_trials,
     complete_cases,
     incomplete_cases,
     participant_cells,
@@ -292,3 +293,42 @@ def test_cli_names_a_bad_mapping_file(tmp_path, study):
                                        str(tmp_path / "out")])  # fmt: skip
     assert result.exit_code == 1
     assert f"{mapping}: unknown key 'participant'" in result.output
+
+
+def test_a_row_given_twice_is_refused_naming_it_and_dropped_only_when_asked(tmp_path, study):
+    """Rows pasted in twice would count twice in every mean and test: refused, naming each copy;
+    with --drop-duplicates dropped and listed, and the results are those of the table without them."""
+    trials, answers = study
+    doubled = pd.concat([trials, trials.iloc[[3, 10]]], ignore_index=True)
+    path = _write(tmp_path, doubled, "trials.csv")
+    n = len(trials)
+    listed = f"data row {n + 1} repeats row 4, data row {n + 2} repeats row 11"
+    with pytest.raises(AnalysisInputError, match=re.escape(f"{path}: 2 row(s) repeat an earlier row in every "
+                                                           f"column: {listed}")):
+        read_trials(path)
+    result = CliRunner().invoke(main, ["report", "--trials", str(path), "--out", str(tmp_path / "refused")])
+    assert result.exit_code == 1 and listed in result.output and "--drop-duplicates" in result.output
+    assert not (tmp_path / "refused").exists()
+
+    repeated_answers = pd.concat([answers, answers.iloc[[0]]], ignore_index=True)
+    kept = analyse_study(path, repeated_answers, drop_duplicates=True)
+    original = analyse_study(trials, answers)
+    for table in ("anova", "comparison", "likert_tests"):
+        pd.testing.assert_frame_equal(getattr(kept, table), getattr(original, table))
+    assert kept.warnings[:2] == (
+        f"{path}: 2 rows repeated earlier rows in every column and were dropped ({listed})",
+        f"questionnaire table: 1 row repeated an earlier row in every column and was dropped (data row "
+        f"{len(answers) + 1} repeats row 1)")
+    assert kept.warnings[2:] == original.warnings
+
+
+def test_two_different_rows_of_one_exported_task_are_refused(study):
+    trials = study[0].assign(session=lambda t: t.participant.str[1:].astype(int),
+                             task_index=lambda t: t.groupby("participant").cumcount())
+    changed = pd.concat([trials, trials.iloc[[5]].assign(time_s=1.0)], ignore_index=True)
+    row = trials.iloc[5]
+    with pytest.raises(AnalysisInputError, match=re.escape(
+            f"trials table: data rows 6 and {len(trials) + 1} are the same task (participant {row.participant!r}, "
+            f"study 'fixture', session {int(row.session)}, task_index {int(row.task_index)}) with different values")):
+        analyse_study(changed)
+    assert len(check_trials(trials)) == len(trials)  # one row per task is what an export has

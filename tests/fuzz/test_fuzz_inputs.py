@@ -3,17 +3,24 @@ report's input tables. Any input gives a result or the project's error, and a re
 
 from __future__ import annotations
 
+import json
+
+import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from microg.analysis.tables import AnalysisInputError, read_questionnaire, read_trials
 from microg.paths import PROTOCOLS
+from microg.power import design_from_protocol
 from microg.study.assignment import GENDERS, HANDEDNESS, Participant, ParticipantError
 from microg.study.protocol import load_protocol
 from microg.study.questionnaire import RatingError, parse_rating
 from microg.study.store import create_study
 
-from .strategies import FUZZ, scalars
+from tests.waiting import WAIT_S
+
+from .strategies import FUZZ, edits, scalars, toml_value
 
 FIXTURE = settings(FUZZ, suppress_health_check=[HealthCheck.function_scoped_fixture])
 STUDIES = settings(FIXTURE, max_examples=40)
@@ -69,3 +76,59 @@ def test_any_table_handed_to_the_report_is_read_or_refused(tmp_path, columns, ro
             read(path)
         except AnalysisInputError as error:
             assert str(path) in str(error), error
+
+
+EFFECTS = {"sd": 20.0, "correlation": 0.5,
+           "means": {"veteran": {"cube": 45.0, "flat_cuboid": 55.0, "long_cuboid": 55.0},
+                     "beginner": {"cube": 55.0, "flat_cuboid": 70.0, "long_cuboid": 70.0}}}
+"""The issue's effects file, as data."""
+PAPER_DESIGN = design_from_protocol(load_protocol(PROTOCOLS / "paper.toml"))
+
+
+@FIXTURE
+@given(edits(EFFECTS))
+def test_any_edit_of_an_effects_file_is_read_or_refused_naming_it(tmp_path, data):
+    from microg.power import PowerInputError, read_effects
+
+    path = tmp_path / "effects.toml"
+    lines = [f"{json.dumps(k)} = {toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    lines += [f"[{json.dumps(k)}]\n" + "\n".join(f"{json.dumps(a)} = {toml_value(b)}" for a, b in v.items())
+              for k, v in data.items() if isinstance(v, dict)]
+    path.write_text("\n".join(lines) + "\n")
+    try:
+        effects = read_effects(path, PAPER_DESIGN)
+    except PowerInputError as error:
+        assert str(error).startswith(str(path)), error
+    else:
+        assert np.isfinite(effects.means).all() and np.isfinite(effects.covariances).all()
+
+
+@pytest.fixture(scope="module")
+def page_server():
+    from microg.view.display import ParticipantDisplay
+
+    with ParticipantDisplay(load_protocol(PROTOCOLS / "paper.toml")) as display:
+        yield display
+
+
+header_names = st.sampled_from(["Host", "Origin", "Upgrade", "Connection", "Sec-WebSocket-Key",
+                                "Sec-WebSocket-Version", "Cookie", "X"])
+header_values = st.text(st.characters(min_codepoint=32, max_codepoint=126), max_size=40)
+
+
+@FIXTURE
+@given(st.binary(max_size=300).filter(lambda b: not set(b) & set(b" \r\n")), st.booleans(),
+       st.lists(st.tuples(header_names, header_values), max_size=6))
+def test_any_request_to_the_participant_page_gets_an_answer_and_no_traceback(page_server, caplog, path, own_host,
+                                                                             headers):
+    import logging
+    import socket
+
+    lines = ([("Host", f"127.0.0.1:{page_server.port}")] if own_host else []) + headers
+    request = (b"GET /" + path + b" HTTP/1.1\r\n" + "".join(f"{k}: {v}\r\n" for k, v in lines).encode() + b"\r\n")
+    with caplog.at_level(logging.DEBUG, logger="websockets"), \
+            socket.create_connection(("127.0.0.1", page_server.port), timeout=WAIT_S) as sock:
+        sock.sendall(request)
+        status = sock.recv(64).split(b"\r\n", 1)[0]
+    assert status.split(b" ")[1] in (b"101", b"200", b"400", b"403", b"404"), status
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR], caplog.text

@@ -20,6 +20,7 @@ import pytest
 from microg.hands.leap_device import (INSTALL_HELP, LeapSource, LeapUnavailable, frame_from_event,
                                              load_leap)
 from microg.hands.source import HandSource
+from tests.waiting import joined
 
 HandType = enum.Enum("HandType", [("Left", 0), ("Right", 1)])
 TrackingMode = enum.Enum("TrackingMode", [("Desktop", 0), ("HMD", 1), ("ScreenTop", 2)])
@@ -209,7 +210,7 @@ class FakeConnection:
 
     def disconnect(self):
         if self.thread is not None:
-            self.thread.join()
+            joined(self.thread, "the fake device")
 
 
 class FakeListener:
@@ -236,7 +237,7 @@ def test_the_live_source_delivers_the_devices_frames_in_order():
     events = [event(1_000_000 + 9_000 * i, [leap_hand(HandType.Right, 3, (0, 200, 0), rng)[0]]) for i in range(20)]
     source = LeapSource(leap=fake_leap(events), start_timeout=STARTED, frame_timeout=0.5)
     assert isinstance(source, HandSource) and source.description == "leap"
-    source._connection.thread.join()  # every frame has arrived: reading them waits on nothing
+    joined(source._connection.thread, "the fake device")  # every frame has arrived: reading them waits on nothing
     frames = [source.next_frame() for _ in range(20)]
     assert [f.timestamp for f in frames] == pytest.approx([1.0 + 0.009 * i for i in range(20)])
     assert frames[4] == frame_from_event(events[4])
@@ -249,7 +250,7 @@ def test_the_live_source_delivers_the_devices_frames_in_order():
 def test_a_reader_that_falls_behind_loses_the_oldest_frames_and_counts_them():
     events = [event(1_000 + i, []) for i in range(30)]
     source = LeapSource(leap=fake_leap(events), backlog=10, start_timeout=STARTED, frame_timeout=0.5)
-    source._connection.thread.join()
+    joined(source._connection.thread, "the fake device")
     frames = [source.next_frame() for _ in range(10)]
     assert [f.timestamp for f in frames] == pytest.approx([(1_000 + i) * 1e-6 for i in range(20, 30)])
     assert source.frames_dropped == 20

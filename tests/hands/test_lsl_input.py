@@ -16,6 +16,7 @@ from microg.study.session import SimulationClock, run_session
 
 from tests.study.conftest import make_study  # noqa: F401  (the fixture)
 from tests.study.scripted import RATE, ScriptedPinch, pinch_keyframes
+from tests.waiting import WAIT_S, joined
 
 pylsl = pytest.importorskip("pylsl")
 
@@ -40,8 +41,8 @@ def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F
 
     def publish():
         """The scripted pinch of each task, back to back, stamped at the tracking rate."""
-        while not outlet.have_consumers():
-            outlet.wait_for_consumers(1.0)
+        if not outlet.wait_for_consumers(WAIT_S):
+            return  # the session never listened: it fails below, its tasks aborted
         t0 = pylsl.local_clock()
         offset = 0.0
         for task in tasks:
@@ -54,10 +55,14 @@ def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F
     inputs = open_inputs(f"lsl:{name}")
     thread = threading.Thread(target=publish, daemon=True)
     thread.start()
+    hung = threading.Timer(WAIT_S, inputs.close)  # a stream that stops: the source ends, the tasks abort
+    hung.start()
     try:
         status = run_session(store, store.session_of("P01").id, inputs, clock=SimulationClock())
     finally:
+        hung.cancel()
         inputs.close()
+    joined(thread, "the hand stream's publisher")
     assert status == "completed"
     trials = trials_table(store)
     assert trials.completed.all() and (trials.attempts == 0).all()

@@ -9,6 +9,8 @@ from microg.cli import main
 
 from .conftest import ISSUE_EFFECTS, effects_text
 
+BIG = "1" + "0" * 400
+"""An integer TOML reads and no double holds."""
 GOOD = {"veteran": {"cube": 45.0, "flat_cuboid": 55.0, "long_cuboid": 55.0},
         "beginner": {"cube": 55.0, "flat_cuboid": 70.0, "long_cuboid": 70.0}}  # fmt: skip
 
@@ -33,6 +35,21 @@ CASES = {
             "long_cuboid = { cube = 0.0, flat_cuboid = 0.0, long_cuboid = 4.0 }\n" for g in GOOD)),
         ["covariance.beginner.cube.flat_cuboid = 1.0", "covariance.beginner.flat_cuboid.cube = 2.0", "symmetric"]),
     "not TOML": ("sd = = 3\n", ["not valid TOML"]),
+    "an integer no double holds": (ISSUE_EFFECTS.replace("cube = 45.0", f"cube = {BIG}", 1),
+                                   [f"means.veteran.cube = {BIG}", "too large for a double"]),
+    "a mean 1e300": (ISSUE_EFFECTS.replace("cube = 45.0", "cube = 1e300", 1),
+                     ["means.veteran.cube = 1e+300", "SDs (SD 20) from zero", "up to 10000 SDs"]),
+    "a mean 10^5 SDs from zero": (ISSUE_EFFECTS.replace("cube = 45.0", "cube = 2000045.0", 1),
+                                  ["means.veteran.cube = 2000045.0", "lies 1e+05 SDs (SD 20)"]),
+    "SD 1e200": (effects_text(GOOD, 1e200, 0.5), ["sd = 1e+200", "from 1e-50 to 1e+50"]),
+    "SD 1e-200": (effects_text(GOOD, 1e-200, 0.5), ["sd = 1e-200", "from 1e-50 to 1e+50"]),
+    "a variance 1e300": (
+        effects_text(GOOD, extra="".join(
+            f"[covariance.{g}]\ncube = {{ cube = 1e300, flat_cuboid = 0.0, long_cuboid = 0.0 }}\n"
+            "flat_cuboid = { cube = 0.0, flat_cuboid = 4.0, long_cuboid = 0.0 }\n"
+            "long_cuboid = { cube = 0.0, flat_cuboid = 0.0, long_cuboid = 4.0 }\n" for g in GOOD)),
+        ["covariance.veteran.cube.cube = 1e+300", "a variance must be a positive number from 1e-100 to 1e+100"]),
+    "nested too deeply": ("sd = " + "[" * 2000 + "]" * 2000 + "\n", ["nested too deeply"]),
 }  # fmt: skip
 
 
@@ -50,11 +67,30 @@ def test_a_bad_effects_file_names_file_key_and_value(tmp_path, case):
     assert not (tmp_path / "out" / "power.csv").exists()
 
 
-@pytest.mark.parametrize("sizes, shown", [("8,1", "--n = 1"), ("0", "--n = 0"), ("-4,10", "--n = -4")])
-def test_fewer_than_two_per_group_is_refused(effects_file, tmp_path, sizes, shown):
+def test_an_effects_file_that_is_not_utf8_is_named(tmp_path):
+    path = tmp_path / "effects.toml"
+    path.write_bytes(("# temps de réalisation\n" + ISSUE_EFFECTS).encode("latin-1"))
+    result = CliRunner().invoke(main, ["power", "--effects", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert f"Error: {path}: not UTF-8 text (byte 0xe9 at position 12)" in result.output
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("sizes, shown, why", [("8,1", "--n = 1", "at least 2"), ("0", "--n = 0", "at least 2"),
+                                               ("-4,10", "--n = -4", "at least 2"),
+                                               ("10,100000", "--n = 100000", "at most 1000"),
+                                               (BIG, f"--n = {BIG}", "at most 1000")])
+def test_group_sizes_the_computation_cannot_handle_are_refused(effects_file, tmp_path, sizes, shown, why):
     result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--n", sizes, "--out", str(tmp_path)])
     assert result.exit_code == 1 and result.output.startswith("Error: ")
-    assert shown in result.output and "at least 2" in result.output
+    assert shown in result.output and why in result.output
+    assert list(tmp_path.iterdir()) == [effects_file]
+
+
+def test_a_negative_seed_is_refused_by_the_option(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--method", "montecarlo",
+                                       "--seed", "-1", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2 and "-1 is not in the range 0<=x<=9223372036854775807" in result.output
 
 
 @pytest.mark.parametrize("option, value", [("--alpha", "1.5"), ("--alpha", "0"), ("--target", "0")])

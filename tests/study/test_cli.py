@@ -2,7 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import pwd
 import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -14,8 +24,11 @@ from microg.study.inputs import participant_plan
 from microg.study.protocol import load_protocol
 from microg.study.store import PlannedTask, open_study
 
+from tests.waiting import ended, joined, wait_until
+
 from .conftest import PROTOCOLS
 from .scripted import ScriptedPinch, pinch_keyframes
+
 
 def cube_recording(path):
     """A recording of the scripted pinch doing the tiny protocol's cube task."""
@@ -182,3 +195,191 @@ def test_a_protocol_simulated_participants_cannot_answer_warns_at_init_and_refus
     result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "demo"), "--participants", "2",
                                        "--protocol", str(mine), "--quiet"])
     assert result.exit_code == 1 and "'comfort'" in result.output and not (tmp_path / "demo").exists()
+
+
+# ---------------------------------------------------------------- what a careful tester tries (issue 29)
+
+REPOSITORY = PROTOCOLS.parents[2]
+
+
+@contextlib.contextmanager
+def acting_as_another_user():
+    """The process acting as a user whom permissions stop: itself, or user nobody when it runs as
+    root (whom no permission stops); yields the user's name."""
+    if os.geteuid() != 0:
+        yield pwd.getpwuid(os.geteuid()).pw_name
+        return
+    try:
+        nobody = pwd.getpwnam("nobody")
+    except KeyError:
+        pytest.skip("runs as root and there is no user nobody to act as")
+    os.setegid(nobody.pw_gid)
+    os.seteuid(nobody.pw_uid)
+    try:
+        yield nobody.pw_name
+    finally:
+        os.seteuid(0)
+        os.setegid(0)
+
+
+@pytest.fixture
+def locked_study():
+    """A study inside a folder nobody may enter: (the folder, the study); in a folder of its own that
+    anyone may enter (pytest's own temporary folders are the owner's only)."""
+    base = Path(tempfile.mkdtemp(prefix="microg-locked-"))
+    base.chmod(0o755)
+    locked = base / "locked"
+    study = locked / "study"
+    assert CliRunner().invoke(main, ["study", "init", str(study), "--protocol", str(PROTOCOLS / "tiny.toml")]).exit_code == 0
+    locked.chmod(0)
+    yield locked, study
+    locked.chmod(0o755)
+    shutil.rmtree(base)
+
+
+@pytest.mark.parametrize("args", [
+    ["study", "status", "{study}"],
+    ["participant", "add", "{study}", "--id", "P01", "--gender", "female", "--age", "24", "--handedness", "right",
+     "--mr-experience", "yes"],
+    ["session", "run", "{study}", "--participant", "P01", "--input", "simulated", "--quiet"],
+    ["export", "{study}", "--quiet"],
+    ["report", "{study}", "--out", "{locked}/report"],
+])
+def test_a_study_in_a_folder_the_user_may_not_enter_names_the_folder_and_the_permission(locked_study, args):
+    locked, study = locked_study
+    args = [a.format(study=study, locked=locked) for a in args]
+    with acting_as_another_user() as user:
+        result = CliRunner().invoke(main, args)
+    assert result.exit_code in (1, 2) and "Traceback" not in result.output, result.output
+    assert f"{locked}: permission denied: user {user} may not enter this folder" in result.output, result.output
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP", "SIGINT"])
+def test_sigterm_and_sighup_pause_a_session_as_ctrl_c_does(tmp_path, name):
+    study = str(tmp_path / "study")
+    CliRunner().invoke(main, ["study", "init", study, "--protocol", str(PROTOCOLS / "tiny.toml")])
+    CliRunner().invoke(main, ["participant", "add", study, "--id", "P01", "--gender", "female", "--age", "24",
+                              "--handedness", "right", "--mr-experience", "yes"])
+    # watched on the participant's display, the simulated participant plays at real time: seconds a task
+    session = subprocess.Popen([sys.executable, "-c", "from microg.cli import main; main()", "session", "run", study,
+                                "--participant", "P01", "--input", "simulated", "--display"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPOSITORY)
+    said = bytearray()
+
+    def read() -> None:  # the progress bar rewrites its line: read what comes, not lines
+        while chunk := os.read(session.stderr.fileno(), 4096):
+            said.extend(chunk)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    try:
+        wait_until(lambda: b" frames, " in said, "the session's progress bar to count frames of its first task",
+                   seen=lambda: bytes(said[-400:]), going=lambda: session.poll() is None)
+        session.send_signal(getattr(signal, name))
+        status = ended(session, f"the session after {name}")
+    finally:
+        if session.poll() is None:
+            session.kill()
+            session.wait()
+    joined(reader, "the reader of the session's messages")
+    message = said.decode(errors="replace").rsplit("\r", 1)[-1]
+    assert status == 1 and "Traceback" not in message
+    assert (f"Error: session 1 of P01 paused; the task in progress will run again from its start on: microg session "
+            f"resume {study} --participant P01") in message
+    with open_study(study, readonly=True) as store:
+        session_record = store.session_of("P01")
+        assert session_record.status == "running" and store.runs(session_record.id)[-1].status == "interrupted"
+
+
+def test_session_run_help_lists_every_input_the_readme_documents():
+    readme = (REPOSITORY / "README.md").read_text()
+    listed = re.search(r"--input ([\w:\\|]+)` \|", readme).group(1).split("\\|")  # the table of verbs
+    named = re.findall(r"`--input (\w+:[A-Z_.]+)`", readme)  # the prose: replay:FILE, lsl:NAME
+    assert {"leap", "webxr", "lsl:NAME", "replay:FILE", "simulated"} <= set(listed + named)
+    help_text = CliRunner().invoke(main, ["session", "run", "--help"]).output
+    for value in listed + named:
+        assert value in help_text, value
+
+
+@pytest.mark.parametrize("args, message", [
+    (["hands", "import", "{recording}", "-o", "{out}/x.arrows"], "-o is now --out"),
+    (["hands", "import", "{recording}", "--output", "{out}/x.arrows"], "--output is now --out"),
+    (["hands", "import", "{recording}", "--force"], "--force is now --overwrite"),
+    (["hands", "record", "--out", "{out}/x.arrows", "--force"], "--force is now --overwrite"),
+    (["power", "--effects", "{out}/e.toml", "--system", "soft_hand", "--out", "{out}"], "--system is now --interaction"),
+    (["report", "--system", "soft_hand", "--out", "{out}"], "--system is now --interaction"),
+    (["report", "--system-column", "model", "--out", "{out}"], "--system-column is now --interaction-column"),
+    (["view", "--study", "{out}"], "--study is now the argument STUDY_DIR"),
+])
+def test_a_renamed_option_names_its_new_spelling(tmp_path, args, message):
+    recording = REPOSITORY / "data" / "leap-v2-recordings" / "wave.json.gz"
+    result = CliRunner().invoke(main, [a.format(recording=recording, out=tmp_path) for a in args])
+    assert result.exit_code == 2 and f"Error: {message}" in result.output, result.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_seed_the_database_cannot_store_is_refused_by_the_option(tmp_path):
+    result = CliRunner().invoke(main, ["study", "init", str(tmp_path / "s"), "--seed", str(2**63)])
+    assert result.exit_code == 2 and "is not in the range 0<=x<=9223372036854775807" in result.output
+    assert not (tmp_path / "s").exists()
+
+
+BIG = "1" + "0" * 400
+"""An integer TOML reads and no double holds."""
+
+
+@pytest.mark.parametrize("protocol, objects, expected", [
+    ("", 'material = 3\n', ["objects/slab.toml", "material = 3: must be a table"]),
+    ("", 'mass = 1e300\n', ["objects/slab.toml", "mass = 1e+300: must lie from 0.0001 to 1000 kg"]),
+    ("", f'size = [{BIG}, 0.05, 0.05]\n', ["objects/slab.toml", f"size.x = {BIG}: must be a positive number"]),
+    ("", 'inertia = ["heavy", 1e-4, 1e-4]\n', ["objects/slab.toml", "inertia[0] = 'heavy': must be a positive number"]),
+    ("", 'name = 7\n', ["objects/slab.toml", "name = 7: must be a non-empty string"]),
+    (f"duration_minutes = {BIG}\n", "", [f"duration_minutes = {BIG}: must be a positive number"]),
+    (f"seed = {2**64}\n", "", [f"seed = {2**64}: must be a whole number from 0 to 9223372036854775807"]),
+    ("[logging]\nframe_batch = 1000000000000\n", "", ["logging.frame_batch = 1000000000000: must be a whole number "
+                                                      "from 1 to 10000"]),
+    ("[scene]\nsubsteps = 1000000000\n", "", ["scene.substeps = 1000000000: the physics would step 1.1e+11 times"]),
+    ("[scene]\nfilter_window = 1000000000\n", "", ["scene.filter_window = 1000000000: must be a whole number from 1 "
+                                                   "to 100"]),
+    ("[scene]\ngravity = [0.0, -1e300, 0.0]\n", "", ["scene.gravity = [0.0, -1e+300, 0.0]: each number must lie "
+                                                     "within 100 of zero"]),
+    ("[task]\nhold_s = 100.0\n", "", ["task.timeout_s = 15.0: the 3 holds of hold_s = 100 s take longer"]),
+    ("[task]\nplaces = [" + "[0.0, 0.2, 0.0], " * 101 + "]\n", "", ["task.places: 101 positions; at most 100"]),
+    ("[questionnaire]\nscale_max = 1000000000000000000\n", "", ["questionnaire.scale_max = 1000000000000000000: the "
+                                                                "scale from scale_min = 0 offers"]),
+    ("x = " + "[" * 2000 + "]" * 2000 + "\n", "", ["not a protocol file: its tables or arrays are nested too deeply"]),
+    ("# " + "x" * (1 << 20) + "\n", "", ["over 1 MiB: not a protocol file"]),
+])
+def test_absurd_sizes_in_protocol_and_object_files_name_file_key_and_value(tmp_path, protocol, objects, expected):
+    (tmp_path / "objects").mkdir()
+    slab = {"name": '"slab"', "shape": '"box"', "size": "[0.1, 0.02, 0.05]", "mass": "0.2"}
+    slab.update(line.split(" = ", 1) for line in objects.splitlines())
+    (tmp_path / "objects" / "slab.toml").write_text("".join(f"{k} = {v}\n" for k, v in slab.items()))
+    mine = tmp_path / "mine.toml"
+    mine.write_text(f'extends = "{PROTOCOLS / "tiny.toml"}"\nname = "mine"\n{protocol}'
+                    + ("" if "[objects]" in protocol or not objects else '[objects]\nnames = ["slab"]\n'))
+    result = CliRunner().invoke(main, ["study", "init", str(tmp_path / "s"), "--protocol", str(mine)])
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert str(tmp_path) in result.output
+    for part in expected:
+        assert part in result.output, (part, result.output)
+    assert not (tmp_path / "s").exists()
+
+
+@pytest.mark.parametrize("verb, message", [
+    (["session", "run", "{study}", "--participant", "P01", "--input", "replay:{deep}", "--quiet"],
+     "{deep}: not a replay manifest: its tables or arrays are nested too deeply"),
+    (["report", "--trials", "{deep}", "--columns", "{deep}", "--out", "{out}"],
+     "{deep}: not a TOML file of column names: nested too deeply"),
+])
+def test_toml_nested_too_deeply_is_named_by_every_reader(tmp_path, verb, message):
+    study, deep = tmp_path / "study", tmp_path / "deep.toml"
+    deep.write_text("x = " + "[" * 2000 + "]" * 2000 + "\n")
+    CliRunner().invoke(main, ["study", "init", str(study), "--protocol", str(PROTOCOLS / "tiny.toml")])
+    CliRunner().invoke(main, ["participant", "add", str(study), "--id", "P01", "--gender", "female", "--age", "24",
+                              "--handedness", "right", "--mr-experience", "yes"])
+    names = dict(study=study, deep=deep, out=tmp_path / "out")
+    result = CliRunner().invoke(main, [a.format(**names) for a in verb])
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert message.format(**names) in result.output

@@ -15,6 +15,7 @@ import pytest
 from microg.study.export import trials_table
 from microg.study.session import SimulationClock, resume_session
 from microg.study.store import open_study
+from tests.waiting import ended
 
 from .conftest import scripted_inputs
 
@@ -48,7 +49,7 @@ def test_sigkill_mid_task_loses_no_finished_task_and_at_most_one_frame_batch(mak
         else:
             pytest.fail("the child ended before the second task had handed over three batches")
         child.send_signal(signal.SIGKILL)
-        child.wait()
+        ended(child, "the killed session")
     finally:
         if child.poll() is None:
             child.kill()

@@ -18,6 +18,7 @@ from microg.study.inputs import ScriptedInputs, participant_plan
 from microg.study.session import (EventLog, SimulationClock, Unattended, resume_session, run_session, run_task,
                                   task_world)
 from microg.study.store import Event, StoreError, create_study, open_study
+from tests.waiting import WAIT_S
 
 from .conftest import answers, scripted_inputs
 from .scripted import RATE, ScriptedPinch, pinch_keyframes
@@ -255,7 +256,9 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     outlet.mark(Event(clock.now(), "end_of_test", {}))  # a last marker: everything before it has arrived once it has
     received = []
     while not received or json.loads(received[-1])["kind"] != "end_of_test":
-        received.append(inlet.pull_sample()[0][0])  # waits for the next marker
+        sample, _ = inlet.pull_sample(timeout=WAIT_S)  # waits for the next marker
+        assert sample is not None, f"waited {WAIT_S:g} s for the next marker; received {received}"
+        received.append(sample[0])
     kinds = [json.loads(m)["kind"] for m in received[:-1]]
     logged = [e.kind for e in store.events(session.id, run_id) if e.kind != "task_start"]  # the test logged it
     assert kinds == logged

@@ -22,6 +22,7 @@ from microg.study import framelog, store as store_module
 from microg.study.assignment import Participant, ParticipantError
 from microg.study.export import export_study
 from microg.study.store import DamagedStudyError, StoreError, open_study
+from tests.waiting import ended
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -57,7 +58,7 @@ def holder(tmp_path):
 def release(child: subprocess.Popen) -> None:
     if child.poll() is None:
         child.stdin.close()
-        child.wait()
+        ended(child, "the process holding the study")
 
 
 @pytest.mark.parametrize("content, message", [
@@ -176,7 +177,10 @@ def test_a_forged_completed_run_is_found_and_not_exported_unless_accepted(make_s
     with pytest.raises(DamagedStudyError) as error:
         open_study(store.dir)
     problems = error.value.problems
-    assert problems == [f"task_runs row 1 (session {session.id}, task 0, run 1, completed): has 0 task_start and 0 "
+    run = f"participant P01's session {session.id}, task 0 (stage1, cube), run 1 (task run 1)"
+    assert problems == [f"the start of {run}: not in the ledger (written behind microg's back)",
+                        f"the result of {run}: not in the ledger (written behind microg's back)",
+                        f"task_runs row 1 (session {session.id}, task 0, run 1, completed): has 0 task_start and 0 "
                         "task_end events, not one of each: it was not written by a session",
                         f"task_runs row 1 (session {session.id}, task 0, run 1, completed): completed with 0 frames "
                         "and time_s = 9.0: a completed task has frames and a time"]
@@ -189,7 +193,7 @@ def test_a_forged_completed_run_is_found_and_not_exported_unless_accepted(make_s
     result = cli("study", "check", store.dir)
     assert result.exit_code == 1 and all(f"damaged: {p}" in result.output for p in problems)
     result = cli("study", "status", store.dir)
-    assert result.exit_code == 0 and "the study is damaged (2 problem(s) above)" in result.output
+    assert result.exit_code == 0 and "the study is damaged (4 problem(s) above)" in result.output
     for verb in (["participant", "add", store.dir, "--id", "P02", "--gender", "male", "--age", "20", "--handedness",
                   "left", "--mr-experience", "no"], ["session", "resume", store.dir, "--participant", "P01"]):
         assert cli(*verb).exit_code == 1  # nothing more is written into a damaged log
@@ -217,17 +221,21 @@ def test_dropped_triggers_and_a_changed_protocol_are_found_on_open(make_study, s
     assert result.exit_code == 1 and problem in result.output
 
 
-def test_study_check_reports_a_sound_study_and_a_frame_batch_that_does_not_decode(make_study):
+def test_study_check_reports_a_sound_study_and_a_forged_frame_batch(make_study):
     store, _ = make_study("tiny")
     session = store.create_session("P01", "scripted", True, "simulation")
     run_id = store.begin_run(session.id, store.tasks(session.id)[0], "test", 0, 0.0)
     store.close()
     result = cli("study", "check", store.dir)
     assert result.exit_code == 0 and "sound (1 task runs, 0 frames" in result.output
-    forge(store.dir, f"INSERT INTO frames VALUES ({run_id}, 0, 3, 0.0, 0.1, x'00ff00')")
+    forged = framelog.checksum(run_id, 0, 3, 0.0, 0.1, b"\x00\xff\x00")  # sound by its checksum, not by the ledger
+    forge(store.dir, f"INSERT INTO frames VALUES ({run_id}, 0, 3, 0.0, 0.1, x'{forged.hex()}', x'00ff00')")
     result = cli("study", "check", store.dir)
-    assert result.exit_code == 1 and f"frames of task run {run_id} from frame 0: the batch of 3 frames does not " \
-                                      "decode" in result.output
+    batch = f"frames of participant P01's session {session.id}, task 0 (stage1, cube), run 1 (task run {run_id}), " \
+            "the batch from frame 0"
+    assert result.exit_code == 1, result.output
+    assert f"damaged: {batch}: not in the ledger (written behind microg's back)" in result.output
+    assert f"damaged: {batch} (3 frames): matches its checksum but does not decode" in result.output
 
 
 def test_withdraw_refuses_while_another_process_runs_the_session(make_study, holder):

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pylsl
 
+from tests.waiting import WAIT_S, joined
+
 FILE_HEADER, STREAM_HEADER, SAMPLES, CLOCK_OFFSET, STREAM_FOOTER = 1, 2, 3, 4, 6
 HANG_S = 300.0
 """A bound against a hang only: each wait below ends as soon as LSL answers, on a busy machine too."""
@@ -85,13 +87,14 @@ class XdfRecorder:
         """Return once the stream ``source_id`` has delivered ``count`` samples."""
         stream = next(s for s in self.streams if s.info.source_id() == source_id)
         with self._arrived:
-            self._arrived.wait_for(lambda: len(stream.samples) >= count)
+            assert self._arrived.wait_for(lambda: len(stream.samples) >= count, WAIT_S), \
+                f"waited {WAIT_S:g} s for {count} samples of {source_id}; {len(stream.samples)} arrived"
 
     def close(self) -> None:
         """Stop pulling and write the XDF file."""
         self._stop.set()
         for thread in self._threads:
-            thread.join()
+            joined(thread, "an LSL stream's reader")
         parts = [b"XDF:", _chunk(FILE_HEADER, b'<?xml version="1.0"?><info><version>1.0</version></info>')]
         for stream in self.streams:
             parts.append(_chunk(STREAM_HEADER, stream.info.as_xml().encode(), stream.id))

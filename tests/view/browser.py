@@ -21,9 +21,10 @@ MISSING = missing()
 """What the browser tests lack on this machine ("" when they can run)."""
 
 
-def chromium(size: tuple[int, int] = (1200, 800)):
-    """A headless Chromium under selenium with a ``size`` viewport (the benchmark's); closed on leaving."""
-    return _chromium(size)
+def chromium(size: tuple[int, int] = (1200, 800), flags: tuple[str, ...] = ()):
+    """A headless Chromium under selenium with a ``size`` viewport (the benchmark's) and its command-line
+    ``flags``; closed on leaving."""
+    return _chromium(size, flags)
 
 
 def page_text(driver) -> str:

@@ -25,6 +25,7 @@ from microg.view.server import BROWSER_ASPECT, View
 
 from .browser import MISSING, chromium, open_page, page_text, screenshot
 from tests.study.scripted import gated_session
+from tests.waiting import WAIT_S, ended, joined, next_item, wait_until
 
 from .conftest import colour_mask, free_port, new_study, pixels_near, project
 
@@ -47,7 +48,7 @@ def start_view(*arguments: str) -> tuple[subprocess.Popen, str]:
     process.reader.start()
     announced = ""
     while "Ctrl-C to stop" not in announced:
-        line = lines.get()
+        line = next_item(lines, "microg view to announce itself", seen=lambda: announced)
         if line is None:
             raise AssertionError(f"microg view ended without announcing itself: {announced!r} {process.stderr.read()}")
         announced += line
@@ -58,10 +59,10 @@ def start_view(*arguments: str) -> tuple[subprocess.Popen, str]:
 def stop_view(process: subprocess.Popen) -> str:
     """Ctrl-C for the view; what it printed after its announcement (all of it: read to the end)."""
     process.send_signal(signal.SIGINT)
-    process.wait()
-    process.reader.join()
+    ended(process, "microg view after Ctrl-C")
+    joined(process.reader, "the reader of microg view's output")
     printed = []
-    while (line := process.announced_lines.get()) is not None:
+    while (line := next_item(process.announced_lines, "the end of microg view's output")) is not None:
         printed.append(line)
     return "".join(printed)
 
@@ -127,19 +128,12 @@ class Ticking:
         """Until ``count`` more ticks have run."""
         with self.ticked:
             target = len(self.ticks) + count
-            self.ticked.wait_for(lambda: len(self.ticks) >= target or not self.thread.is_alive())
+            assert self.ticked.wait_for(lambda: len(self.ticks) >= target or not self.thread.is_alive(), WAIT_S), \
+                f"waited {WAIT_S:g} s for {count} ticks of the view; it ticked {len(self.ticks) - target + count}"
 
     def stop(self) -> None:
         self.running = False
-        self.thread.join()
-
-
-def wait_until(condition, going=lambda: True) -> None:
-    """Until ``condition()`` holds; fail as soon as ``going()`` says that what would make it hold has
-    stopped (a thread ended). No wall-clock limit: a test that hangs is ended by pytest-timeout."""
-    while not condition():
-        assert going(), "what was waited for stopped before the condition held"
-        time.sleep(0.05)
+        joined(self.thread, "the view's loop")
 
 
 @pytest.mark.skipif(bool(MISSING), reason=f"needs {MISSING} (apt-get install chromium chromium-driver; "
@@ -153,8 +147,9 @@ def test_replay_plays_pauses_seeks_and_changes_speed_and_hands_from_the_browser(
 
     def choose(driver, shown, option):
         click(driver, f"//input[@value='{shown}']")
-        wait_until(lambda: any(o.text == option for o in driver.find_elements(By.XPATH, "//*[@role='option']")),
-                   going)
+        options = lambda: [o.text for o in driver.find_elements(By.XPATH, "//*[@role='option']")]  # noqa: E731
+        wait_until(lambda: option in options(), f"the option {option!r} in the page's dropdown", seen=options,
+                   going=going)
         click(driver, f"//*[@role='option'][normalize-space()='{option}']")
 
     def displayed(driver):
@@ -170,31 +165,81 @@ def test_replay_plays_pauses_seeks_and_changes_speed_and_hands_from_the_browser(
                 open_page(driver, view.url, "attempts (drops)")
                 assert displayed(driver) == ("manipulation", "0.0") and not view.playback.playing
                 choose(driver, "1x", "0.5x")
-                wait_until(lambda: view.playback.speed == 0.5, going)
+                wait_until(lambda: view.playback.speed == 0.5, "the speed chosen in the page",
+                           seen=lambda: view.playback, going=going)
                 click(driver, "//button[normalize-space()='Play']")
-                wait_until(lambda: view.playback.seconds > 0.3, going)
+                wait_until(lambda: view.playback.seconds > 0.3, "the replay to play", seen=lambda: view.playback,
+                           going=going)
                 click(driver, "//button[normalize-space()='Pause']")
-                wait_until(lambda: not view.playback.playing, going)
+                wait_until(lambda: not view.playback.playing, "the pause pressed in the page",
+                           seen=lambda: view.playback, going=going)
                 paused_at = view.playback.seconds
                 played = [(elapsed, after - before) for elapsed, before, after, playing in ticking.ticks
                           if playing and after > before]
                 assert played and all(moved == pytest.approx(0.5 * elapsed) for elapsed, moved in played)  # half speed
                 ticking.wait_ticks(15)
                 assert view.playback.seconds == paused_at
-                wait_until(lambda: float(displayed(driver)[1]) == round(paused_at, 1), going)
+                wait_until(lambda: float(displayed(driver)[1]) == round(paused_at, 1),
+                           f"the page to show the pause at {paused_at:.1f} s", seen=lambda: displayed(driver),
+                           going=going)
 
                 seek = next(box for box in driver.find_elements(By.CSS_SELECTOR, "input[type=text]")
                             if re.fullmatch(r"[\d.]+", box.get_attribute("value") or ""))
                 seek.send_keys(Keys.CONTROL, "a")
                 seek.send_keys("2.5", Keys.ENTER)
-                wait_until(lambda: view.playback.seconds == 2.5, going)
-                wait_until(lambda: displayed(driver) == ("maintenance", "2.5"), going)
+                wait_until(lambda: view.playback.seconds == 2.5, "the seek typed into the page",
+                           seen=lambda: (view.playback, seek.get_attribute("value")), going=going)
+                wait_until(lambda: displayed(driver) == ("maintenance", "2.5"), "the page to show the seek",
+                           seen=lambda: displayed(driver), going=going)
 
                 assert not view.drawer.tracked.visible
                 choose(driver, "rendered", "both")
-                wait_until(lambda: view.drawer.tracked.visible and view.drawer.rendered.visible, going)
+                wait_until(lambda: view.drawer.tracked.visible and view.drawer.rendered.visible,
+                           "both hands drawn, as chosen in the page", going=going)
         finally:
             ticking.stop()
+            view.close()
+
+
+def test_a_seek_from_the_page_reaches_the_view_whatever_the_ticks_do_meanwhile(logged_study):
+    """The race behind a hung browser test: viser takes the page's slider value on its event loop and
+    runs a plain callback later, on its threads; a tick between the two put the cursor back on the
+    slider, and the callback then read the tick's value. Here those threads are all kept busy until
+    the ticks are done, so a seek read there would be lost every time."""
+    import msgspec
+    import viser
+    from viser._messages import GuiUpdateMessage, ViewerCameraMessage
+    from websockets.sync.client import connect
+
+    def send(page, message) -> None:
+        page.send(msgspec.msgpack.encode(message.as_serializable_dict()))
+
+    with open_readonly(logged_study) as store:
+        view = View(store, find_session(store, "P01"), "P01", free_port())
+        view.start_at(0, 0.0)
+        callbacks, release = view.server._thread_executor, threading.Event()
+        try:
+            port = view.server.get_port()
+            with connect(f"ws://127.0.0.1:{port}", origin=f"http://127.0.0.1:{port}",
+                         subprotocols=[f"viser-v{viser.__version__}"]) as page:
+                # viser counts a page as connected once it says where its camera is
+                send(page, ViewerCameraMessage((1.0, 0.0, 0.0, 0.0), (0.0, 0.3, 0.5), 0.7, 0.01, 10.0, 800, 1200,
+                                               (0.0, 0.2, 0.0), (0.0, 1.0, 0.0)))
+                wait_until(lambda: view.server.get_clients(), "the page to connect")
+                busy = [callbacks.submit(release.wait, WAIT_S) for _ in range(callbacks._max_workers)]
+                send(page, GuiUpdateMessage(view.time_slider._impl.uuid, {"value": 2.5}))
+                wait_until(lambda: view.time_slider.value == 2.5, "viser to take the page's seek",
+                           seen=lambda: view.time_slider.value)
+                for _ in range(3):
+                    view.tick(0.0)
+                assert view.playback.seconds == 2.5 and not view.playback.playing and not view.playback.follow
+                release.set()
+                for task in busy:
+                    task.result(WAIT_S)
+                view.tick(0.0)
+                assert view.playback.seconds == 2.5
+        finally:
+            release.set()
             view.close()
 
 
@@ -231,14 +276,15 @@ def test_a_live_view_waits_for_the_session_follows_it_and_moves_on_to_its_next_t
 
             shown = []  # (task index, frames read, what the display says) each time the session waits on the gate
             while True:
-                wait_until(lambda: waiting.acquire(blocking=False) or not writer.is_alive())
+                wait_until(lambda: waiting.acquire(blocking=False) or not writer.is_alive(),
+                           "the session to wait at the gate (or end)", seen=lambda: shown[-1:])
                 if not writer.is_alive():
                     break
                 seen()  # the session is held at the gate: everything it committed is there to read
                 if view.track is not None and len(view.track.frames):
                     shown.append((view.track.run.task_index, len(view.track.frames), view.hud.content))
                 gate.release()  # the session may commit its next batch
-            writer.join()
+            joined(writer, "the session")
             seen()
             runs = store.db.execute("SELECT task_index, frames FROM task_runs ORDER BY id").fetchall()
         finally:

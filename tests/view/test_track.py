@@ -13,6 +13,7 @@ from microg.study.store import StoreError
 from microg.view.track import find_run, find_session, key_moments, open_readonly, read_track, session_runs
 
 from tests.study.scripted import gated_session
+from tests.waiting import joined, wait_until
 
 from .conftest import new_study
 
@@ -81,8 +82,8 @@ def test_a_reader_follows_a_session_while_another_thread_writes_it(tmp_path):
         batch = store.protocol.frame_batch
         track = None
         while track is None or track.run.status == "running":
-            while not waiting.acquire(timeout=0.01):
-                assert writer.is_alive(), "the session ended before the reader saw the first task end"
+            wait_until(lambda: waiting.acquire(blocking=False), "the session to wait after a batch",
+                       seen=lambda: seen[-1:], going=writer.is_alive)
             if track is None:
                 track = read_track(store, session_runs(store, find_session(store, "P01").id)[0])
             else:
@@ -90,7 +91,7 @@ def test_a_reader_follows_a_session_while_another_thread_writes_it(tmp_path):
             seen.append((len(track.frames), track.run.status))
             gate.release()  # the session may commit its next batch (or end the task)
         gate.release(1_000_000)  # let the session run on to its end
-        writer.join()
+        joined(writer, "the session")
         logged = store.db.execute("SELECT frames FROM task_runs WHERE id = ?", (track.run.id,)).fetchone()[0]
     growing = [frames for frames, status in seen if status == "running"]
     assert len(growing) >= 3 and growing == [batch * (i + 1) for i in range(len(growing))]  # batch by batch

@@ -408,11 +408,12 @@ def test_webxr_frames_are_stamped_on_the_sessions_clock_and_bad_ones_refused():
     source.receive({"type": "hands", "t": "soon", "hands": []}, clock)
     assert source.refused == 4
     frames = [source.next_frame(), source.next_frame()]
-    assert [f.timestamp for f in frames] == [1.25, 1.26] and [f.hands for f in frames] == [(), ()]
+    # on the session's clock (page time + offset), from the first frame's: 1000 ms + 250 ms
+    assert [f.timestamp for f in frames] == [0.0, 0.01] and [f.hands for f in frames] == [(), ()]
     assert source.last_read == 1010.0  # the page's read time of the frame handed out last
     for k in range(8):  # the session falls behind: only frames within 0.055 s of the newest wait
         source.receive(message(1020.0 + 10 * k, ("right", joints, radii)), clock)
-    assert source.frames_dropped == 2 and source.next_frame().timestamp == pytest.approx(1.29)
+    assert source.frames_dropped == 2 and source.next_frame().timestamp == pytest.approx(0.04)
     assert source.next_frame().hand("right") is not None
     assert source.frame_rate == pytest.approx(100.0)
     source.close()

@@ -1,0 +1,395 @@
+"""Several stations, one study: a station's study made from the central one, and its sessions merged back.
+
+    microg study station STUDY --name B --out STATION_DIR [--participant P03 ...]
+    microg study merge STUDY STATION_DIR...
+
+Making a station (``make_station``): the station's study has the central study's protocol (the
+same resolved protocol, so the same SHA-256), its seed, and the enrolment rows of the participants
+it may run exactly as the central study assigned them (group, object order, enrolment number). The
+seed and the number make each session's seed, so a session runs at a station as it would have run
+centrally; groups and orders are decided centrally, so the balance holds across stations, and a
+station enrols nobody. The central study records the station in ``stations`` (its name, its
+participants, when it was made) and the station's study holds the same row.
+
+Merging (``merge_stations``) brings every ended session of each station into the central store:
+the session, its planned tasks, its task runs, events, answers and frame batches, each row as the
+station wrote it (new ids; a frame batch's blob as it is, its checksum computed again for its new
+run), with the station's name and the merge's time on the session (``sessions.station``,
+``sessions.merged_at``). A participant withdrawn at the station is withdrawn centrally too, with the
+station's time and reason. It is append-only and idempotent: a session merged before is compared
+with the station's, whole (``session_content``), and adds nothing when it is the same. It refuses,
+naming every conflict and merging nothing: a study that is not a station of this one, another
+protocol, an enrolment that differs from the central one, a participant run at two stations (or
+centrally and at a station), a session that differs from the one merged before from its station.
+Sessions still running at a station are left for a later merge and said so.
+
+Both sides are checked: a station is opened with the integrity check (a damaged one is refused),
+each of its frame batches is verified against its checksum as it is copied, and the central
+study's check runs on what the merge wrote before it commits. The merge is one transaction: killed
+at any point, it leaves the central study as it was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import re
+import shutil
+import sqlite3
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+from . import framelog, ledger
+from .assignment import ParticipantError
+from .store import Store, StoreError, check_integrity, create_study, open_study, utc_now
+
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,31}")
+"""A station's name: it names the station in messages, exports and the stations' folders."""
+
+
+class MergeConflict(StoreError):
+    """A merge refused: ``conflicts`` lists each, naming the station, participant and session."""
+
+    def __init__(self, central: Path, conflicts: list[str]):
+        super().__init__(f"{central}: nothing was merged; {len(conflicts)} conflict(s):\n"
+                         + "\n".join(f"  - {c}" for c in conflicts))
+        self.conflicts = conflicts
+
+
+@dataclass(frozen=True)
+class Station:
+    """A station as the central study made it: its name, the participants it may run, when."""
+
+    name: str
+    participants: tuple[str, ...]
+    made_at: str
+
+
+@dataclass
+class StationMerge:
+    """What a merge did with one station: participants whose sessions it merged now, had merged
+    before (the same), left for later (still running at the station), and withdrawals it carried."""
+
+    station: str
+    folder: Path
+    merged: list[str] = field(default_factory=list)
+    already: list[str] = field(default_factory=list)
+    running: list[str] = field(default_factory=list)
+    withdrawn: list[str] = field(default_factory=list)
+
+
+def stations(db: sqlite3.Connection) -> list[Station]:
+    """The stations a study records, by name (a station's own study records itself)."""
+    return [Station(r[0], tuple(json.loads(r[1])), r[2])
+            for r in db.execute("SELECT name, participants, made_at FROM stations ORDER BY name")]
+
+
+def _insert_station(db: sqlite3.Connection, station: Station) -> None:
+    db.execute("INSERT INTO stations (name, participants, made_at) VALUES (?, ?, ?)",
+               (station.name, json.dumps(list(station.participants)), station.made_at))
+    ledger.seal(db, "station", station.name)
+
+
+def _enrolment(db: sqlite3.Connection, participant_id: str) -> sqlite3.Row | None:
+    """A participant's enrolment as written (the ledger's ``participant`` fact: id, number, group,
+    demographics, order, when)."""
+    return db.execute(ledger.FACT["participant"].select_one(), (participant_id,)).fetchone()
+
+
+# ---------------------------------------------------------------- making a station
+
+
+def make_station(central: Store, name: str, out_dir: str | Path, participants: Sequence[str] = (),
+                 say=print) -> Store:
+    """A station's study in the new folder ``out_dir`` (module docstring) that may run
+    ``participants`` (default: every active participant with no session in the central study and
+    given to no station yet); recorded in the central study. Returns the station's open store."""
+    out_dir = Path(out_dir)
+    if central.station is not None:
+        raise StoreError(f"{central.dir} is station {central.station}'s study; stations are made from the central "
+                         "study")
+    if not NAME.fullmatch(name):
+        raise StoreError(f"--name {name!r}: 1 to 32 letters, digits, '-' or '_', starting with a letter or digit")
+    made = {s.name: s for s in stations(central.db)}
+    if name in made:
+        raise StoreError(f"station {name} was made from study {central.name!r} on {made[name].made_at}; a station "
+                         "name is used once: choose another")
+    if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
+        raise FileExistsError(f"{out_dir} exists and is not an empty folder; a station's study is made in a new one")
+    given = {pid: s.name for s in made.values() for pid in s.participants}
+    if participants:
+        chosen = _chosen(central, participants)
+        for pid in chosen:
+            if pid in given:
+                say(f"warning: {pid} was given to station {given[pid]} too: run them at one station only (the merge "
+                    "refuses a participant run at two)")
+    else:
+        chosen = [p.id for p in central.participants() if p.status == "active"
+                  and central.session_of(p.id) is None and p.id not in given]
+        if not chosen:
+            raise StoreError(f"study {central.name!r}: no participant is left for a station (every active participant "
+                             "has a session or was given to a station); enrol more, or name them with --participant")
+    station = Station(name, tuple(chosen), utc_now())
+    created = not out_dir.exists()
+    store = create_study(out_dir, central.protocol, central.seed, station=name)
+    try:
+        with store.transaction() as db:
+            _insert_station(db, station)
+            fact = ledger.FACT["participant"]
+            columns = fact.key + fact.columns
+            for pid in chosen:
+                db.execute(f"INSERT INTO participants ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))})",
+                           tuple(_enrolment(central.db, pid)))
+                ledger.seal(db, "participant", pid)
+        with central.transaction() as db:
+            _insert_station(db, station)
+    except BaseException:
+        store.close()
+        _empty(out_dir, remove=created)
+        raise
+    return store
+
+
+def _empty(folder: Path, remove: bool) -> None:
+    """Take back a station's study that could not be made whole: the folder made for it, or what was
+    written into the empty folder given."""
+    if remove:
+        shutil.rmtree(folder, ignore_errors=True)
+        return
+    for path in folder.iterdir():
+        if path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink(missing_ok=True)
+
+
+def _chosen(central: Store, participants: Sequence[str]) -> list[str]:
+    """The named participants, by enrolment number, each active with no session in the central study."""
+    records = []
+    for pid in dict.fromkeys(participants):
+        record = central.participant(pid)
+        if record.status != "active":
+            raise ParticipantError(f"participant {pid} is withdrawn from study {central.name!r}; a station runs active "
+                                   "participants only")
+        session = central.session_of(pid)
+        if session is not None:
+            where = "" if _session_station(central.db, session.id)[0] is None else " (merged from a station)"
+            raise ParticipantError(f"participant {pid} already has session {session.id} ({session.status}) in study "
+                                   f"{central.name!r}{where}; a session is never run twice")
+        records.append(record)
+    return [r.id for r in sorted(records, key=lambda r: r.number)]
+
+
+def _session_station(db: sqlite3.Connection, session_id: int) -> tuple[str | None, str | None]:
+    """(station, merged_at) of a session: (None, None) for one run in the study itself."""
+    return tuple(db.execute("SELECT station, merged_at FROM sessions WHERE id = ?", (session_id,)).fetchone())
+
+
+# ---------------------------------------------------------------- merging
+
+
+def session_content(db: sqlite3.Connection, session_id: int) -> str:
+    """SHA-256 of everything a session logged, as it would be in any study that holds it: its row
+    (without its id and merge time), its plan, runs, events, answers and frame batches (their blobs),
+    runs named by task and run number rather than by id. Two studies hold the same session exactly
+    when these agree."""
+    digest = hashlib.sha256()
+
+    def add(rows) -> None:
+        for row in rows:
+            digest.update(json.dumps([v.hex() if isinstance(v, bytes) else v for v in row]).encode())
+
+    add(db.execute("""SELECT s.participant_id, p.sha256, s.seed, s.input, s.simulated, s.clock, s.object_order,
+                             s.microg_version, s.python, s.platform, s.status, s.created_at, s.ended_at, s.station
+                      FROM sessions s JOIN protocols p ON p.id = s.protocol_id WHERE s.id = ?""", (session_id,)))
+    add(db.execute("SELECT task_index, phase, interaction, object, object_code, order_position FROM tasks "
+                   "WHERE session_id = ? ORDER BY task_index", (session_id,)))
+    add(db.execute("SELECT task_index, run, status, reason, source, seed, started_at, ended_at, time_s, attempts, "
+                   "frames, started_wall, ended_wall FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,)))
+    add(db.execute("""SELECT r.task_index, r.run, e.t, e.wall, e.kind, e.data FROM events e
+                      LEFT JOIN task_runs r ON r.id = e.run_id WHERE e.session_id = ? ORDER BY e.id""", (session_id,)))
+    add(db.execute("SELECT interaction, item, rating, source, t, wall FROM answers WHERE session_id = ? "
+                   "ORDER BY interaction, item", (session_id,)))
+    for task_index, run, first, count, t_first, t_last, blob in db.execute("""
+            SELECT r.task_index, r.run, f.first, f.count, f.t_first, f.t_last, f.data FROM frames f
+            JOIN task_runs r ON r.id = f.run_id WHERE r.session_id = ? ORDER BY r.id, f.first""", (session_id,)):
+        add([(task_index, run, first, count, t_first, t_last, hashlib.sha256(blob).hexdigest())])
+    return digest.hexdigest()
+
+
+@dataclass
+class _Plan:
+    side: Store
+    outcome: StationMerge
+    sessions: list[int] = field(default_factory=list)
+    """The station's session ids to merge, in order."""
+
+
+def merge_stations(central: Store, folders: Sequence[str | Path]) -> list[StationMerge]:
+    """Merge the stations' studies in ``folders`` into ``central`` (module docstring), in the order
+    given; ``MergeConflict`` lists every conflict and merges nothing. Returns what it did per station."""
+    if central.station is not None:
+        raise StoreError(f"{central.dir} is station {central.station}'s study; stations are merged into the central "
+                         "study")
+    folders = [Path(f) for f in folders]
+    seen: dict[Path, Path] = {}
+    for folder in folders:
+        if folder.resolve() in seen:
+            raise StoreError(f"{folder}: given twice (as {seen[folder.resolve()]}); give each station once")
+        if folder.resolve() == central.dir.resolve():
+            raise StoreError(f"{folder} is the central study itself; give the stations' folders")
+        seen[folder.resolve()] = folder
+    with contextlib.ExitStack() as stack:
+        sides = []
+        for folder in folders:
+            try:
+                sides.append(stack.enter_context(open_study(folder, readonly=True)))
+            except StoreError as error:
+                raise StoreError(f"{error}\nNothing was merged into {central.dir}.") from None
+        plans, conflicts = _plan(central, sides)
+        if conflicts:
+            raise MergeConflict(central.dir, conflicts)
+        if not any(plan.sessions or plan.outcome.withdrawn for plan in plans):
+            return [plan.outcome for plan in plans]
+        merged_at = utc_now()
+        with central.transaction() as db:
+            for plan in plans:
+                for pid in plan.outcome.withdrawn:
+                    withdrawn_at, reason = plan.side.db.execute(
+                        "SELECT withdrawn_at, withdraw_reason FROM participants WHERE id = ?", (pid,)).fetchone()
+                    db.execute("UPDATE participants SET status = 'withdrawn', withdrawn_at = ?, withdraw_reason = ? "
+                               "WHERE id = ?", (withdrawn_at, reason, pid))
+                    ledger.seal(db, "withdrawal", pid)
+                for session_id in plan.sessions:
+                    try:
+                        _copy_session(db, plan.side.db, session_id, merged_at)
+                    except framelog.DamagedFramesError as error:
+                        raise StoreError(f"station {plan.side.station} ({plan.side.dir}): {error}; nothing was "
+                                         f"merged into {central.dir}. See: microg study check {plan.side.dir}") from None
+            problems = check_integrity(db, central.dir, snapshot=False)
+            if problems:
+                raise StoreError(f"{central.dir}: the merged study would not be sound, so nothing was merged:\n"
+                                 + "\n".join(f"  - {p}" for p in problems))
+    return [plan.outcome for plan in plans]
+
+
+def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
+    """What to merge from each station, and every conflict (module docstring)."""
+    conflicts: list[str] = []
+    plans: list[_Plan] = []
+    made = {s.name: s for s in stations(central.db)}
+    claimed: dict[str, str] = {}
+    """Participant -> the station of this merge that ran them."""
+    for side in sides:
+        where = f"station {side.station} ({side.dir})"
+        if side.station is None:
+            conflicts.append(f"{side.dir}: not a station's study (a station's study is made with: microg study "
+                             f"station {central.dir} --name NAME --out FOLDER)")
+            continue
+        if side.protocol.sha256 != central.protocol.sha256:
+            conflicts.append(f"{where}: runs another protocol ({side.protocol.name!r}, sha256 "
+                             f"{side.protocol.sha256[:12]}) than the central study ({central.protocol.name!r}, sha256 "
+                             f"{central.protocol.sha256[:12]})")
+            continue
+        record = made.get(side.station)
+        if record is None or stations(side.db) != [record] or side.seed != central.seed:
+            known = f"made station {side.station} on {record.made_at}" if record else f"made no station {side.station}"
+            conflicts.append(f"{where}: was not made from this study (study {central.name!r} in {central.dir} {known})")
+            continue
+        plan = _Plan(side, StationMerge(side.station, side.dir))
+        plans.append(plan)
+        for person in side.participants():
+            enrolled = _enrolment(central.db, person.id)
+            if enrolled is None:
+                conflicts.append(f"{where}: participant {person.id} is not in the central study's roster")
+                continue
+            differ = [name for name in enrolled.keys() if enrolled[name] != _enrolment(side.db, person.id)[name]]
+            if differ:
+                conflicts.append(f"{where}: participant {person.id}'s enrolment differs from the central one in "
+                                 f"{', '.join(differ)}")
+            elif person.status == "withdrawn" and central.participant(person.id).status == "active":
+                plan.outcome.withdrawn.append(person.id)
+        for session in (side.session(r[0]) for r in side.db.execute("SELECT id FROM sessions ORDER BY id")):
+            pid = session.participant_id
+            if session.status == "running":
+                plan.outcome.running.append(pid)
+                continue
+            if pid in claimed:
+                conflicts.append(f"participant {pid} was run at {claimed[pid]} and at {where}: a participant is run "
+                                 "once")
+                continue
+            claimed[pid] = where
+            theirs = central.session_of(pid)
+            if theirs is None:
+                plan.sessions.append(session.id)
+                plan.outcome.merged.append(pid)
+                continue
+            station, merged_at = _session_station(central.db, theirs.id)
+            if station is None:
+                conflicts.append(f"participant {pid} has session {theirs.id} ({theirs.status}) in the central study "
+                                 f"itself and another at {where}: a participant is run once")
+            elif station != side.station:
+                conflicts.append(f"participant {pid} was run at station {station} (merged {merged_at}) and at "
+                                 f"{where}: a participant is run once")
+            elif session_content(central.db, theirs.id) != session_content(side.db, session.id):
+                conflicts.append(f"participant {pid}'s session at {where} differs from the one merged from station "
+                                 f"{station} on {merged_at} (central session {theirs.id}): the station's study was "
+                                 "changed or made anew since")
+            else:
+                plan.outcome.already.append(pid)
+    return plans, conflicts
+
+
+def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id: int, merged_at: str) -> int:
+    """Write the station's session ``session_id`` (from its database ``source``) into ``db`` as it was
+    written there, each row sealed in the ledger; returns the new session's id. Rows go in as a
+    session writes them (the store's triggers take nothing else): the session and its runs open,
+    their frames, events and answers, then the runs' results and the session's end."""
+    s = source.execute("SELECT * FROM sessions WHERE id = ?", (session_id,)).fetchone()
+    protocol_id = db.execute("SELECT protocol_id FROM study").fetchone()[0]
+    new = db.execute("INSERT INTO sessions (participant_id, protocol_id, seed, input, simulated, clock, object_order, "
+                     "microg_version, python, platform, status, created_at, station, merged_at) "
+                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?, ?)",
+                     (s["participant_id"], protocol_id, s["seed"], s["input"], s["simulated"], s["clock"],
+                      s["object_order"], s["microg_version"], s["python"], s["platform"], s["created_at"],
+                      s["station"], merged_at)).lastrowid
+    ledger.seal(db, "session", new)
+    for t in source.execute("SELECT * FROM tasks WHERE session_id = ? ORDER BY task_index", (session_id,)):
+        db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)", (new, t["task_index"], t["phase"],
+                   t["interaction"], t["object"], t["object_code"], t["order_position"]))
+        ledger.seal(db, "task", new, t["task_index"])
+    runs = source.execute("SELECT * FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,)).fetchall()
+    run_ids = {}
+    for r in runs:
+        run_ids[r["id"]] = db.execute(
+            "INSERT INTO task_runs (session_id, task_index, run, status, source, seed, started_at, started_wall) "
+            "VALUES (?, ?, ?, 'running', ?, ?, ?, ?)",
+            (new, r["task_index"], r["run"], r["source"], r["seed"], r["started_at"], r["started_wall"])).lastrowid
+        ledger.seal(db, "run", run_ids[r["id"]])
+    batches = source.cursor()
+    batches.row_factory = None
+    for row in batches.execute(f"SELECT {framelog.ROW} FROM frames f WHERE run_id IN "
+                               "(SELECT id FROM task_runs WHERE session_id = ?) ORDER BY run_id, first", (session_id,)):
+        framelog.copy(db, row, run_ids[row[0]], source)
+        ledger.seal(db, "frames", run_ids[row[0]], row[1])
+    for e in source.execute("SELECT * FROM events WHERE session_id = ? ORDER BY id", (session_id,)):
+        event_id = db.execute("INSERT INTO events (session_id, run_id, t, wall, kind, data) VALUES (?, ?, ?, ?, ?, ?)",
+                              (new, run_ids.get(e["run_id"]), e["t"], e["wall"], e["kind"], e["data"])).lastrowid
+        ledger.seal(db, "event", event_id)
+    for a in source.execute("SELECT * FROM answers WHERE session_id = ?", (session_id,)):
+        db.execute("INSERT INTO answers VALUES (?, ?, ?, ?, ?, ?, ?)",
+                   (new, a["interaction"], a["item"], a["rating"], a["source"], a["t"], a["wall"]))
+        ledger.seal(db, "answer", new, a["interaction"], a["item"])
+    for r in runs:
+        if r["status"] != "running":
+            db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "
+                       "frames = ?, ended_wall = ? WHERE id = ?",
+                       (r["status"], r["reason"], r["ended_at"], r["time_s"], r["attempts"], r["frames"],
+                        r["ended_wall"], run_ids[r["id"]]))
+            ledger.seal(db, "result", run_ids[r["id"]])
+    db.execute("UPDATE sessions SET status = ?, ended_at = ? WHERE id = ?", (s["status"], s["ended_at"], new))
+    ledger.seal(db, "session_end", new)
+    return new
+
