@@ -88,6 +88,22 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
     click.echo(f"-> {out / 'power.csv'}")
 
 
+@bench.command("insilico")
+@click.option("--quick", is_flag=True, help="A fast smoke run: 4 participants instead of 30.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
+              show_default=True, help="Folder for insilico.csv.")
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
+              help="Processes for both studies (the in-silico study's kinds of task; the demo's sessions).")
+def insilico_bench(out: Path, quick: bool, workers: int) -> None:
+    """A whole simulated study of the paper's protocol in silico (batched, nothing logged) beside the
+    same study logged frame by frame (microg demo), in one run: insilico.csv."""
+    from microg.insilico.bench import run
+
+    table = run(out, quick=quick, workers=workers)
+    click.echo(table.to_string(index=False))
+    click.echo(f"wrote {out / 'insilico.csv'}")
+
+
 @bench.command("store")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
               show_default=True, help="Directory for store.csv.")

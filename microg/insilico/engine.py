@@ -75,14 +75,31 @@ class Outcome:
     frame_times: np.ndarray
 
 
-def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None) -> list[Outcome]:
+def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers: int = 1) -> list[Outcome]:
     """Play every task of ``units`` (a task's world is the protocol's scene of its object and
     interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
-    number of tasks finished as they finish."""
-    outcomes: list[Outcome | None] = [None] * len(units)
+    number of tasks finished as they finish. With ``workers`` > 1 the kinds of task are shared
+    out between as many processes (each task's outcome depends on its own seed only)."""
     kinds: dict[tuple[str, str], list[int]] = {}
     for i, unit in enumerate(units):
         kinds.setdefault((unit.object_name, unit.interaction), []).append(i)
+    outcomes: list[Outcome | None] = [None] * len(units)
+    if workers > 1 and len(kinds) > 1:
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        shares: list[list[int]] = [[] for _ in range(min(workers, len(kinds)))]
+        for indices in sorted(kinds.values(), key=len, reverse=True):  # the most tasks first, to the lightest share
+            min(shares, key=len).extend(indices)
+        with ProcessPoolExecutor(len(shares)) as pool:
+            futures = {pool.submit(play_tasks, protocol, [units[i] for i in share]): share for share in shares}
+            done = 0
+            for future in as_completed(futures):
+                for i, outcome in zip(futures[future], future.result()):
+                    outcomes[i] = outcome
+                done += len(futures[future])
+                if progress is not None:
+                    progress(done)
+        return outcomes
     done = 0
     for (name, interaction), indices in kinds.items():
         world = make_world(protocol.scene(name, interaction))

@@ -31,17 +31,20 @@ def sized_protocol(protocol: Protocol, n_per_group: int) -> Protocol:
     return protocol_from_resolved(resolved, f"{protocol.where} (resized to {n_per_group} per group)")
 
 
-def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *,
-                    population: Population | None = None) -> pd.DataFrame:
+def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *, population: Population | None = None,
+                    workers: int = 1) -> pd.DataFrame:
     """The trials table of one whole simulated study with ``n_per_group`` participants per group;
     every group's participants are drawn from ``population`` when given, else from each group's
-    ``simulated_profile``. The same seed gives the same table."""
+    ``simulated_profile``. The same seed gives the same table, with any number of ``workers``
+    (processes sharing the tasks out, ``engine.play_tasks``)."""
     from microg.study import Participant, create_study, open_inputs, trials_table
     from microg.study.inputs import SimulatedInputs
 
     sized = sized_protocol(protocol, n_per_group)
     rng = np.random.default_rng(seed)
     youngest, oldest = sized.age_range or (18, 60)
+    players = {group.code: (open_inputs("simulated", group) if population is None
+                            else SimulatedInputs(f"simulated:{population.where}", population)) for group in sized.groups}
     with tempfile.TemporaryDirectory(prefix="microg-insilico-") as folder, \
             create_study(Path(folder) / "study", sized, seed) as store:
         store.commit_for(True)
@@ -49,16 +52,13 @@ def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *,
             store.add_participant(Participant(f"S{number + 1:03d}", ("female", "male")[number % 2],
                                               int(rng.integers(youngest, oldest + 1)), "right", True))
         for record in store.participants():
-            inputs = (open_inputs("simulated", sized.group(record.group)) if population is None
-                      else SimulatedInputs(f"simulated:{population.where}", population))
+            inputs = players[record.group]
             store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
-        play_sessions(store, lambda session: (open_inputs("simulated", sized.group(
-            store.participant(session.participant_id).group)) if population is None
-            else SimulatedInputs(f"simulated:{population.where}", population)))
+        play_sessions(store, lambda session: players[store.participant(session.participant_id).group], workers=workers)
         return trials_table(store)
 
 
-def play_sessions(store, inputs_of) -> None:
+def play_sessions(store, inputs_of, workers: int = 1) -> None:
     """Play every running session of ``store`` (simulated participants, ``inputs_of(session)``
     their ``SimulatedInputs``) with ``engine.play_tasks`` and write each task's run as the session
     runner would, in the order it would run them; then end the sessions."""
@@ -88,7 +88,7 @@ def play_sessions(store, inputs_of) -> None:
             units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
             played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))
         sessions.append((session, played))
-    outcomes = iter(play_tasks(protocol, units))
+    outcomes = iter(play_tasks(protocol, units, workers=workers))
     for session, played in sessions:
         clock = SimulationClock()
         for task, seed, source in played:

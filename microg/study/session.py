@@ -198,10 +198,14 @@ class RunLog:
 
     def end(self, status: str, *, time_s: float | None, attempts: int | None, reason: str | None,
             events: list[Event] = ()) -> None:
-        """Close the run with its last frames, its result and ``events`` (then the end event)."""
+        """Close the run with its last frames, its result and ``events`` (then the end event). A run
+        cut off (Ctrl-C, SIGTERM) just as a batch was committed has that batch stored already: only
+        what the store does not hold goes in."""
+        stored = framelog.count(self.log.store.db, self.run_id)
+        rest = self.pending[stored - self.logged:]
         self.log.mark(self.log.store.end_run(self.run_id, status, self.log.clock.now(), time_s=time_s,
                                              attempts=attempts, reason=reason, events=list(events),
-                                             frames=(self.logged, framelog.frames_of(self.pending))))
+                                             frames=(stored, framelog.frames_of(rest))))
 
 
 class TaskProgress:
