@@ -89,3 +89,11 @@ def assert_study_matches(ours: Path, theirs: Path) -> None:
     assert (tests["test_interaction"] == INTERACTIONS[0]).all() and (tests["test_baseline"] == INTERACTIONS[1]).all()
     assert_same_numbers(tests[["item", *LIKERT_NUMBERS]], pd.read_csv(theirs / "likert_tests.csv"), ["item"],
                         LIKERT_NUMBERS)  # fmt: skip
+
+
+R_ART_NUMBERS = ["F", "df1", "df2", "p_unc"]
+R_ART_CONTRAST_NUMBERS = ["estimate", "SE", "df", "T", "p_unc", "p_bonf"]
+R_MODEL_COEFFICIENT_NUMBERS = ["estimate", "SE", "df", "t", "p_unc"]
+R_MODEL_RANDOM_NUMBERS = ["variance", "sd", "correlation"]
+PRACTICE = R_DIR / "expected" / "practice"
+PRACTICE_CSV = R_DIR / "practice_trials.csv"
