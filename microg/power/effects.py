@@ -211,6 +211,8 @@ def _effects(data: dict, design: Design, where: str) -> Effects:
         sd = _standard_deviations(data, d, where, fail)
         correlations = _correlations(data, d, where, fail)
         covariances = sd[:, :, None] * correlations * sd[:, None, :]
+        # symmetric to the last bit: s_i r s_j and s_j r s_i may round apart
+        covariances = (covariances + covariances.transpose(0, 2, 1)) / 2
     _check_means(means, covariances, d, fail)
     return Effects(d, means, covariances, where)
 

@@ -313,12 +313,13 @@ def _epsilons(effects: Effects, sizes: np.ndarray) -> tuple[float, float]:
 
 
 def _power(noncentrality: float, df1: float, df2: float, alpha: float, epsilon: float, contrast: bool) -> float:
-    """P(significant at ``alpha``): a contrast's two-sided t test (noncentral t with ``noncentrality``
-    delta), a term's F test (noncentral F) with df1, df2 and lambda multiplied by ``epsilon``."""
+    """P(significant at ``alpha``): a term's F test (noncentral F) with df1, df2 and lambda multiplied by
+    ``epsilon``; a contrast's two-sided t test with noncentrality delta, as the F test of t^2 with
+    (1, df) and lambda = delta^2 (the same probability; scipy's noncentral t is NaN far in its tails)."""
     if contrast:
-        critical = stats.t.isf(alpha / 2, df2)
-        return float(stats.nct.sf(critical, df2, noncentrality) + stats.nct.cdf(-critical, df2, noncentrality))
-    df1, df2, lam = df1 * epsilon, df2 * epsilon, noncentrality * epsilon
+        df1, lam = 1.0, noncentrality**2
+    else:
+        df1, df2, lam = df1 * epsilon, df2 * epsilon, noncentrality * epsilon
     critical = stats.f.isf(alpha, df1, df2)
     return float(stats.ncf.sf(critical, df1, df2, lam)) if lam > 0 else alpha
 
