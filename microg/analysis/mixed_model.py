@@ -281,27 +281,38 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
     is finished by scipy's trust-region Newton (``trust-exact``) on MixedLM's own REML likelihood
     and score in lme4's parametrisation (the Cholesky factor of G / s2, with the fixed effects and
     s2 profiled out; the Hessian by differences of the analytic score), until the score is 0 to
-    SCORE_TOLERANCE (or the fit is singular: at the boundary it need not vanish). The fixed effects
-    and their covariance are the GLS ones at that optimum. None when no fit converges.
+    SCORE_TOLERANCE; where it stalls short of a boundary (the score loses its accuracy there), by
+    Powell's derivative-free search within bounds (the Cholesky factor's diagonal at BOUNDARY or more,
+    as lme4's bobyqa bounds it at 0), which reaches it. A singular
+    fit (at the boundary) need not have a zero score; any other must. The fixed effects and their
+    covariance are the GLS ones at that optimum. None when no fit converges.
     """
     model = sm.MixedLM(y, x, groups=groups, exog_re=z)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            start = model.fit(reml=True, method=["bfgs", "lbfgs", "powell"])
+            start = model.fit(reml=True, method="bfgs")  # a start: converged or not, the searches below finish it
             packed = MixedLMParams.from_components(cov_re=np.atleast_2d(start.cov_re) / start.scale)
             found = optimize.minimize(
                 lambda p: -model.loglike(p), packed.get_packed(use_sqrt=True, has_fe=False),
                 jac=lambda p: -model.score(p), hess=lambda p: _symmetric(approx_fprime(p, model.score, centered=True)),
                 method="trust-exact", options={"gtol": SCORE_TOLERANCE / 10, "maxiter": 200},
             )  # fmt: skip
+            if np.max(np.abs(model.score(found.x))) > SCORE_TOLERANCE:  # stalled by a boundary: search within it
+                rows, columns = np.tril_indices(model.k_re)
+                bounds = [(BOUNDARY, None) if row == column else (None, None) for row, column in zip(rows, columns)]
+                diagonal = rows == columns
+                found = optimize.minimize(
+                    lambda p: -model.loglike(p), np.where(diagonal, np.maximum(np.abs(found.x), BOUNDARY), found.x),
+                    bounds=bounds, method="Powell", options={"xtol": 1e-9, "ftol": 1e-14, "maxfev": 20000},
+                )  # fmt: skip
+            if not np.all(np.isfinite(found.x)):
+                return None
+            relative = MixedLMParams.from_packed(found.x, model.k_fe, model.k_re, use_sqrt=True, has_fe=False).cov_re
+            fixed, _ = model.get_fe_params(relative, np.zeros(0))
+            scale = float(model.get_scale(fixed, relative, np.zeros(0)))
         except (np.linalg.LinAlgError, ValueError):
             return None
-    if not np.all(np.isfinite(found.x)):
-        return None
-    relative = MixedLMParams.from_packed(found.x, model.k_fe, model.k_re, use_sqrt=True, has_fe=False).cov_re
-    fixed, _ = model.get_fe_params(relative, np.zeros(0))
-    scale = float(model.get_scale(fixed, relative, np.zeros(0)))
     fit = _Covariance(x, groups, z).fit(y, scale * relative, scale, tuple(names))
     if not fit.singular and np.max(np.abs(model.score(found.x))) > SCORE_TOLERANCE:
         return None  # at a boundary the score need not vanish; elsewhere it must
@@ -309,6 +320,9 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
 
 
 SCORE_TOLERANCE = 1e-6
+BOUNDARY = 1e-8
+"""The bounded search keeps the Cholesky factor's diagonal at this or more rather than 0, where MixedLM's
+computations are singular; far below SINGULAR, so such a fit is singular all the same."""
 
 
 def _symmetric(matrix: np.ndarray) -> np.ndarray:
