@@ -295,7 +295,7 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
             packed = MixedLMParams.from_components(cov_re=np.atleast_2d(start.cov_re) / start.scale)
             found = optimize.minimize(
                 lambda p: -model.loglike(p), packed.get_packed(use_sqrt=True, has_fe=False),
-                jac=lambda p: -model.score(p), hess=lambda p: _symmetric(approx_fprime(p, model.score, centered=True)),
+                jac=lambda p: -model.score(p), hess=lambda p: _symmetric(approx_fprime(p, model.score)),
                 method="trust-exact", options={"gtol": SCORE_TOLERANCE / 10, "maxiter": 200},
             )  # fmt: skip
             if np.max(np.abs(model.score(found.x))) > SCORE_TOLERANCE:  # stalled by a boundary: search within it
@@ -304,7 +304,7 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
                 diagonal = rows == columns
                 found = optimize.minimize(
                     lambda p: -model.loglike(p), np.where(diagonal, np.maximum(np.abs(found.x), BOUNDARY), found.x),
-                    bounds=bounds, method="Powell", options={"xtol": 1e-9, "ftol": 1e-14, "maxfev": 20000},
+                    bounds=bounds, method="Powell", options={"xtol": 1e-6, "ftol": 1e-12, "maxfev": 20000},
                 )  # fmt: skip
             if not np.all(np.isfinite(found.x)):
                 return None
