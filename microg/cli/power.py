@@ -69,7 +69,8 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
               help="The within factor: the objects, or the interaction models of the phases (stage1 vs stage2; "
                    "a participant's value per interaction model is the mean over objects).")  # fmt: skip
 @click.option("--effects", "effects_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="TOML file of cell means per group and level, with sd + correlation or a covariance per group.")
+              help="TOML file of cell means per group and level, with sd and correlation (numbers, or an SD per group "
+                   "and level and a correlation matrix per group) or a covariance per group.")
 @click.option("--pilot", type=ExistingPath(path_type=Path),
               help="A pilot study (folder) or its exported trials.csv/.parquet: means and covariance estimated "
                    "from it.")  # fmt: skip
