@@ -38,9 +38,16 @@ function cost(level, t) {
 let t = 0, pending = null;
 for (; t < IDLE_S * 1000; t += spec.refresh) q.frame(t, false);
 const trace = [];
+let frames = 0;
 while (t < spec.seconds * 1000) {
   if (pending !== null && spec.timed) q.gpuTime(pending);
+  pending = null;
   if (spec.release && t >= spec.release * 1000 && q.held) q.release();
+  if (frames++ %% spec.every) {  // no new frame from the session: nothing drawn
+    q.frame(t, false);
+    t += spec.refresh;
+    continue;
+  }
   const ms = cost(q.level, t);
   trace.push([t, q.level.scale, q.level.antialias, ms]);
   pending = ms;
@@ -52,11 +59,13 @@ console.log(JSON.stringify({ levels, trace, constants: { FIT: quality.FIT, HOLD_
 """
 
 
-def simulate(phases, seconds=60.0, refresh=1000 / 60, timed=True, antialias=False, fix=None, release=None):
-    """The frames a page draws under the cost model ``phases`` (see HARNESS): ``levels`` (the
-    ladder), ``trace`` (time s, scale, antialiasing, draw time ms per frame) and the constants."""
+def simulate(phases, seconds=60.0, refresh=1000 / 60, timed=True, antialias=False, fix=None, release=None,
+             every=1):
+    """The frames a page draws under the cost model ``phases`` (see HARNESS), a new one from the
+    session every ``every`` animation frames: ``levels`` (the ladder), ``trace`` (time s, scale,
+    antialiasing, draw time ms per drawn frame) and the constants."""
     spec = dict(phases=phases, seconds=seconds, refresh=refresh, timed=timed, antialias=antialias, fix=fix,
-                release=release)
+                release=release, every=every)
     script = HARNESS % {"module": json.dumps((PAGE / "quality.js").as_uri()), "spec": json.dumps(spec)}
     done = subprocess.run([NODE, "--input-type=module"], input=script, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
@@ -96,6 +105,12 @@ def test_a_frame_that_does_not_fit_the_refresh_steps_down_to_the_level_that_fits
     assert set(settled[:, 1]) == {0.7}
     assert settled[:, 3].max() <= constants["FIT"] * refresh
     assert len(changes(trace)) == 1, "straight to the level that fits, and it stays there"
+
+
+def test_frames_coming_at_half_the_refresh_rate_are_measured_all_the_same():
+    # a 30 Hz tracker on a 60 Hz display: no two animation frames in a row draw
+    _, trace, constants = simulate([{"from": 0, "base": 0, "perPixel": 20.0}], every=2)
+    assert set(trace[trace[:, 0] > 3, 1]) == {0.7}
 
 
 def test_with_headroom_again_the_page_climbs_back_to_full_resolution_one_level_at_a_time():

@@ -3,7 +3,8 @@
 // The page measures how long each frame's drawing takes: the GPU's own time for the frame's draw
 // calls where the browser has a timer for it (EXT_disjoint_timer_query_webgl2: the result comes a
 // frame or two later, once the GPU has finished), and everywhere the interval between two
-// animation frames that both drew. Every WINDOW measured frames it decides:
+// animation frames that both drew. Every WINDOW measured frames (GPU times where there is a timer,
+// else intervals) it decides:
 // - down, when the median draw time is over FIT of the refresh interval, or the median interval
 //   between drawn frames over MISSED refresh intervals (frames missed, whatever the cause): to the
 //   first level whose draw time, scaled by its pixels, fits; at least one level, at most DROP;
@@ -126,13 +127,14 @@ export class Quality {
     if (drew && this.settling > 0) this.settling -= 1;
     this.lastTime = time;
     this.lastDrew = drew;
-    if (!this.held && this.spaced >= WINDOW && (!this.timed || this.measured >= WINDOW)) this.decide(time);
+    if (!this.held && (this.timed ? this.measured : this.spaced) >= WINDOW) this.decide(time);
   }
 
   decide(now) {
     const budget = FIT * this.refresh;
     const cost = this.timed ? quantile(this.costs, 0.5) : NaN;
-    const over = quantile(this.intervals, 0.5) > MISSED * this.refresh || cost > budget;
+    const missed = this.spaced >= WINDOW && quantile(this.intervals, 0.5) > MISSED * this.refresh;
+    const over = missed || cost > budget;
     const last = this.levels.length - 1;
     let target = this.index;
     if (over && this.index < last) {
