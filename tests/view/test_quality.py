@@ -138,6 +138,20 @@ def test_a_raise_that_does_not_hold_is_tried_less_and_less_often():
     assert over.mean() < 0.01, "over the budget less than 1 % of the frames once settled"
 
 
+def test_bursts_of_other_work_do_not_make_the_page_wary_of_a_level():
+    # every 7 s from 10 s on, 1.5 s of another program's burst makes every level too slow (40 ms):
+    # the page drops, and then climbs straight back (a level per second) to 0.7 before the next
+    # burst, without backing off the level the burst caught it at
+    phases = [{"from": 0, "base": 0, "perPixel": 6.0}]
+    bursts = [10.0 + 7 * k for k in range(8)]
+    for start in bursts:
+        phases += [{"from": start, "base": 40, "perPixel": 0}, {"from": start + 1.5, "base": 0, "perPixel": 6.0}]
+    _, trace, _ = simulate(phases, seconds=bursts[-1] + 7)
+    for start in bursts:
+        between = trace[(trace[:, 0] > start + 1.5) & (trace[:, 0] < start + 7), 1]
+        assert between.min() <= 0.4 and between.max() == 0.7, start
+
+
 def test_without_a_gpu_timer_missed_refreshes_step_down_and_the_page_probes_up_now_and_then():
     # 1.8 refresh intervals at full resolution: frames take two refreshes down to scale 0.7 (0.88)
     _, trace, constants = simulate([{"from": 0, "base": 0, "perPixel": 30.0}], seconds=300, timed=False)

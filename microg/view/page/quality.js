@@ -13,9 +13,11 @@
 //   antialiasing on), fits within RAISE of the budget. Without a GPU timer there is no
 //   headroom to see: the page tries the level above once it has held this one PROBE_MS.
 // Medians, because on a shared computer a frame now and then waits for a core.
-// A level left within PROBATION_MS of being raised to was too much: it is not tried again for a
-// back-off that doubles each time (BACKOFF_MS up to BACKOFF_MAX_MS), so the page settles instead
-// of swinging. This module knows nothing of three.js: participant.js applies the level chosen.
+// A level left within PROBATION_MS of being raised to, when the level below then fits again, was
+// too much: it is not tried again for a back-off that doubles each time (BACKOFF_MS up to
+// BACKOFF_MAX_MS), so the page settles instead of swinging. When the level below does not fit
+// either, the computer got busier (another program's burst): that is no reason to back off.
+// This module knows nothing of three.js: participant.js applies the level chosen.
 
 /** The levels, best first: the render resolution comes down first, then antialiasing goes, then
  *  the resolution comes down further. `scale` multiplies the screen's device pixel ratio. Without
@@ -73,6 +75,8 @@ export class Quality {
     this.backoff = new Float64Array(levels.length).fill(BACKOFF_MS);
     this.raisedTo = -1;
     this.raisedAt = 0;
+    /** A level left soon after raising to it, judged at the next decision (see the module comment). */
+    this.suspect = -1;
     this.changedAt = 0;
     this.restart();
   }
@@ -136,15 +140,17 @@ export class Quality {
     const missed = this.spaced >= WINDOW && quantile(this.intervals, 0.5) > MISSED * this.refresh;
     const over = missed || cost > budget;
     const last = this.levels.length - 1;
+    if (this.suspect >= 0 && !over) {
+      this.blockedUntil[this.suspect] = now + this.backoff[this.suspect];
+      this.backoff[this.suspect] = Math.min(2 * this.backoff[this.suspect], BACKOFF_MAX_MS);
+    }
+    this.suspect = -1;
     let target = this.index;
     if (over && this.index < last) {
       target += 1;
       while (this.timed && target < Math.min(last, this.index + DROP) &&
              cost * this.pixels(target) / this.pixels(this.index) > budget) target += 1;
-      if (this.raisedTo === this.index && now - this.raisedAt < PROBATION_MS) {
-        this.blockedUntil[this.index] = now + this.backoff[this.index];
-        this.backoff[this.index] = Math.min(2 * this.backoff[this.index], BACKOFF_MAX_MS);
-      }
+      if (this.raisedTo === this.index && now - this.raisedAt < PROBATION_MS) this.suspect = this.index;
     } else if (!over && this.index > 0 && now >= this.blockedUntil[this.index - 1]) {
       const above = this.levels[this.index - 1], here = this.levels[this.index];
       if (this.timed) {
