@@ -389,12 +389,12 @@ def run(out: Path, quick: bool = False, size: tuple[int, int] = (1280, 800), loa
             stats = percentiles(screen["latency_ms"])
             parts = {name: percentiles(screen[f"{name}_ms"])["p50"] for name in ("transport", "wait", "draw")}
             scales = screen["render_scale"].value_counts(normalize=True).sort_index(ascending=False)
+            drawn_at = ", ".join(f"{scale:g} {share:.0%}" for scale, share in scales.items() if share >= 0.005)
             say(f"screen, {quality}, 110 Hz simulated participant, {size[0]}x{size[1]}{beside}: {len(screen)} "
                 f"frames drawn ({_rate(screen):.0f} per s), latency p50 {stats['p50']:.1f} ms, p95 "
                 f"{stats['p95']:.1f} ms, p99 {stats['p99']:.1f} ms{target}; p50 of its parts: transport "
                 f"{parts['transport']:.1f}, waiting for a refresh {parts['wait']:.1f}, drawing {parts['draw']:.1f} ms; "
-                "render scale " + ", ".join(f"{scale:g} {share:.0%}" for scale, share in scales.items() if share >= 0.005) +
-                f"; GPU time p50 {screen['gpu_ms'].median():.1f} ms; clock sync spread "
+                f"render scale {drawn_at}; GPU time p50 {screen['gpu_ms'].median():.1f} ms; clock sync spread "
                 f"{screen['clock_spread_ms'].iloc[0]:.1f} ms; load average {screen['load_average'].iloc[0]:.1f}")
         tables["screen"] = pd.concat(runs, ignore_index=True)
         tables["screen"].to_csv(out / "display_latency.csv", index=False)

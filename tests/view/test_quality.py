@@ -89,7 +89,7 @@ def test_the_ladder_lowers_the_resolution_first_then_antialiasing_and_a_software
     first_plain = next(k for k, level in enumerate(levels) if not level["antialias"])
     assert all(level["antialias"] for level in levels[:first_plain])
     assert not any(level["antialias"] for level in levels[first_plain:])
-    assert levels[first_plain]["scale"] == levels[first_plain - 1]["scale"], "antialiasing goes at the lowest first scale"
+    assert levels[first_plain]["scale"] == levels[first_plain - 1]["scale"], "antialiasing goes at the lowest scale"
     assert not any(level["antialias"] for level in software)
     assert [level["scale"] for level in software] == sorted({level["scale"] for level in levels}, reverse=True)
 
@@ -140,8 +140,8 @@ def test_a_raise_that_does_not_hold_is_tried_less_and_less_often():
 
 def test_bursts_of_other_work_do_not_make_the_page_wary_of_a_level():
     # every 7 s from 10 s on, 1.5 s of another program's burst makes every level too slow (40 ms):
-    # the page drops, and then climbs straight back (a level per second) to 0.7 before the next
-    # burst, without backing off the level the burst caught it at
+    # the page drops, and then climbs straight back (a level each half second) to 0.7 before the
+    # next burst, without backing off the level the burst caught it at
     phases = [{"from": 0, "base": 0, "perPixel": 6.0}]
     bursts = [10.0 + 7 * k for k in range(8)]
     for start in bursts:
@@ -149,7 +149,7 @@ def test_bursts_of_other_work_do_not_make_the_page_wary_of_a_level():
     _, trace, _ = simulate(phases, seconds=bursts[-1] + 7)
     for start in bursts:
         between = trace[(trace[:, 0] > start + 1.5) & (trace[:, 0] < start + 7), 1]
-        assert between.min() <= 0.4 and between.max() == 0.7, start
+        assert between.min() <= 0.4 and between.max() >= 0.7, start
 
 
 def test_without_a_gpu_timer_missed_refreshes_step_down_and_the_page_probes_up_now_and_then():

@@ -11,7 +11,7 @@
 // and for the headset module (xr.js), which adds the "Enter mixed reality" button where the
 // browser offers WebXR.
 import * as THREE from "three";
-import { GpuTimer, Quality, ladder } from "./quality.js";
+import { GpuTimer, Quality, SETTLE, WINDOW, ladder } from "./quality.js";
 import { Workspace } from "./workspace.js";
 import { setupHeadset } from "./xr.js";
 
@@ -130,23 +130,27 @@ function timeline(m) {
   }
 }
 
-/** The task's stage, timers and attempts; the text changes only when what it shows does (a
- *  tenth of a second), so the page lays out and rasterises it ten times a second, not every frame. */
+/** The task's stage, timers and attempts, set only when what they show changes (the timers by
+ *  tenths of a second): the page neither builds their text nor lays it out every frame. */
 const shownHud = { stage: null, task: null, place: null, lit: null, timer: null, places: null, attempts: null };
+const hudStage = document.getElementById("hud-stage");
+const hudPlace = document.getElementById("hud-place");
+const hudAttempts = document.getElementById("hud-attempts");
 
 function showHud(frame) {
+  const shown = shownHud;
   const places = workspace.layout ? workspace.layout.places.length : 0;
   const task = Math.round(frame.task_timer * 10), timer = Math.round(frame.place_timer * 10);
-  const shown = shownHud;
   if (frame.stage !== shown.stage || task !== shown.task) {
-    document.getElementById("hud-stage").textContent = `${STAGES[frame.stage] || frame.stage} · ${(task / 10).toFixed(1)} s`;
+    hudStage.textContent = `${STAGES[frame.stage] || frame.stage} · ${(task / 10).toFixed(1)} s`;
   }
-  if (frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places || (frame.lit && timer !== shown.timer)) {
-    document.getElementById("hud-place").textContent = frame.lit
+  const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places;
+  if (place || (frame.lit && timer !== shown.timer)) {
+    hudPlace.textContent = frame.lit
       ? `Place ${frame.place + 1} lit: ${(timer / 10).toFixed(1)} / ${workspace.layout.hold_s} s`
       : frame.place < places ? `Place ${frame.place + 1} of ${places}` : `All ${places} places done`;
   }
-  if (frame.attempts !== shown.attempts) document.getElementById("hud-attempts").textContent = `Attempts: ${frame.attempts}`;
+  if (frame.attempts !== shown.attempts) hudAttempts.textContent = `Attempts: ${frame.attempts}`;
   shown.stage = frame.stage;
   shown.task = task;
   shown.place = frame.place;
@@ -270,6 +274,7 @@ function connect() {
       camera.updateProjectionMatrix();
       microg.latest = null;
       microg.dirty = true;
+      calibrating = CALIBRATION_FRAMES;
       for (const hook of microg.onScene) hook(m);
     } else if (m.type === "timeline") {
       timeline(m);
@@ -294,6 +299,11 @@ function connect() {
 // ---------------------------------------------------------------- drawing
 
 let timer = null;
+/** A new task's scene is drawn this many animation frames in a row, before the task's first frame
+ *  if the session waits ("get ready"): three decisions' worth of measurements, so the task starts
+ *  at a level that fits. */
+const CALIBRATION_FRAMES = 3 * (WINDOW + SETTLE);
+let calibrating = 0;
 
 /** Draw on a new canvas with a new renderer: antialiasing is fixed when a WebGL context is made. */
 function useRenderer(antialias) {
@@ -332,7 +342,8 @@ function reportLevel() {
 
 /** Draw at `level` from now on. */
 function useLevel(level) {
-  if (!microg.renderer || microg.renderer.getContextAttributes().antialias !== level.antialias) useRenderer(level.antialias);
+  const { renderer } = microg;
+  if (!renderer || renderer.getContextAttributes().antialias !== level.antialias) useRenderer(level.antialias);
   resize();
   reportLevel();
 }
@@ -357,8 +368,9 @@ function draw(time, xrFrame) {
     for (const hook of microg.onFrame) hook(frame);
   }
   const start = microg.now();
-  const drew = Boolean(fresh || microg.dirty || presenting);
+  const drew = Boolean(fresh || microg.dirty || presenting || calibrating > 0);
   if (drew) {
+    if (calibrating > 0) calibrating -= 1;
     if (!presenting) timer.begin();
     renderer.render(scene, camera);
     if (!presenting) timer.end();

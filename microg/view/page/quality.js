@@ -42,7 +42,7 @@ export const DROP = 3;
 export const ANTIALIAS = 2.5;
 /** Frames after a change that are not measured (new buffers, new shaders). */
 export const SETTLE = 2;
-export const HOLD_MS = 1000;
+export const HOLD_MS = 500;
 export const PROBE_MS = 4000;
 export const PROBATION_MS = 3000;
 export const BACKOFF_MS = 4000;
