@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from microg.bench.display import IWER, emulate_headset, enter_and_place
 from microg.study import framelog
 from microg.study.inputs import PacedInputs
 from microg.study.protocol import load_protocol
@@ -200,3 +201,23 @@ def test_a_mesh_object_is_drawn_from_its_own_triangles(tmp_path):
         ends = corners[[np.argmin(pixels[:, 0]), np.argmax(pixels[:, 0])]]
         for end in ends:
             assert pixels_near(colour_mask(picture, "object"), project(end), 12) > 20
+
+
+@pytest.mark.slow
+@needs_browser
+@pytest.mark.skipif(not IWER.exists(), reason=f"needs iwer (WebXR emulation: npm ci), missing at {IWER}")
+def test_a_headset_draws_the_best_level_and_leaving_it_the_screen_draws_at_its_own_again(tmp_path):
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        emulate_headset(driver)
+        driver.get(display.url)
+        screen = {"scale": 0.5, "antialias": False}
+        driver.execute_script("window.microg.quality.fix(arguments[0])", screen)
+        enter_and_place(driver)
+        best = driver.execute_script("return window.microg.quality.levels[0]")
+        assert driver.execute_script("return window.microg.quality.level") == best
+        driver.execute_script("window.emulatedHeadset.activeSession.end()")
+        wait(driver, "return window.microg.xr.step === 'off' && !window.microg.renderer.xr.isPresenting")
+        picture = wait(driver, "window.microg.dirty = true; const p = window.microg.picture; "
+                               "return p.level === window.microg.quality.level && [p.level, p.width, p.height]")
+        assert picture == [screen, WINDOW[0] * 0.5, WINDOW[1] * 0.5]

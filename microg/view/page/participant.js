@@ -324,6 +324,7 @@ function useRenderer(antialias) {
 }
 
 function resize() {
+  if (microg.renderer.xr.isPresenting) return;  // the headset's layer sets the size (three.js)
   const width = window.innerWidth, height = window.innerHeight;
   microg.renderer.setPixelRatio(window.devicePixelRatio * microg.quality.level.scale);
   microg.renderer.setSize(width, height, false);
