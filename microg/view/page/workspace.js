@@ -4,7 +4,7 @@
 //
 // Drawn cheaply, for a page that must keep up on a computer without a GPU: the light (from the
 // sky and the sun) is worked out per vertex, so a pixel costs what a plain colour costs (per-pixel
-// lighting, three.js's standard material, took 3 to 4 times as long in software); every phalanx
+// lighting, three.js's standard material, took 3 to 5 times as long in software); every phalanx
 // of both hands is one instanced capsule mesh and the place rings another (a software rasteriser
 // spends about half a millisecond on each draw call); nothing is allocated per frame.
 import * as THREE from "three";
