@@ -1,6 +1,7 @@
 """Statistics and reports for microg studies: reads tidy tables (trials, questionnaire), never the
 simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
-returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack)."""
+returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack, ARTool,
+lme4 and lmerTest)."""
 
 from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_interactions
 from microg.analysis.anova import (
@@ -9,11 +10,13 @@ from microg.analysis.anova import (
     partial_eta_squared_ci,
     sphericity_correction,
 )
+from microg.analysis.art import ART_COLUMNS, ART_CONTRAST_COLUMNS, art_anova, art_contrasts
 from microg.analysis.assumptions import assumption_checks
 from microg.analysis.counts import count_model
 from microg.analysis.describe import cell_means
 from microg.analysis.figures import plot_bars, plot_ratings
 from microg.analysis.likert import likert_summary, likert_tests, unpaired_raters
+from microg.analysis.mixed_model import COEFFICIENT_COLUMNS, MODEL_ANOVA_COLUMNS, TrialModel, trial_model
 from microg.analysis.paired import (
     compare_interactions,
     paired_means,
@@ -35,10 +38,17 @@ from microg.analysis.tables import (
 
 __all__ = [
     "ANOVA_COLUMNS",
+    "ART_COLUMNS",
+    "ART_CONTRAST_COLUMNS",
+    "COEFFICIENT_COLUMNS",
+    "MODEL_ANOVA_COLUMNS",
     "POSTHOC_COLUMNS",
     "AnalysisInputError",
     "StudyAnalysis",
+    "TrialModel",
     "analyse_study",
+    "art_anova",
+    "art_contrasts",
     "assumption_checks",
     "cell_means",
     "check_questionnaire",
@@ -62,6 +72,7 @@ __all__ = [
     "signed_rank",
     "simple_effects",
     "sphericity_correction",
+    "trial_model",
     "unpaired_participants",
     "unpaired_raters",
     "write_report",

@@ -3,6 +3,7 @@ tidy DataFrames."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,7 @@ from microg.analysis.anova import (
     mixed_anova,
     sphericity_correction,
 )
+from microg.analysis.art import ART_COLUMNS, ART_CONTRAST_COLUMNS, art_anova, art_contrasts
 from microg.analysis.assumptions import ASSUMPTION_COLUMNS, assumption_checks
 from microg.analysis.counts import COUNT_MODEL_COLUMNS, count_model
 from microg.analysis.describe import CELL_MEANS_COLUMNS, cell_means
@@ -24,6 +26,12 @@ from microg.analysis.likert import (
     likert_summary,
     likert_tests,
     unpaired_raters,
+)
+from microg.analysis.mixed_model import (
+    COEFFICIENT_COLUMNS,
+    MODEL_ANOVA_COLUMNS,
+    RANDOM_COLUMNS,
+    trial_model,
 )
 from microg.analysis.paired import (
     INTERACTIONS_COLUMNS,
@@ -57,6 +65,9 @@ from microg.analysis.tables import (
 DEFAULT_INTERACTION = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
 EXCLUDED_PHASES = ("training",)
+PRACTICE = "task_index"
+"""The export's column of a task's place in the participant's session: the trial model's practice."""
+TRIAL_MODEL_COLUMNS = ("formula", "n_trials", "n_subjects", "note")
 ALPHA = 0.05
 """Significance level of every test the report words as significant or not (Box's M: .001)."""
 MIN_PAIRS = 3
@@ -73,6 +84,11 @@ class StudyAnalysis:
     each analysis (the effective N); ``dropped`` who was left out of which analysis and why;
     ``conditions`` each interaction model's label and role. A table with no rows means the analysis
     did not apply (no baseline, no questionnaire); ``warnings`` says why.
+
+    The trial model of a measure (``trial_anova``, ``trial_coefficients``, ``trial_random``,
+    ``trial_models``: every finished task of every interaction model, :func:`trial_model`) has the
+    interaction "" (all of them). The questionnaire's ART (``likert_art``, ``likert_art_contrasts``)
+    has one row set per item, in the column ``item``.
     """
 
     interaction: str
@@ -103,8 +119,16 @@ class StudyAnalysis:
     comparison: pd.DataFrame
     likert_summary: pd.DataFrame
     likert_tests: pd.DataFrame
+    likert_art: pd.DataFrame
+    likert_art_contrasts: pd.DataFrame
+    trial_anova: pd.DataFrame
+    trial_coefficients: pd.DataFrame
+    trial_random: pd.DataFrame
+    trial_models: pd.DataFrame
     dropped: pd.DataFrame
     warnings: tuple[str, ...]
+    practice: str | None = None
+    interaction_column: str = "interaction"
 
     def table(self, name: str, interaction: str, measure: str) -> pd.DataFrame:
         """The rows of table ``name`` (e.g. "anova") for one interaction and measure, without the keys."""
@@ -192,9 +216,11 @@ def analyse_study(
     rating: str = "rating",
     alpha: float = ALPHA,
     drop_duplicates: bool = False,
+    practice: str = PRACTICE,
 ) -> StudyAnalysis:
     """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per interaction
-    model and measure; interaction model vs baseline; the Likert analysis.
+    model and measure; a linear mixed model of every task per measure; interaction model vs
+    baseline; the Likert analysis with the aligned rank transform ANOVA of group x interaction model.
 
     Parameters
     ----------
@@ -223,6 +249,9 @@ def analyse_study(
     drop_duplicates : bool
         Rows that repeat an earlier row of their table in every column are refused (a row given twice
         counts twice); with True they are dropped, and ``warnings`` says which.
+    practice : str
+        Column of a task's place in the participant's session (the export's ``task_index``): the
+        trial model's practice term and random slope, when the table has it.
 
     Returns
     -------
@@ -267,9 +296,12 @@ def analyse_study(
     per_interaction = _per_interaction(trials, interactions, design)
     pairs = _versus_baseline(trials, interaction, baseline, design)
     likert = _likert(questionnaire, interaction, baseline, design, item, rating)
+    art = _likert_art(questionnaire, trials, design, item, rating)
+    practised = practice if practice in trials.columns and pd.api.types.is_numeric_dtype(trials[practice]) else None
+    models = _trial_models(trials, design, practised)
     withdrew = pd.DataFrame({"analysis": "all", "interaction": "", "measure": "", subject: gone,
                              "reason": "withdrew from the study"})  # fmt: skip
-    parts = (per_interaction, pairs, likert)
+    parts = (per_interaction, models, pairs, likert, art)
     in_data = trials.drop_duplicates(subject).groupby(group, observed=True).size()
     data_sample = pd.DataFrame({"analysis": "data", "interaction": "", "measure": "", group: in_data.index,
                                 "n": in_data.to_numpy()})  # fmt: skip
@@ -298,9 +330,15 @@ def analyse_study(
         comparison=pairs.tables["comparison"],
         likert_summary=likert.tables["likert_summary"],
         likert_tests=likert.tables["likert_tests"],
+        likert_art=art.tables["likert_art"],
+        likert_art_contrasts=art.tables["likert_art_contrasts"],
+        **{name: models.tables[name] for name in TRIAL_TABLES},
+        practice=practised,
+        interaction_column=interaction_column,
     )
 
 
+TRIAL_TABLES = ("trial_anova", "trial_coefficients", "trial_random", "trial_models")
 PER_INTERACTION = ("cells", "cell_means", "anova", "corrections", "posthoc", "simple_effects", "simple_pairs",
                    "assumptions", "count_model")  # fmt: skip
 """The tables computed per interaction and measure."""
@@ -450,6 +488,83 @@ def _likert(questionnaire, interaction: str, baseline: str | None, design: _Desi
         sample.append(_keyed(_group_sizes(rated, d, "Likert"), {"interaction": interaction, "measure": name}))
     tables = {"likert_summary": summary, "likert_tests": tests, "sample": _concat(sample, sample_columns)}
     return _Part(tables, unpaired.assign(analysis="Likert", interaction=interaction, measure=""), [])
+
+
+def _trial_models(trials: pd.DataFrame, design: _Design, practice: str | None) -> _Part:
+    """A linear mixed model of every finished task per measure that is not a count (counts have their
+    GEE): group x within x interaction model (when there are several) + practice, log-transformed
+    when every value is positive."""
+    d = design
+    tables: dict[str, list[pd.DataFrame]] = {name: [] for name in TRIAL_TABLES}
+    notes = []
+    for dv in (m for m in d.measures if m not in d.counts):
+        finished = trials[trials[d.completed].astype(bool)] if d.completed in trials.columns else trials
+        rows = finished[finished[dv].notna()]
+        crossed = [d.group, d.within] + ([d.interaction] if rows[d.interaction].nunique() > 1 else [])
+        fixed = " * ".join(crossed) + (f" + {practice}" if practice else "")
+        transform = "log" if len(rows) and (rows[dv] > 0).all() else None
+        try:
+            model = trial_model(rows, dv, fixed, d.subject, transform, slope=practice)
+        except AnalysisInputError as error:
+            notes.append(f"No trial model of {dv}: {error}.")
+            continue
+        keys = {"interaction": "", "measure": dv}
+        summary = pd.DataFrame([(model.formula, model.n_trials, model.n_subjects, model.note)],
+                               columns=list(TRIAL_MODEL_COLUMNS))  # fmt: skip
+        for name, frame in (("trial_anova", model.anova), ("trial_coefficients", model.coefficients),
+                            ("trial_random", model.random), ("trial_models", summary)):  # fmt: skip
+            tables[name].append(_keyed(frame, keys))
+        if "singular fit" in model.note:
+            notes.append(f"The trial model of {dv} is a singular fit (the participants' variance is estimated at 0).")
+    empty = {"trial_anova": MODEL_ANOVA_COLUMNS, "trial_coefficients": COEFFICIENT_COLUMNS,
+             "trial_random": RANDOM_COLUMNS, "trial_models": TRIAL_MODEL_COLUMNS}  # fmt: skip
+    nobody = pd.DataFrame(columns=["analysis", "interaction", "measure", d.subject, "reason"])
+    frames = {name: _concat(found, empty[name]) for name, found in tables.items()}
+    frames["sample"] = _concat([], ("analysis", d.group, "n"))
+    return _Part(frames, nobody, notes)
+
+
+def _likert_art(questionnaire, trials: pd.DataFrame, design: _Design, item: str, rating: str) -> _Part:
+    """Per item, the aligned rank transform ANOVA of group x interaction model and its ART-C contrasts,
+    on the participants who rated every interaction model of the item (the groups taken from the
+    trials when the questionnaire has none)."""
+    d = design
+    nobody = pd.DataFrame(columns=["analysis", "interaction", "measure", d.subject, "reason"])
+    tables = {"likert_art": [], "likert_art_contrasts": [], "sample": []}
+    dropped, notes = [], []
+    if questionnaire is not None:
+        answers = questionnaire
+        if d.group not in answers.columns:
+            groups = trials.drop_duplicates(d.subject).set_index(d.subject)[d.group]
+            answers = answers.assign(**{d.group: answers[d.subject].map(groups)}).dropna(subset=[d.group])
+        for name, ratings in answers.groupby(item, sort=True):
+            if ratings[d.group].nunique() < 2 or ratings[d.interaction].nunique() < 2:
+                continue
+            missing = incomplete_cases(ratings, rating, d.interaction, d.subject)
+            dropped.append(missing.assign(analysis="ART", interaction="", measure=name))
+            complete = complete_cases(ratings, rating, d.interaction, d.subject)
+            keys = {item: name}
+            try:
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", message="dropped")
+                    anova = art_anova(complete, rating, d.interaction, d.group, d.subject, d.ss_type)
+                    terms = (d.group, d.interaction, f"{d.group}:{d.interaction}")
+                    contrasts = pd.concat([art_contrasts(complete, rating, d.interaction, d.group, d.subject, term)
+                                           for term in terms], ignore_index=True)  # fmt: skip
+            except AnalysisInputError as error:
+                notes.append(f"No aligned rank transform ANOVA of {name}: {error}.")
+                continue
+            tables["likert_art"].append(_keyed(anova, keys))
+            tables["likert_art_contrasts"].append(_keyed(contrasts, keys))
+            tables["sample"].append(_keyed(_group_sizes(complete, d, "ART"), {"interaction": "", "measure": name}))
+    frames = {
+        "likert_art": pd.concat(tables["likert_art"], ignore_index=True) if tables["likert_art"]
+        else pd.DataFrame(columns=[item, *ART_COLUMNS]),
+        "likert_art_contrasts": pd.concat(tables["likert_art_contrasts"], ignore_index=True)
+        if tables["likert_art_contrasts"] else pd.DataFrame(columns=[item, *ART_CONTRAST_COLUMNS]),
+        "sample": _concat(tables["sample"], ("analysis", d.group, "n")),
+    }  # fmt: skip
+    return _Part(frames, pd.concat(dropped, ignore_index=True) if dropped else nobody, notes)
 
 
 def _conditions(interactions, interaction, baseline, tables, interaction_column: str, label: str) -> pd.DataFrame:

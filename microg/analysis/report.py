@@ -30,7 +30,11 @@ INTERACTION_DESCRIPTIONS = {
 }
 REPORT_FILE = "report.html"
 MARKDOWN_FILE = "report.md"
-TIDY_TABLES = ("sample", "cell_means", "corrections", "simple_effects", "simple_pairs", "assumptions", "count_model")
+TIDY_TABLES = {"sample": "sample", "cell_means": "cell_means", "corrections": "corrections",
+               "simple_effects": "simple_effects", "simple_pairs": "simple_pairs", "assumptions": "assumptions",
+               "count_model": "count_model", "trial_models": "trial_models", "trial_anova": "trial_model_anova",
+               "trial_coefficients": "trial_model_coefficients", "trial_random": "trial_model_random"}
+"""The tidy tables written as they are: StudyAnalysis field -> CSV file name."""
 SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated participants (a motor model), not people."
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
 
@@ -96,8 +100,11 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
     anova_<measure>.csv and posthoc_<measure>.csv. An ANOVA the data cannot support is written with
     its sources and empty statistics; the report says why. One tidy table each, with the columns
     interaction and measure: sample.csv (N per group in the data and in each analysis), cell_means.csv,
-    corrections.csv, simple_effects.csv, simple_pairs.csv, assumptions.csv, count_model.csv. Also
-    interactions.csv (interaction model under test vs baseline), likert.csv, dropped.csv and conditions.csv (labels).
+    corrections.csv, simple_effects.csv, simple_pairs.csv, assumptions.csv, count_model.csv, and the
+    trial models (interaction "": every interaction model) trial_models.csv, trial_model_anova.csv,
+    trial_model_coefficients.csv, trial_model_random.csv. Also interactions.csv (interaction model under
+    test vs baseline), likert.csv, art_anova.csv and art_contrasts.csv (the questionnaire's aligned rank
+    transform, per item), dropped.csv and conditions.csv (labels).
     """
     a = analysis
     written = []
@@ -110,12 +117,15 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
         post = a.table("posthoc", name, dv) if (name, dv) in analysed else pd.DataFrame(columns=POSTHOC_COLUMNS)
         for kind, frame in (("anova", anova), ("posthoc", post)):
             written.append(_csv(frame, out / f"{kind}_{MEASURE_FILES.get(dv, dv)}{suffix}.csv"))
-    for name in TIDY_TABLES:
-        written.append(_csv(getattr(a, name), out / f"{name}.csv"))
+    for name, file in TIDY_TABLES.items():
+        written.append(_csv(getattr(a, name), out / f"{file}.csv"))
     if not a.comparison.empty:
         written.append(_csv(a.comparison, out / "interactions.csv"))
     if not a.likert_summary.empty:
         written.append(_csv(likert_table(a), out / "likert.csv"))
+    if not a.likert_art.empty:
+        written.append(_csv(a.likert_art, out / "art_anova.csv"))
+        written.append(_csv(a.likert_art_contrasts, out / "art_contrasts.csv"))
     written.append(_csv(a.conditions, out / "conditions.csv"))
     written.append(_csv(a.dropped, out / "dropped.csv"))
     return written
@@ -185,9 +195,27 @@ def report_sections(analysis: StudyAnalysis) -> dict:
                 ("Count model (an addition to the paper's analysis)", r.count_model_table(a, name, dv))
             )
         blocks.append(block)
+    models = [
+        {
+            "title": f"{r.measure_label(dv).capitalize()}, every finished task: linear mixed model",
+            "results": r.trial_model_paragraph(a, dv),
+            "tables": [
+                ("Type 3 F tests (Satterthwaite df)", r.trial_anova_table(a, dv)),
+                ("Coefficients (sum-to-zero coding)", r.trial_coefficients_table(a, dv)),
+                ("Random effects", r.trial_random_table(a, dv)),
+            ],
+        }
+        for dv in a.trial_models["measure"]
+    ]
     comparison = []
     if not a.comparison.empty:
         comparison = [r.comparison_paragraph(a, dv) for dv in a.comparison["measure"]]
+    art_cells = [
+        (f"ART-C contrasts of {item}: {a.group} \u00d7 interaction model cells (Bonferroni over the pairs, in ranks)",
+         r.art_cells(a, item))
+        for item, tests in a.likert_art.groupby("item", sort=True)
+        if tests["p_unc"].iloc[2] < a.alpha
+    ]
     return {
         "interactions": [
             f"{label} ({role})"
@@ -198,6 +226,7 @@ def report_sections(analysis: StudyAnalysis) -> dict:
         "sample": r.sample_table(a),
         "dropped": r.dropped_table(a) if len(a.dropped) else None,
         "blocks": blocks,
+        "models": models,
         "comparison": comparison,
         "table1": r.table1(a) if comparison else None,
         "ttests": r.ttest_table(a) if comparison else None,
@@ -205,6 +234,9 @@ def report_sections(analysis: StudyAnalysis) -> dict:
         "likert": r.likert_paragraph(a) if not a.likert_tests.empty else "",
         "likert_distribution": r.likert_distribution_table(a) if not a.likert_summary.empty else None,
         "likert_tests": r.likert_analyse_batch(a) if not a.likert_tests.empty else None,
+        "art": r.art_paragraph(a) if not a.likert_art.empty else "",
+        "art_table": r.art_table(a) if not a.likert_art.empty else None,
+        "art_cells": art_cells,
         "methods": methods(a),
     }
 
@@ -258,12 +290,20 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
         lines += [f"### {block['title']}", "", block["results"], "", block["assumptions"], ""]
         for caption, table in block["tables"]:
             lines += [f"**{caption}**", "", markdown_table(table), ""]
+    for block in sections["models"]:
+        lines += [f"### {block['title']}", "", block["results"], ""]
+        for caption, table in block["tables"]:
+            lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["comparison"]:
         lines += ["### Interaction model vs baseline (Table 1)", "", *[p + "\n" for p in sections["comparison"]]]
         for caption in ("table1", "ttests", "wilcoxon"):
             lines += [markdown_table(sections[caption]), ""]
     if sections["likert"]:
         lines += ["### Questionnaire", "", sections["likert"], "", markdown_table(sections["likert_tests"]), ""]
+    if sections["art"]:
+        lines += [sections["art"], "", markdown_table(sections["art_table"]), ""]
+        for caption, table in sections["art_cells"]:
+            lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["likert_distribution"] is not None:
         lines += [markdown_table(sections["likert_distribution"]), ""]
     lines += ["## Methods", "", *[f"- {line}" for line in sections["methods"]], ""]
@@ -338,6 +378,27 @@ def methods(analysis: StudyAnalysis) -> list[str]:
             "non-zero differences; Bonferroni across items."
         ),
     ]
+    if not a.trial_models.empty:
+        statements.append(
+            f"Trial models (an addition to the paper's analysis): per measure of finished tasks, a linear mixed "
+            f"model of every finished task of every interaction model (no averaging, no complete-case rule), "
+            f"the measure log-transformed when every value is positive; fixed effects {a.group} x {a.within} x "
+            "interaction model (sum-to-zero coding)"
+            + (f" and practice ({a.practice}, the task's place in the session)" if a.practice else "")
+            + "; a random intercept per participant"
+            + (f" and a correlated random slope of {a.practice}, dropped when the fit is singular (lme4's rule)"
+               if a.practice else "")
+            + ". REML (statsmodels' MixedLM, finished to lme4's optimum); type 3 F tests and t tests with "
+            "Satterthwaite df, as R's lmerTest."
+        )
+    if not a.likert_art.empty:
+        statements.append(
+            f"Aligned rank transform ANOVA of the ratings, {a.group} x interaction model per item (Wobbrock et al., "
+            "CHI 2011; ARTool's alignment): each effect's aligned values ranked (ties averaged) and tested with the "
+            f"type {a.ss_type} mixed ANOVA above, on the participants who rated every interaction model; ART-C contrasts "
+            "(Elkin et al., UIST 2021) of the cells, on the pooled within-group covariance (df = N - number of "
+            f"{a.group}s), Bonferroni over the pairs."
+        )
     if a.counts:
         statements.append(
             "Counts (an addition to the paper's analysis): each task's count as Poisson with a log link, group x "

@@ -49,8 +49,10 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 <h2>Results</h2>
 {% for block in blocks %}<h3>{{ block.title }}</h3><p class="results">{{ block.results }}</p>
 <p class="results">{{ block.assumptions }}</p>{% endfor %}
+{% for block in models %}<h3>{{ block.title }}</h3><p class="results">{{ block.results }}</p>{% endfor %}
 {% if comparison %}<h3>{{ interaction }} vs {{ baseline }}</h3>{% for p in comparison %}<p class="results">{{ p }}</p>{% endfor %}{% endif %}
 {% if likert %}<h3>Questionnaire</h3><p class="results">{{ likert }}</p>{% endif %}
+{% if art %}<p class="results">{{ art }}</p>{% endif %}
 
 <h2>Methods</h2>
 <ul class="method">{% for m in methods %}<li>{{ m }}</li>{% endfor %}</ul>
@@ -60,6 +62,12 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 <h3>{{ block.title }}</h3>
 {% for caption, table in block.tables %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}
 {% endfor %}
+
+{% if models %}<h2>Linear mixed models of every task</h2>
+{% for block in models %}
+<h3>{{ block.title }}</h3>
+{% for caption, table in block.tables %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}
+{% endfor %}{% endif %}
 
 <h2>Interaction model vs baseline (Table 1)</h2>
 {% if table1 is not none %}
@@ -78,6 +86,9 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 <div class="table">{{ likert_distribution | html }}</div>
 {% if likert_tests is not none %}<p class="caption">{{ interaction }} vs {{ baseline }}, per item</p>
 <div class="table">{{ likert_tests | html }}</div>{% endif %}
+{% if art_table is not none %}<p class="caption">Aligned rank transform ANOVA per item</p>
+<div class="table">{{ art_table | html }}</div>
+{% for caption, table in art_cells %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}{% endif %}
 {% else %}<p>No questionnaire table was given.</p>{% endif %}
 
 <h2>Figures</h2>

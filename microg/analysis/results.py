@@ -19,6 +19,7 @@ from microg.analysis.apa import (
     p_value,
     t_test,
 )
+from microg.analysis.art import CELL_SEPARATOR
 from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.likert import SCALE
 
@@ -377,10 +378,11 @@ def sample_table(analysis: StudyAnalysis) -> pd.DataFrame:
         "ANOVA": "mixed ANOVA",
         "pairs": "interaction model vs baseline",
         "Likert": "questionnaire item",
+        "ART": "aligned rank transform ANOVA, item",
     }
     rows = []
     for kind, interaction, measure in keys.itertuples(index=False):
-        what = names[kind] if kind != "Likert" else f"{names[kind]} {measure}"
+        what = names[kind] if kind not in ("Likert", "ART") else f"{names[kind]} {measure}"
         if kind in ("ANOVA", "pairs"):
             what += f", {measure_label(measure)}"
         if kind == "ANOVA":
@@ -402,9 +404,124 @@ def dropped_table(analysis: StudyAnalysis) -> pd.DataFrame:
             "ANOVA": f"mixed ANOVA, {measure_label(measure)}, {label}",
             "pairs": f"interaction model vs baseline, {measure_label(measure)}",
             "Likert": "questionnaire",
+            "ART": f"aligned rank transform ANOVA, item {measure}",
         }
         what.append(names[kind])
     return pd.DataFrame({"Analysis": what, a.subject.capitalize(): table[a.subject], "Reason": table["reason"]})
+
+
+def trial_model_paragraph(analysis: StudyAnalysis, dv: str) -> str:
+    """The linear mixed model of every finished task of ``dv`` in words: what was fitted, its F tests and,
+    when it has one, the practice slope."""
+    a = analysis
+    model = a.table("trial_models", "", dv).iloc[0]
+    tests = a.table("trial_anova", "", dv)
+    effects = []
+    for name, row in zip(_model_sources(a, tests["source"]), tests.itertuples(index=False)):
+        wording = "a significant" if row.p_unc < a.alpha else "no significant"
+        effects.append(f"{wording} effect of {name}, {f_test(row.F, row.df1, row.df2, row.p_unc)}")
+    text = [
+        f"{measure_label(dv).capitalize()}, every finished task (a linear mixed model beside the ANOVA of "
+        f"participant means, an addition to the paper's analysis): {int(model['n_trials'])} tasks of "
+        f"{int(model['n_subjects'])} participants, {model['formula']} (REML; type 3 F tests with Satterthwaite df; "
+        f"{model['note']}). It showed " + "; ".join(effects) + "."
+    ]
+    if a.practice is not None:
+        slope = a.table("trial_coefficients", "", dv).set_index("term").loc[a.practice]
+        test = t_test(slope["t"], slope["df"], slope["p_unc"])
+        measure = measure_label(dv).split(" (")[0]
+        if model["formula"].startswith("log("):
+            text.append(
+                f"Practice: each further task multiplied the {measure} by {number(np.exp(slope['estimate']), 3)} "
+                f"(b = {number(slope['estimate'], 3)} on the log scale, SE = {number(slope['SE'], 3)}, {test})."
+            )
+        else:
+            text.append(f"Practice: each further task changed the {measure} by b = {number(slope['estimate'])} "
+                        f"(SE = {number(slope['SE'])}, {test}).")
+    return " ".join(text)
+
+
+def trial_anova_table(analysis: StudyAnalysis, dv: str) -> pd.DataFrame:
+    """The trial model's type 3 F tests."""
+    table = analysis.table("trial_anova", "", dv)
+    return pd.DataFrame({"Effect": _model_sources(analysis, table["source"]), "F": table["F"].map(number),
+                         "df": table["df1"].map(degrees), "df error": table["df2"].map(degrees),
+                         "p": table["p_unc"].map(p_cell)})  # fmt: skip
+
+
+def trial_coefficients_table(analysis: StudyAnalysis, dv: str) -> pd.DataFrame:
+    """The trial model's coefficients (sum-to-zero coding: ``group1`` is the first level's deviation)."""
+    table = analysis.table("trial_coefficients", "", dv)
+    return pd.DataFrame({"Term": table["term"], "Estimate": table["estimate"].map(lambda v: number(v, 3)),
+                         "SE": table["SE"].map(lambda v: number(v, 3)), "df": table["df"].map(degrees),
+                         "t": table["t"].map(number), "p": table["p_unc"].map(p_cell)})  # fmt: skip
+
+
+def trial_random_table(analysis: StudyAnalysis, dv: str) -> pd.DataFrame:
+    """The trial model's random effects and residual."""
+    table = analysis.table("trial_random", "", dv)
+    return pd.DataFrame({"Random effect": table["name"], "Variance": table["variance"].map(lambda v: number(v, 4)),
+                         "SD": table["sd"].map(lambda v: number(v, 4)),
+                         "Correlation": table["correlation"].map(bounded)})  # fmt: skip
+
+
+def art_paragraph(analysis: StudyAnalysis) -> str:
+    """The questionnaire's aligned rank transform ANOVAs in words, with the ART-C contrasts of the cells
+    where group x interaction model is significant."""
+    a = analysis
+    names = [a.group, "interaction model", f"{a.group} \u00d7 interaction model"]
+    parts = []
+    for item, tests in a.likert_art.groupby("item", sort=True):
+        effects = ", ".join(f"{name}, {f_test(row.F, row.df1, row.df2, row.p_unc)}"
+                            for name, row in zip(names, tests.itertuples(index=False)))  # fmt: skip
+        part = f"{item} ({sample_size(a, 'ART', '', item)}): {effects}"
+        if tests["p_unc"].iloc[2] < a.alpha:
+            pairs = _art_cell_rows(a, item)
+            listed = "; ".join(
+                f"{_cell(a, row.A)}{MINUS}{_cell(a, row.B)} = {number(row.estimate)}, {t_test(row.T, row.df, row.p_bonf)}"
+                for row in pairs.itertuples(index=False)
+            )
+            part += f"; ART-C contrasts of the cells (Bonferroni over {len(pairs)} pairs, in ranks): {listed}"
+        parts.append(part)
+    return (
+        f"Ratings by {a.group} and interaction model, aligned rank transform ANOVA per item (ARTool's alignment, "
+        f"type {a.ss_type} mixed ANOVA of the aligned ranks): " + "; ".join(parts) + "."
+    )
+
+
+def art_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """The aligned rank transform ANOVA of every item."""
+    a = analysis
+    table = a.likert_art
+    names = [a.group, "interaction model", f"{a.group} \u00d7 interaction model"] * table["item"].nunique()
+    return pd.DataFrame({"Item": table["item"], "Effect": names, "F": table["F"].map(number),
+                         "df": table["df1"].map(degrees), "df error": table["df2"].map(degrees),
+                         "p": table["p_unc"].map(p_cell)})  # fmt: skip
+
+
+def art_cells(analysis: StudyAnalysis, item: str) -> pd.DataFrame:
+    """The ART-C contrasts of one item's group x interaction model cells, each interaction model shown by
+    its label."""
+    a = analysis
+    pairs = _art_cell_rows(a, item)
+    return pd.DataFrame({
+        "Comparison": [f"{_cell(a, x)}{MINUS}{_cell(a, y)}" for x, y in zip(pairs["A"], pairs["B"])],
+        "Estimate (ranks)": pairs["estimate"].map(number), "SE": pairs["SE"].map(number),
+        "t": pairs["T"].map(number), "df": pairs["df"].map(degrees), "p": pairs["p_unc"].map(p_cell),
+        "p (Bonferroni)": pairs["p_bonf"].map(p_cell),
+    })  # fmt: skip
+
+
+def _art_cell_rows(a: StudyAnalysis, item: str) -> pd.DataFrame:
+    table = a.likert_art_contrasts
+    rows = table[(table["item"] == item) & table["term"].str.contains(":", regex=False)]
+    return rows.reset_index(drop=True)
+
+
+def _cell(a: StudyAnalysis, name: str) -> str:
+    """An ART-C cell ("V,soft_hand") as a reader sees it: "V, <the interaction model's label>"."""
+    group, interaction = name.split(CELL_SEPARATOR, 1)
+    return f"{group}, {a.label(interaction)}"
 
 
 def _posthoc_sentences(a: StudyAnalysis, interaction: str, dv: str, levels: bool, groups: bool) -> list[str]:
@@ -517,6 +634,12 @@ def _contrast(row) -> str:
 
 def _sources(sources: pd.Series) -> list[str]:
     return [source.replace(":", " \u00d7 ") for source in sources]
+
+
+def _model_sources(a: StudyAnalysis, sources: pd.Series) -> list[str]:
+    """A trial model's sources as a reader sees them: the interaction model's column named as such."""
+    return [" \u00d7 ".join("interaction model" if part == a.interaction_column else part for part in source.split(":"))
+            for source in sources]
 
 
 def _rows(table: pd.DataFrame, kind: str, interaction: str, measure: str) -> pd.DataFrame:

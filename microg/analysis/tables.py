@@ -23,7 +23,7 @@ the sums of squares."""
 TEXT_COLUMNS = tuple(column.name for column in (*TRIALS, *QUESTIONNAIRE) if column.dtype == "string")
 FLAG_COLUMNS = ("completed", "simulated", "withdrawn")
 COLUMN_OPTIONS = ("subject", "group", "within", "interaction_column", "dv", "counts", "completed", "phase", "label",
-                  "item", "rating")  # fmt: skip
+                  "item", "rating", "practice")  # fmt: skip
 """The column names :func:`microg.analysis.analyse_study` takes; ``dv`` and ``counts`` are lists."""
 TRIAL_TEXT = (("subject", "participant"), ("group", "group"), ("within", "object"), ("interaction", "interaction"))
 QUESTIONNAIRE_TEXT = (("subject", "participant"), ("interaction", "interaction"), ("item", "item"))

@@ -120,15 +120,20 @@ def store_bench(out: Path, quick: bool) -> None:
 
 @bench.command("display")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
-              show_default=True, help="Directory for display_latency.csv and webxr_latency.csv.")
-@click.option("--quick", is_flag=True, help="30 s of the screen session and 15 s of the headset's, instead of "
+              show_default=True, help="Directory for display_latency.csv, webxr_latency.csv and "
+                                      "display_summary.csv (a row per run is added).")
+@click.option("--quick", is_flag=True, help="30 s of each screen session and 15 s of the headset's, instead of "
                                             "the whole simulated session and 60 s.")
-@click.option("--size", default="640x400", show_default=True,
-              help="The browser's viewport, WIDTHxHEIGHT: without a GPU (SwiftShader) drawing time grows with it.")
-def display_bench(out: Path, quick: bool, size: str) -> None:
+@click.option("--size", default="1280x800", show_default=True,
+              help="The browser's viewport, WIDTHxHEIGHT (a laptop's screen): without a GPU (SwiftShader) "
+                   "drawing time grows with it.")
+@click.option("--load", type=click.IntRange(min=0), default=0, show_default=True,
+              help="CPU-bound processes to run beside every run (started and stopped by the benchmark).")
+def display_bench(out: Path, quick: bool, size: str, load: int) -> None:
     """The participant view's latency in headless Chromium: a 110 Hz simulated session's physics result
-    to the drawn frame (display_latency.csv), and under WebXR emulation a hand pose read in the page to
-    that pose drawn with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
+    to the drawn frame, once with the page adapting what it draws and once held at full resolution
+    (display_latency.csv), and under WebXR emulation a hand pose read in the page to that pose drawn
+    with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
     from microg.bench.display import run
 
     try:
@@ -136,7 +141,7 @@ def display_bench(out: Path, quick: bool, size: str) -> None:
     except ValueError:
         raise click.BadParameter(f"{size!r}: give WIDTHxHEIGHT in pixels, e.g. 1280x800", param_hint="--size") from None
     try:
-        run(out, quick, (width, height), say=click.echo)
+        run(out, quick, (width, height), load, say=click.echo)
     except (RuntimeError, FileNotFoundError) as error:
         raise click.ClickException(str(error)) from None
 

@@ -41,9 +41,12 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
 @click.option("--drop-duplicates", is_flag=True,
               help="Drop rows that repeat an earlier row of their table in every column (the report says which) "
                    "instead of refusing the table.")
+@click.option("--practice-column", "practice", default=None,
+              help="Column of a task's place in the participant's session: the trial model's practice term and "
+                   "random slope [task_index].")
 @click.option("--columns", "columns_file", type=FILE,
               help="TOML file of column names (subject, group, within, interaction_column, dv, counts, completed, "
-                   "phase, label, item, rating); the options above win.")  # fmt: skip
+                   "phase, label, item, rating, practice); the options above win.")  # fmt: skip
 @renamed("--system", "--interaction")
 @renamed("--system-column", "--interaction-column")
 def report(
@@ -63,9 +66,11 @@ def report(
     dv: tuple[str, ...],
     counts: tuple[str, ...],
     drop_duplicates: bool,
+    practice: str | None,
     columns_file: Path | None,
 ) -> None:
-    """Mixed ANOVA, post hoc tests, interaction model vs baseline, Likert analysis and figures of a study.
+    """Mixed ANOVA, post hoc tests, the trial model of every task, interaction model vs baseline, Likert
+    analysis with the aligned rank transform, and figures of a study.
 
     Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert). Writes
     OUT/report.html (self-contained),
@@ -81,7 +86,7 @@ def report(
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
     given = {"subject": subject, "group": group, "within": within, "interaction_column": interaction_column,
-             "dv": list(dv) or None, "counts": list(counts) or None}  # fmt: skip
+             "dv": list(dv) or None, "counts": list(counts) or None, "practice": practice}  # fmt: skip
     columns.update({key: value for key, value in given.items() if value is not None})
     if "dv" in columns:
         columns.setdefault("counts", [])

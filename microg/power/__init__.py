@@ -8,7 +8,8 @@
     effects = read_effects("effects.toml", design)
     exact_power(effects, [8, 10, 15, 20])        # one tidy row per n and test
 
-Exact power (``exact``) analyses one data set with exactly the expected means and covariances;
+Exact power (``exact``) analyses one data set with exactly the expected means and covariances
+(and answers sensitivity: the smallest effect each test detects, ``sensitivity``);
 Monte Carlo power (``montecarlo``, ``run_power``) counts how often simulated data sets, analysed
 as the report does (``batch``: the report's tests vectorised over data sets), reach significance,
 on a Dask cluster. See docs/power.md.
@@ -24,7 +25,7 @@ import importlib
 _WHERE = {
     "Contrast": "design", "Design": "design", "PowerInputError": "design", "design_from_protocol": "design",
     "Effects": "effects", "compound_symmetry": "effects", "effects_from_means": "effects", "read_effects": "effects",
-    "exact_dataset": "exact", "exact_power": "exact",
+    "exact_dataset": "exact", "exact_power": "exact", "sensitivity": "exact", "effect_size_power": "exact",
     "mixed_anova_many": "batch", "posthoc_many": "batch",
     "montecarlo_batch": "montecarlo", "power_table": "montecarlo", "simulate": "montecarlo",
     "PilotEstimate": "pilot", "design_cells": "pilot", "pilot_effects": "pilot",
@@ -45,6 +46,7 @@ __all__ = [
     "dask_client",
     "design_cells",
     "design_from_protocol",
+    "effect_size_power",
     "effects_from_means",
     "exact_dataset",
     "exact_power",
@@ -56,6 +58,7 @@ __all__ = [
     "power_table",
     "read_effects",
     "run_power",
+    "sensitivity",
     "simulate",
     "simulated_batch",
     "smallest_n",

@@ -13,7 +13,8 @@ data sets with one array expression per quantity:
   model): OLS on the groups of one derived column, pooled variance, N - groups degrees of freedom.
 
 The tests check every number against the report's functions one data set at a time (1e-9). This
-module imports nothing of ``microg.analysis``, so that Dask workers stay quick to start.
+module imports nothing of ``microg.analysis`` (only the design's names), so that Dask workers stay
+quick to start.
 """
 
 from __future__ import annotations
@@ -24,6 +25,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 from scipy.linalg import null_space
+
+from microg.power.design import CORRECTIONS
 
 ROUND_OFF = 1e-12
 """A sum of squares below this share of the data's sum of squares is 0 (the report's rule,
@@ -37,7 +40,7 @@ MANY_POSTHOC_COLUMNS = ("dataset", "factor", "at", "A", "B", "estimate", "SE", "
 
 def mixed_anova_many(
     data: pd.DataFrame, dv: str, within: str, between: str, subject: str, dataset: str,
-    alpha: float = SPHERICITY_ALPHA,
+    alpha: float = SPHERICITY_ALPHA, correction: str = "mauchly",
 ) -> pd.DataFrame:
     """Type 3 mixed ANOVA of every data set in ``data``, with the report's sphericity decision.
 
@@ -52,13 +55,15 @@ def mixed_anova_many(
         Column that tells the data sets apart.
     alpha : float
         Level of Mauchly's test (the report uses its significance level).
+    correction : {"mauchly", "none", "GG", "HF"}
+        Which p a within effect reads (see :func:`anova_arrays`); ``mauchly`` is the report's rule.
 
     Returns
     -------
     pandas.DataFrame
         One row per data set and source (``between``, ``within``, ``between:within``): SS, SS_error,
         df1, df2, F, p_unc, eps_GG, p_GG, W_mauchly, p_mauchly (as ``microg.analysis.mixed_anova``),
-        ``correction`` (``Greenhouse-Geisser`` or ``none``) and ``p``, the p the report reads.
+        ``correction`` (``Greenhouse-Geisser``, ``Huynh-Feldt`` or ``none``) and ``p``, the p read.
 
     Examples
     --------
@@ -73,7 +78,7 @@ def mixed_anova_many(
     2  Group:Time    2  116  2.728  0.070
     """
     keys, y, sizes, _, _ = _stack(data, dv, within, between, subject, dataset)
-    result = anova_arrays(y, sizes, alpha)
+    result = anova_arrays(y, sizes, alpha, correction)
     sources = [between, within, f"{between}:{within}"]
     table = pd.DataFrame({
         "dataset": np.repeat(keys, 3),
@@ -82,7 +87,7 @@ def mixed_anova_many(
            ("SS", "SS_error", "df1", "df2", "F", "p_unc", "eps_GG", "p_GG", "W_mauchly", "p_mauchly", "p")},
     })
     table[["df1", "df2"]] = table[["df1", "df2"]].astype(int)
-    table["correction"] = np.where(result["corrected"].reshape(-1), "Greenhouse-Geisser", "none")
+    table["correction"] = result["correction"].reshape(-1)
     return table[list(MANY_ANOVA_COLUMNS)]
 
 
@@ -139,13 +144,20 @@ def posthoc_many(data: pd.DataFrame, dv: str, within: str, between: str, subject
     return table[list(MANY_POSTHOC_COLUMNS)]
 
 
-def anova_arrays(y: np.ndarray, sizes: Sequence[int], alpha: float = SPHERICITY_ALPHA) -> dict[str, np.ndarray]:
+def anova_arrays(y: np.ndarray, sizes: Sequence[int], alpha: float = SPHERICITY_ALPHA,
+                 correction: str = "mauchly") -> dict[str, np.ndarray]:
     """The mixed ANOVA of data sets ``y`` (data sets, subjects, levels), subjects ordered by group
     with ``sizes`` subjects in each; every value (data sets, 3) for the group, within and
     interaction terms (the group term's sphericity values are NaN).
 
-    Keys: SS, SS_error, df1, df2, F, p_unc, eps_GG, p_GG, W_mauchly, p_mauchly, corrected (bool:
-    Greenhouse-Geisser applies), p (the p the report reads).
+    ``correction`` (one of CORRECTIONS) says which p a within effect reads:
+    ``mauchly`` the report's (Greenhouse-Geisser where Mauchly's p < alpha), ``none``, or always
+    ``GG`` or ``HF`` (Huynh-Feldt's epsilon capped at 1, as afex and Superpower), the uncorrected p
+    where epsilon cannot be estimated.
+
+    Keys: SS, SS_error, df1, df2, F, p_unc, eps_GG, p_GG, eps_HF (uncapped, as car prints it), p_HF,
+    W_mauchly, p_mauchly, correction (``none``, ``Greenhouse-Geisser`` or ``Huynh-Feldt``), p (the p
+    read).
     """
     y = np.asarray(y, dtype=float)
     count, n, k = y.shape
@@ -180,15 +192,31 @@ def anova_arrays(y: np.ndarray, sizes: Sequence[int], alpha: float = SPHERICITY_
 
     eps, w, p_mauchly = _sphericity(residuals, df_error, noise)
     p_gg = stats.f.sf(F[:, 1:], df1[1:] * eps[:, None], df2[1:] * eps[:, None])
-    corrected = p_mauchly < alpha  # NaN (cannot be estimated, or two levels) compares False: no correction
+    d = k - 1
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eps_hf = ((df_error + 1) * d * eps - 2) / (d * (df_error - d * eps))  # car's formula, uncapped as car prints
+    capped = np.minimum(1.0, eps_hf)
+    p_hf = stats.f.sf(F[:, 1:], df1[1:] * capped[:, None], df2[1:] * capped[:, None])
+    estimable = ~np.isnan(eps)  # where epsilon cannot be estimated the report reads the uncorrected p
+    if correction == "mauchly":
+        chosen = np.where(p_mauchly < alpha, "Greenhouse-Geisser", "none")  # NaN (two levels) compares False
+    elif correction in ("GG", "HF"):
+        chosen = np.where(estimable, {"GG": "Greenhouse-Geisser", "HF": "Huynh-Feldt"}[correction], "none")
+    elif correction == "none":
+        chosen = np.full(count, "none")
+    else:
+        raise ValueError(f"correction must be one of {CORRECTIONS}, not {correction!r}")
+    read = np.where((chosen == "Greenhouse-Geisser")[:, None], p_gg,
+                    np.where((chosen == "Huynh-Feldt")[:, None], p_hf, p_unc[:, 1:]))  # fmt: skip
     nothing = np.full((count, 1), np.nan)
     return {
         "SS": ss, "SS_error": ss_error, "df1": np.broadcast_to(df1, ss.shape), "df2": np.broadcast_to(df2, ss.shape),
         "F": F, "p_unc": p_unc,
         "eps_GG": np.column_stack([nothing, eps, eps]), "p_GG": np.column_stack([nothing, p_gg]),
+        "eps_HF": np.column_stack([nothing, eps_hf, eps_hf]), "p_HF": np.column_stack([nothing, p_hf]),
         "W_mauchly": np.column_stack([nothing, w, w]), "p_mauchly": np.column_stack([nothing, p_mauchly, p_mauchly]),
-        "corrected": np.column_stack([np.zeros(count, bool), corrected, corrected]),
-        "p": np.column_stack([p_unc[:, 0], np.where(corrected[:, None], p_gg, p_unc[:, 1:])]),
+        "correction": np.column_stack([np.full(count, "none"), chosen, chosen]),
+        "p": np.column_stack([p_unc[:, 0], read]),
     }  # fmt: skip
 
 

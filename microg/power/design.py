@@ -19,6 +19,10 @@ MAX_N_PER_GROUP = 1000
 group detect a standardised difference of 0.13 with power 0.8; a study needing more is not planned
 by participants."""
 """What the within factor can be: the protocol's objects, or the interaction models its phases compare."""
+CORRECTIONS = ("mauchly", "none", "GG", "HF")
+"""Which p a within effect's test reads: ``mauchly`` the report's rule (Greenhouse-Geisser where
+Mauchly's test rejects sphericity at alpha), ``none`` the uncorrected p, ``GG`` and ``HF`` always
+the Greenhouse-Geisser or the Huynh-Feldt (capped at 1) corrected p, as Superpower's ``correction``."""
 
 
 class PowerInputError(ValueError):
@@ -113,18 +117,57 @@ class Design:
         p.update({c.name: found[(c.factor, c.at, frozenset(c.pair))] for c in self.contrasts})
         return pd.Series(p)[list(self.tests)]
 
-    def check_sample(self, n_per_group: int, key: str = "--n") -> None:
-        """Refuse a group size the report could not analyse (fewer than 2, or fewer error degrees of
-        freedom than the within levels need) or the planning does not handle (over ``MAX_N_PER_GROUP``)."""
+    def group_sizes(self, sample) -> tuple[int, ...]:
+        """Participants in each group (the design's order) of a sample: a whole number (every group that
+        size), a mapping group -> size, or one size per group (a tuple in the design's order)."""
+        if isinstance(sample, dict):
+            unknown = sorted(set(sample) - set(self.groups))
+            if unknown:
+                raise PowerInputError(f"--n {unknown[0]}={sample[unknown[0]]!r}: no group {unknown[0]!r} in protocol "
+                                      f"{self.protocol!r} (groups: {', '.join(self.groups)})")
+            missing = [group for group in self.groups if group not in sample]
+            if missing:
+                raise PowerInputError(f"--n: no size for group {missing[0]!r} (give one per group: "
+                                      f"{', '.join(f'{g}=N' for g in self.groups)})")
+            return tuple(sample[group] for group in self.groups)
+        if isinstance(sample, (tuple, list)):
+            return tuple(sample)
+        return (sample,) * len(self.groups)
+
+    def samples(self, n_per_group) -> list:
+        """The samples asked for: one (a whole number or a mapping group -> size) or a sequence of them
+        (each a number, a mapping, or a tuple of one size per group)."""
+        if np.isscalar(n_per_group) or isinstance(n_per_group, dict):
+            return [n_per_group]
+        return list(n_per_group)
+
+    def sample_key(self, sample) -> int | str:
+        """How tables name a sample: its group size when the groups are equal, else
+        ``"veteran=15,beginner=12"``."""
+        sizes = self.group_sizes(sample)
+        if len(set(sizes)) == 1:
+            return int(sizes[0])
+        return ",".join(f"{group}={size}" for group, size in zip(self.groups, sizes))
+
+    def check_sample(self, sample, key: str = "--n") -> None:
+        """Refuse a sample the report could not analyse (a group of fewer than 2, a size per group that
+        names no group, or fewer error degrees of freedom than the within levels need) or the planning
+        does not handle (a group over ``MAX_N_PER_GROUP``)."""
         g, k = len(self.groups), len(self.levels)
-        if not isinstance(n_per_group, int) or n_per_group < 2:
-            raise PowerInputError(f"{key} = {n_per_group!r}: each group needs at least 2 participants")
-        if n_per_group > MAX_N_PER_GROUP:
-            raise PowerInputError(f"{key} = {n_per_group}: at most {MAX_N_PER_GROUP} participants per group are "
-                                  "planned")
-        if g * (n_per_group - 1) < k - 1:
-            raise PowerInputError(f"{key} = {n_per_group}: {g} groups of {n_per_group} leave {g * (n_per_group - 1)} "
-                                  f"error degrees of freedom; {k} levels of {self.within} need at least {k - 1}")
+        sizes = self.group_sizes(sample)
+        if len(sizes) != g:
+            raise PowerInputError(f"{key} = {sample!r}: give one size per group ({', '.join(self.groups)})")
+        for group, size in zip(self.groups, sizes):
+            if isinstance(size, bool) or not isinstance(size, int) or size < 2:
+                raise PowerInputError(f"{key} = {self.sample_key(sample) if isinstance(size, int) else sample!r}: "
+                                      f"group {group} needs at least 2 participants, not {size!r}")
+            if size > MAX_N_PER_GROUP:
+                raise PowerInputError(f"{key} = {self.sample_key(sample)}: at most {MAX_N_PER_GROUP} participants per "
+                                      "group are planned")
+        if sum(sizes) - g < k - 1:
+            raise PowerInputError(f"{key} = {self.sample_key(sample)}: {g} groups of {', '.join(map(str, sizes))} "
+                                  f"leave {sum(sizes) - g} error degrees of freedom; {k} levels of {self.within} "
+                                  f"need at least {k - 1}")
 
     def as_dict(self) -> dict:
         return {"protocol": self.protocol, "between": self.between, "groups": list(self.groups),

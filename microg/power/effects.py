@@ -1,8 +1,10 @@
 """The effects a study expects: cell means per group and within level, and the covariance of a
 participant's repeated measures in each group.
 
-An effects file (TOML) gives the means and either a common SD with one correlation between the
-repeated measures (compound symmetry) or a full covariance per group::
+An effects file (TOML) gives the means and either SDs and correlations or a full covariance per
+group. The SD is one number or a table per group of one SD per level; the correlation one number
+between any two repeated measures (compound symmetry) or a table per group of every pair (a
+correlation matrix: sphericity need not hold)::
 
     sd = 20.0
     correlation = 0.5
@@ -15,7 +17,15 @@ repeated measures (compound symmetry) or a full covariance per group::
     flat_cuboid = 70.0
     long_cuboid = 70.0
 
-    # instead of sd and correlation, one table per group, every pair named:
+    # a correlation matrix per group instead of the one correlation, every pair named:
+    [correlation.veteran]
+    cube = { cube = 1.0, flat_cuboid = 0.6, long_cuboid = 0.3 }
+    ...
+    # an SD per group and level instead of the one SD:
+    [sd.veteran]
+    cube = 18.0
+    ...
+    # or, instead of sd and correlation, a covariance per group, every pair named:
     [covariance.veteran]
     cube = { cube = 400.0, flat_cuboid = 200.0, long_cuboid = 200.0 }
     ...
@@ -153,9 +163,11 @@ def read_effects(path: str | Path, design: Design) -> Effects:
     ------
     PowerInputError
         Naming the file, key and value: a file that is not UTF-8 TOML, an unknown or missing group or
-        level, a mean that is not a number, an SD outside [MIN_SD, MAX_SD], a mean more than
-        MAX_MEAN_SDS SDs from zero, a correlation outside (-1/(k-1), 1), a covariance that is not
-        symmetric positive definite, or both forms at once.
+        level, a mean that is not a number, an SD (one, or a group's at a level) outside [MIN_SD,
+        MAX_SD], a mean more than MAX_MEAN_SDS SDs from zero, a correlation outside (-1/(k-1), 1), a
+        correlation matrix whose diagonal is not 1, with an entry outside (-1, 1), or that is not
+        symmetric positive definite, a covariance that is not symmetric positive definite, or both
+        forms at once.
     """
     path = Path(path)
     try:
@@ -182,7 +194,6 @@ def _effects(data: dict, design: Design, where: str) -> Effects:
         return PowerInputError(f"{where}: {key} = {value!r}: {message}")
 
     d = design
-    k = len(d.levels)
     unknown = sorted(set(data) - {"means", "sd", "correlation", "covariance"})
     if unknown:
         raise fail(unknown[0], data[unknown[0]], "unknown key (known: means, sd, correlation, covariance)")
@@ -197,16 +208,11 @@ def _effects(data: dict, design: Design, where: str) -> Effects:
         for key in ("sd", "correlation"):
             if data.get(key) is None:
                 raise PowerInputError(f"{where}: missing key {key} (or a [covariance.<group>] table per group)")
-        sd = _number(data["sd"], "sd", fail)
-        if not MIN_SD <= sd <= MAX_SD:
-            raise fail("sd", data["sd"], f"must be a positive number from {MIN_SD:g} to {MAX_SD:g}")
-        rho = _number(data["correlation"], "correlation", fail)
-        low = -1 / (k - 1)
-        if not low < rho < 1:
-            raise fail("correlation", data["correlation"],
-                       f"must lie in ({low:.4g}, 1) for {k} levels of {d.within}: otherwise the covariance of "
-                       "the repeated measures is not positive definite")
-        covariances = np.array([compound_symmetry(sd, rho, k)] * len(d.groups))
+        sd = _standard_deviations(data, d, where, fail)
+        correlations = _correlations(data, d, where, fail)
+        covariances = sd[:, :, None] * correlations * sd[:, None, :]
+        # symmetric to the last bit: s_i r s_j and s_j r s_i may round apart
+        covariances = (covariances + covariances.transpose(0, 2, 1)) / 2
     _check_means(means, covariances, d, fail)
     return Effects(d, means, covariances, where)
 
@@ -256,30 +262,83 @@ def _number(value, key: str, fail) -> float:
     return number
 
 
-def _covariance(data: dict, group: str, design: Design, where: str, fail) -> np.ndarray:
+def _standard_deviations(data: dict, design: Design, where: str, fail) -> np.ndarray:
+    """(groups, levels): the one ``sd``, or ``[sd.<group>]`` tables of one SD per level."""
     d = design
-    rows = []
-    for a in d.levels:
-        row = _cell(data, "covariance", group, a, d, where)
-        if not isinstance(row, dict):
-            raise fail(f"covariance.{group}.{a}", row, f"must be a table with one value per {d.within}")
-        extra = sorted(set(row) - set(d.levels))
-        if extra:
-            raise fail(f"covariance.{group}.{a}.{extra[0]}", row[extra[0]],
-                       f"no {d.within} {extra[0]!r} in protocol {d.protocol!r}")
-        missing = [b for b in d.levels if b not in row]
-        if missing:
-            raise PowerInputError(f"{where}: missing key covariance.{group}.{a}.{missing[0]}")
-        rows.append([_number(row[b], f"covariance.{group}.{a}.{b}", fail) for b in d.levels])
-    matrix = np.array(rows)
-    for i, a in enumerate(d.levels):
+    if isinstance(data["sd"], dict):
+        sd = np.array([[_number(_cell(data, "sd", group, level, d, where), f"sd.{group}.{level}", fail)
+                        for level in d.levels] for group in d.groups])  # fmt: skip
+        bad = np.argwhere((sd < MIN_SD) | (sd > MAX_SD))
+        if len(bad):
+            i, j = bad[0]
+            raise fail(f"sd.{d.groups[i]}.{d.levels[j]}", float(sd[i, j]),
+                       f"must be a positive number from {MIN_SD:g} to {MAX_SD:g}")
+        return sd
+    sd = _number(data["sd"], "sd", fail)
+    if not MIN_SD <= sd <= MAX_SD:
+        raise fail("sd", data["sd"], f"must be a positive number from {MIN_SD:g} to {MAX_SD:g}")
+    return np.full((len(d.groups), len(d.levels)), sd)
+
+
+def _correlations(data: dict, design: Design, where: str, fail) -> np.ndarray:
+    """(groups, levels, levels): the one ``correlation`` (compound symmetry), or ``[correlation.<group>]``
+    tables of every pair (1 on the diagonal, symmetric, positive definite)."""
+    d = design
+    k = len(d.levels)
+    if isinstance(data["correlation"], dict):
+        matrices = []
+        for group in d.groups:
+            matrix = _matrix(data, "correlation", group, d, where, fail)
+            for i, a in enumerate(d.levels):
+                if matrix[i, i] != 1:
+                    raise fail(f"correlation.{group}.{a}.{a}", float(matrix[i, i]), "a correlation with itself is 1")
+                for j, b in enumerate(d.levels):
+                    if i != j and not -1 < matrix[i, j] < 1:
+                        raise fail(f"correlation.{group}.{a}.{b}", float(matrix[i, j]), "must lie in (-1, 1)")
+            if np.linalg.eigvalsh(matrix).min() <= 0:
+                raise fail(f"correlation.{group}", data["correlation"][group], "is not positive definite")
+            matrices.append(matrix)
+        return np.array(matrices)
+    rho = _number(data["correlation"], "correlation", fail)
+    low = -1 / (k - 1)
+    if not low < rho < 1:
+        raise fail("correlation", data["correlation"],
+                   f"must lie in ({low:.4g}, 1) for {k} levels of {d.within}: otherwise the covariance of "
+                   "the repeated measures is not positive definite")
+    return np.array([compound_symmetry(1.0, rho, k)] * len(d.groups))
+
+
+def _covariance(data: dict, group: str, design: Design, where: str, fail) -> np.ndarray:
+    matrix = _matrix(data, "covariance", group, design, where, fail)
+    for i, a in enumerate(design.levels):
         if not MIN_SD**2 <= matrix[i, i] <= MAX_SD**2:
             raise fail(f"covariance.{group}.{a}.{a}", float(matrix[i, i]),
                        f"a variance must be a positive number from {MIN_SD**2:g} to {MAX_SD**2:g}")
-        for j, b in enumerate(d.levels):
-            if not math.isclose(matrix[i, j], matrix[j, i], rel_tol=1e-9, abs_tol=1e-12):
-                raise fail(f"covariance.{group}.{a}.{b}", float(matrix[i, j]),
-                           f"must equal covariance.{group}.{b}.{a} = {float(matrix[j, i])!r} (symmetric)")
     if np.linalg.eigvalsh(matrix).min() <= 0:
         raise fail(f"covariance.{group}", data["covariance"][group], "is not positive definite")
+    return matrix
+
+
+def _matrix(data: dict, table: str, group: str, design: Design, where: str, fail) -> np.ndarray:
+    """A levels x levels table ``[table.<group>]``, every pair named, symmetric."""
+    d = design
+    rows = []
+    for a in d.levels:
+        row = _cell(data, table, group, a, d, where)
+        if not isinstance(row, dict):
+            raise fail(f"{table}.{group}.{a}", row, f"must be a table with one value per {d.within}")
+        extra = sorted(set(row) - set(d.levels))
+        if extra:
+            raise fail(f"{table}.{group}.{a}.{extra[0]}", row[extra[0]],
+                       f"no {d.within} {extra[0]!r} in protocol {d.protocol!r}")
+        missing = [b for b in d.levels if b not in row]
+        if missing:
+            raise PowerInputError(f"{where}: missing key {table}.{group}.{a}.{missing[0]}")
+        rows.append([_number(row[b], f"{table}.{group}.{a}.{b}", fail) for b in d.levels])
+    matrix = np.array(rows)
+    for i, a in enumerate(d.levels):
+        for j, b in enumerate(d.levels):
+            if not math.isclose(matrix[i, j], matrix[j, i], rel_tol=1e-9, abs_tol=1e-12):
+                raise fail(f"{table}.{group}.{a}.{b}", float(matrix[i, j]),
+                           f"must equal {table}.{group}.{b}.{a} = {float(matrix[j, i])!r} (symmetric)")
     return matrix

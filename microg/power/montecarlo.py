@@ -2,10 +2,11 @@
 study, counted.
 
 Data set ``i`` at ``n`` participants per group is drawn from its own random generator, seeded by
-``numpy.random.SeedSequence(seed, spawn_key=(n, i))``: it is the same data set whichever batch,
-worker or run computes it, so the numbers do not depend on how the work is split. A batch of data
-sets is analysed at once by :mod:`microg.power.batch` (the report's ANOVA, sphericity decision and
-Bonferroni post hoc); a test counts as significant when the p the report reads is below alpha.
+``numpy.random.SeedSequence(seed, spawn_key=(n, i))`` (``(n_1, ..., n_g, i)`` for unequal groups):
+it is the same data set whichever batch, worker or run computes it, so the numbers do not depend on
+how the work is split. A batch of data sets is analysed at once by :mod:`microg.power.batch` (the
+report's ANOVA, the sphericity correction asked for, Bonferroni post hoc); a test counts as
+significant when the p read is below alpha.
 """
 
 from __future__ import annotations
@@ -22,50 +23,55 @@ SIMULATION_COLUMNS = ("n_per_group", "sim", "term", "p")
 CONFIDENCE = 0.95
 
 
-def simulation_seed(seed: int, n_per_group: int, index: int) -> np.random.SeedSequence:
-    """The seed of data set ``index`` at ``n_per_group``: a function of the run's seed and these only."""
-    return np.random.SeedSequence(seed, spawn_key=(n_per_group, index))
+def simulation_seed(seed: int, n_per_group, index: int) -> np.random.SeedSequence:
+    """The seed of data set ``index`` at ``n_per_group`` (a size, or one size per group): a function
+    of the run's seed and these only."""
+    sizes = tuple(n_per_group) if isinstance(n_per_group, (tuple, list)) else (n_per_group,)
+    key = sizes[:1] if len(set(sizes)) == 1 else sizes
+    return np.random.SeedSequence(seed, spawn_key=(*map(int, key), index))
 
 
-def simulate(effects: Effects, n_per_group: int, indices, seed: int) -> np.ndarray:
-    """The data sets ``indices`` at ``n_per_group``: (data sets, subjects ordered by group, levels),
-    multivariate normal with the effects' means and covariances."""
+def simulate(effects: Effects, n_per_group, indices, seed: int) -> np.ndarray:
+    """The data sets ``indices`` at ``n_per_group`` (a size, or one size per group): (data sets,
+    subjects ordered by group, levels), multivariate normal with the effects' means and covariances."""
     means, factors = effects.means, np.linalg.cholesky(effects.covariances)
-    g, k = means.shape
+    sizes = effects.design.group_sizes(n_per_group)
+    member = np.repeat(np.arange(len(sizes)), sizes)
     generators = (np.random.default_rng(simulation_seed(seed, n_per_group, int(i))) for i in indices)
-    draws = np.stack([rng.standard_normal((g, n_per_group, k)) for rng in generators])
-    values = means[None, :, None, :] + np.einsum("gkl,sgnl->sgnk", factors, draws)
-    return values.reshape(len(draws), g * n_per_group, k)
+    draws = np.stack([rng.standard_normal((sum(sizes), means.shape[1])) for rng in generators])
+    return means[member][None] + np.einsum("nkl,snl->snk", factors[member], draws)
 
 
-def montecarlo_batch(effects: Effects, n_per_group: int, indices, seed: int, alpha: float) -> pd.DataFrame:
+def montecarlo_batch(effects: Effects, n_per_group, indices, seed: int, alpha: float,
+                     correction: str = "mauchly") -> pd.DataFrame:
     """Simulate and analyse data sets ``indices`` at ``n_per_group``: one Dask task.
 
     Returns
     -------
     pandas.DataFrame
         SIMULATION_COLUMNS: for each data set and test (the ANOVA terms, then the contrasts, as
-        ``Design.tests``), the p the report reads (Greenhouse-Geisser when Mauchly's p < alpha;
-        Bonferroni within each post hoc family).
+        ``Design.tests``), the p read (``correction``: by default the report's, Greenhouse-Geisser
+        when Mauchly's p < alpha; Bonferroni within each post hoc family).
     """
     indices = np.asarray(indices, dtype=int)
     y = simulate(effects, n_per_group, indices, seed)
-    return analyse_batch(effects, y, n_per_group, indices, alpha)
+    return analyse_batch(effects, y, n_per_group, indices, alpha, correction)
 
 
-def analyse_batch(effects: Effects, y: np.ndarray, n_per_group: int, indices, alpha: float) -> pd.DataFrame:
+def analyse_batch(effects: Effects, y: np.ndarray, n_per_group, indices, alpha: float,
+                  correction: str = "mauchly") -> pd.DataFrame:
     """The p of every test of ``Design.tests`` for data sets ``y`` (data sets, subjects, levels)."""
     design = effects.design
-    sizes = [n_per_group] * len(design.groups)
+    sizes = design.group_sizes(n_per_group)
     contrasts = design.contrasts
     families = [c.family for c in contrasts]
-    anova = anova_arrays(y, sizes, alpha)["p"]
+    anova = anova_arrays(y, sizes, alpha, correction)["p"]
     post = contrast_arrays(y, sizes, np.array([c.levels for c in contrasts]).T,
                            np.array([c.groups for c in contrasts]).T, np.array(families))["p_bonf"]
     p = np.hstack([anova, post])
     tests = design.tests
     return pd.DataFrame({
-        "n_per_group": n_per_group,
+        "n_per_group": design.sample_key(n_per_group),
         "sim": np.repeat(indices, len(tests)),
         "term": np.tile(tests, len(indices)),
         "p": p.reshape(-1),

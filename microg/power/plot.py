@@ -12,11 +12,11 @@ FAMILY_STYLES = ("-", "--", ":")
 
 
 def plot_power(table: pd.DataFrame, terms, target: float, path: str | Path, title: str = "",
-               families: dict | None = None) -> Path:
+               families: dict | None = None, xlabel: str = "participants per group") -> Path:
     """Draw ``table`` (n_per_group, term, power, ci_low, ci_high) into ``path`` (PNG): the ANOVA
     ``terms`` on the left, the post hoc contrasts on the right (one line style per family of
     ``families``, test -> family), the interval as a band where the power was simulated, and a dashed
-    line at the ``target`` power."""
+    line at the ``target`` power; ``n_per_group`` on the x axis, named ``xlabel``."""
     path = Path(path)
     families = families or {}
     family_order = list(dict.fromkeys(families.values()))
@@ -41,7 +41,7 @@ def plot_power(table: pd.DataFrame, terms, target: float, path: str | Path, titl
         axis.axhline(target, color="black", linestyle="--", linewidth=1)
         axis.text(rows["n_per_group"].min(), target + 0.01, f"target {target:g}", fontsize=8, va="bottom")
         axis.set_title(name, fontsize=10)
-        axis.set_xlabel("participants per group")
+        axis.set_xlabel(xlabel)
         axis.set_ylim(0, 1.02)
         axis.set_xticks(sorted(rows["n_per_group"].unique()))
         axis.grid(alpha=0.3)

@@ -22,9 +22,11 @@ from microg.power.pilot import SUBJECT, design_cells
 from microg.study.protocol import Protocol
 
 
-def study_tests(trials: pd.DataFrame, design: Design, measure: str, interaction: str, alpha: float) -> pd.Series:
-    """The p the report reads for every test of ``design.tests``, from one study's trials; NaN for
-    all when the report cannot analyse the study (too few complete participants)."""
+def study_tests(trials: pd.DataFrame, design: Design, measure: str, interaction: str, alpha: float,
+                correction: str = "mauchly") -> pd.Series:
+    """The p read for every test of ``design.tests`` from one study's trials (``correction``: the
+    report's Mauchly rule, none, or always GG or HF); NaN for all when the report cannot analyse the
+    study (too few complete participants)."""
     from microg.analysis import (
         AnalysisInputError,
         mixed_anova,
@@ -37,15 +39,21 @@ def study_tests(trials: pd.DataFrame, design: Design, measure: str, interaction:
         cells = design_cells(trials, d, measure, interaction, "simulated study")
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the report's warnings name participants left out: counted as such
-            anova = sphericity_correction(mixed_anova(cells, "value", d.within, d.between, SUBJECT), alpha)
+            anova = mixed_anova(cells, "value", d.within, d.between, SUBJECT)
             post = posthoc(cells, "value", d.within, d.between, SUBJECT, within_by_group=True)
     except AnalysisInputError:
         return pd.Series(np.nan, index=list(d.tests))
-    return d.report_p(anova, post)
+    if correction == "mauchly":
+        read = sphericity_correction(anova, alpha)
+    else:
+        column = {"none": "p_unc", "GG": "p_GG", "HF": "p_HF"}[correction]
+        p = anova[column].where(anova[column].notna(), anova["p_unc"])  # epsilon not estimable: uncorrected
+        read = pd.DataFrame({"p": p.to_numpy()})
+    return d.report_p(read, post)
 
 
-def simulated_batch(protocol: Protocol, design: Design, n_per_group: int, indices, seed: int, alpha: float,
-                    measure: str, interaction: str) -> pd.DataFrame:
+def simulated_batch(protocol: Protocol, design: Design, n_per_group, indices, seed: int, alpha: float,
+                    measure: str, interaction: str, correction: str = "mauchly") -> pd.DataFrame:
     """Run and analyse the simulated studies ``indices`` at ``n_per_group``: one Dask task per study.
 
     Returns the rows of ``montecarlo.SIMULATION_COLUMNS``.
@@ -53,6 +61,8 @@ def simulated_batch(protocol: Protocol, design: Design, n_per_group: int, indice
     tables = []
     for index in indices:
         study_seed = int(simulation_seed(seed, n_per_group, int(index)).generate_state(1)[0])
-        p = study_tests(simulate_trials(protocol, n_per_group, study_seed), design, measure, interaction, alpha)
-        tables.append(pd.DataFrame({"n_per_group": n_per_group, "sim": int(index), "term": p.index, "p": p.to_numpy()}))
+        p = study_tests(simulate_trials(protocol, n_per_group, study_seed), design, measure, interaction, alpha,
+                        correction)
+        tables.append(pd.DataFrame({"n_per_group": design.sample_key(n_per_group), "sim": int(index), "term": p.index,
+                                    "p": p.to_numpy()}))  # fmt: skip
     return pd.concat(tables, ignore_index=True)

@@ -15,8 +15,9 @@ reports when it drew each frame (``latency``) and, in a headset (``page/xr.js``)
 workspace where the participant puts it (``placement``) and streams the hand joints it tracks
 (``hands``: ``microg.hands.webxr``).
 
-What the page measures and decides (the clock offset, the placement) goes to ``on_event(kind,
-data)`` as ``display_clock`` and ``display_placement``; it arrives on the server's thread and is
+What the page measures and decides (the clock offset, the placement, the level it draws at:
+resolution and antialiasing) goes to ``on_event(kind, data)`` as ``display_clock``,
+``display_placement`` and ``display_quality``; it arrives on the server's thread and is
 handed on from the thread that drives the display (the session's, whose store connection it may
 use) at its next call.
 
@@ -91,7 +92,7 @@ class ParticipantDisplay:
         self._answers: queue.Queue[str] = queue.Queue()
         self.drawn: collections.deque[dict] = collections.deque(maxlen=DRAWN_KEPT)
         """What pages reported drawing, the last ``DRAWN_KEPT`` frames: frame index, when its physics
-        was ready, when it was drawn (ms)."""
+        was ready, when it was drawn (ms), the render scale and the drawing buffer's size (px)."""
         self.clock: dict | None = None
         """The page's clock offset from the session's and its spread (ms), once synced."""
         self.placement: list[float] | None = None
@@ -402,7 +403,15 @@ class ParticipantDisplay:
                 self._events.put(("display_clock", clock))
         elif kind == "drawn":
             self.drawn.append({"frame": message.get("i"), "t": message.get("t"), "ready_ms": message.get("ready"),
-                               "drawn_ms": message.get("drawn")})
+                               "drawn_ms": message.get("drawn"), "render_scale": _number(message.get("scale")),
+                               "render_width": _number(message.get("width")),
+                               "render_height": _number(message.get("height"))})
+        elif kind == "quality":
+            level = {name: _number(message.get(key)) for name, key in (
+                ("render_scale", "scale"), ("render_width", "width"), ("render_height", "height"),
+                ("refresh_ms", "refresh"), ("gpu_ms", "cost"))}
+            if level["render_scale"] is not None:
+                self._events.put(("display_quality", {**level, "antialias": message.get("antialias") is True}))
         elif kind == "answer" and "question" in self._context:
             self._answers.put(str(message.get("value", "")))
         elif kind == "hands" and self.hands is not None:

@@ -82,6 +82,7 @@ def assert_study_matches(ours: Path, theirs: Path) -> None:
         known = merged[f"{column}_effectsize"].notna()
         np.testing.assert_allclose(merged.loc[known, column], merged.loc[known, f"{column}_effectsize"], rtol=1e-5,
                                    err_msg=column)  # fmt: skip
+    assert_models_match(ours, theirs)
     likert = pd.read_csv(ours / "likert.csv")
     numbers = ["n", "median", "q1", "q3", "mean", *[f"count_{score}" for score in range(11)]]
     assert_same_numbers(likert, pd.read_csv(theirs / "likert_summary.csv"), ["item", "interaction"], numbers)
@@ -89,3 +90,30 @@ def assert_study_matches(ours: Path, theirs: Path) -> None:
     assert (tests["test_interaction"] == INTERACTIONS[0]).all() and (tests["test_baseline"] == INTERACTIONS[1]).all()
     assert_same_numbers(tests[["item", *LIKERT_NUMBERS]], pd.read_csv(theirs / "likert_tests.csv"), ["item"],
                         LIKERT_NUMBERS)  # fmt: skip
+
+
+R_ART_NUMBERS = ["F", "df1", "df2", "p_unc"]
+R_ART_CONTRAST_NUMBERS = ["estimate", "SE", "df", "T", "p_unc", "p_bonf"]
+R_MODEL_COEFFICIENT_NUMBERS = ["estimate", "SE", "df", "t", "p_unc"]
+R_MODEL_RANDOM_NUMBERS = ["variance", "sd", "correlation"]
+PRACTICE = R_DIR / "expected" / "practice"
+PRACTICE_CSV = R_DIR / "practice_trials.csv"
+
+
+def assert_models_match(ours: Path, theirs: Path) -> None:
+    """The report's trial model (trial_model_*.csv) and the questionnaire's ART (art_anova.csv,
+    art_contrasts.csv) equal R's (lme4/lmerTest; ARTool with afex and emmeans)."""
+    models = pd.read_csv(ours / "trial_models.csv")
+    random = pd.read_csv(theirs / "trial_model_random.csv")
+    assert models["n_trials"].iloc[0] == random["n_trials"].iloc[0]
+    assert ("+ task_index |" in models["formula"].iloc[0]) == bool(random["slope"].iloc[0]), models["formula"].iloc[0]
+    for name, keys, numbers in (("coefficients", ["term"], R_MODEL_COEFFICIENT_NUMBERS),
+                                ("anova", ["source"], R_ART_NUMBERS), ("random", ["name"], R_MODEL_RANDOM_NUMBERS)):
+        table = pd.read_csv(ours / f"trial_model_{name}.csv")
+        assert_same_numbers(table[table["measure"] == "time_s"], pd.read_csv(theirs / f"trial_model_{name}.csv"),
+                            keys, numbers)  # fmt: skip
+    for name, keys, numbers in (("art_anova", ["source"], R_ART_NUMBERS),
+                                ("art_contrasts", ["term", "A", "B"], R_ART_CONTRAST_NUMBERS)):  # fmt: skip
+        table = pd.read_csv(ours / f"{name}.csv")
+        for item, rows in table.groupby("item"):
+            assert_same_numbers(rows, pd.read_csv(theirs / f"{name}_{item}.csv"), keys, numbers)

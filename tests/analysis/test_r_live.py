@@ -1,7 +1,7 @@
 """Live comparison with R: freshly generated studies (other seeds, other group sizes, more unfinished
 tasks) analysed by microg and by tests/analysis/r/reference.R (afex, emmeans, car, rstatix,
-effectsize, geepack, stats). Skips when Rscript or those R packages are not installed
-(scripts/install-system-deps.sh installs them from Debian)."""
+effectsize, geepack, stats, lme4/lmerTest, ARTool). Skips when Rscript or those R packages are not
+installed (scripts/install-system-deps.sh installs them: Debian's, and ARTool from ../shared)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from tests.analysis.r_compare import INTERACTIONS, assert_study_matches
 from tests.analysis.study_data import make_study
 
 REFERENCE = Path(__file__).parent / "r" / "reference.R"
-R_PACKAGES = ("afex", "emmeans", "car", "rstatix", "effectsize", "geepack")
+R_PACKAGES = ("afex", "emmeans", "car", "rstatix", "effectsize", "geepack", "lmerTest", "ARTool")
 
 
 def _r_ready() -> bool:

@@ -108,7 +108,7 @@ def test_results_are_written_as_a_journal_prints_them(report_dir):
     for raw in ("np2", "p_unc", "eps_GG", "p_bonf", "W_mauchly", "e-0", "e+0", "nan"):
         assert raw not in tables, raw
     assert "<th>ηp²</th>" in tables and "<th>ε (GG)</th>" in tables and "&lt; .001" in tables
-    assert not re.search(r"<td>-?0\.\d+e", tables) and "-0.00" not in tables
+    assert not re.search(r"<td>-?0\.\d+e", tables) and not re.search(r"-0\.0+(?!\d)", tables)
 
 
 def test_markdown_holds_the_results_and_tables(report_dir):
@@ -265,3 +265,21 @@ def test_every_table_shows_all_its_columns_at_1200_px(report_dir):
     assert len(widths) > 20
     for header, right, container, scroll, client in widths:
         assert right <= container + 0.5 and scroll <= client, header
+
+
+def test_the_trial_model_takes_its_practice_column_or_goes_without():
+    trials = pd.read_csv(TRIALS_CSV)
+    named = analyse_study(trials.rename(columns={"task_index": "place"}), None, practice="place")
+    assert named.trial_models["formula"].iloc[0].startswith("log(time_s) ~ group * object * interaction + place")
+    without = analyse_study(trials.drop(columns="task_index"), None)
+    formula = without.trial_models["formula"].iloc[0]
+    assert formula == "log(time_s) ~ group * object * interaction + (1 | participant)"
+    assert without.practice is None and list(without.trial_models["measure"]) == ["time_s"]
+
+
+def test_the_questionnaire_art_reads_groups_from_the_trials_when_it_has_none():
+    answers = pd.read_csv(ANSWERS_CSV)
+    with_groups = analyse_study(TRIALS_CSV, answers).likert_art
+    without = analyse_study(TRIALS_CSV, answers.drop(columns="group")).likert_art
+    pd.testing.assert_frame_equal(with_groups, without)
+    assert set(with_groups["item"]) == {"efficiency", "naturalness"} and len(with_groups) == 6

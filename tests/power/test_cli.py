@@ -4,14 +4,17 @@ summary.json with the smallest n per group that reaches the target."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 from matplotlib import image
+from scipy import stats
 
 from microg.cli import main
+from microg.power import exact_power, read_effects
 
 from .conftest import compound_symmetry_power, effects_text
 
@@ -67,3 +70,52 @@ def test_an_object_name_of_the_other_factor_is_refused_for_the_interaction_desig
     result = CliRunner().invoke(main, ["power", "--within", "interaction", "--effects", str(effects_file),
                                        "--out", str(tmp_path)])  # fmt: skip
     assert result.exit_code == 1 and "means.veteran.cube = 45.0: no interaction 'cube'" in result.output
+
+
+def test_sensitivity_answers_with_the_smallest_effect_per_test(effects_file, design, tmp_path):
+    """Scaled by the factor it reports, the pattern of means gives every ANOVA term and contrast the
+    target power exactly; the effect sizes are those of that power (Superpower's convention)."""
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["power", "--sensitivity", "--effects", str(effects_file), "--n", "15",
+                                       "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(out / "sensitivity.csv")
+    assert list(table.columns) == ["n_per_group", "term", "scale", "np2", "cohen_f", "noncentrality", "df1", "df2",
+                                   "epsilon", "power"]  # fmt: skip
+    assert not (out / "power.csv").exists()
+    effects = read_effects(effects_file, design)
+    grand = effects.means.mean()
+    for row in table[np.isfinite(table["scale"])].itertuples():
+        scaled = replace(effects, means=grand + row.scale * (effects.means - grand))
+        power = exact_power(scaled, 15).set_index("term").loc[row.term, "power"]
+        assert power == pytest.approx(0.8, abs=1e-8), row.term
+        assert row.np2 == pytest.approx(row.cohen_f**2 / (1 + row.cohen_f**2), rel=1e-12)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["smallest_effect"]["15"]["object"]["cohen_f"] == pytest.approx(
+        table.set_index("term").loc["object", "cohen_f"])
+    assert "group:object" in result.output and "scale" in result.output
+
+
+def test_unequal_groups_are_planned_and_named(effects_file, tmp_path):
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--n", "veteran=15,beginner=12",
+                                       "--out", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(out / "power.csv")
+    assert set(table["n_per_group"]) == {"veteran=15,beginner=12"}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["n_per_group"] == ["veteran=15,beginner=12"]
+    assert summary["smallest_n_per_group"]["object"] == "veteran=15,beginner=12"
+    assert summary["smallest_n_per_group"]["group"] is None and "not reached" in result.output
+
+
+def test_effect_sizes_give_the_power_of_the_tests_named(tmp_path):
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["power", "--effect-size", "object:f=0.25", "--effect-size",
+                                       "cube - flat_cuboid | veteran:np2=0.2", "--n", "10,20", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(out / "power.csv")
+    assert list(table["term"]) == ["object", "cube - flat_cuboid | veteran"] * 2
+    df2 = 2 * 2 * (20 - 1)
+    expected = stats.ncf.sf(stats.f.isf(0.05, 2, df2), 2, df2, 0.25**2 * df2)
+    assert table.set_index(["n_per_group", "term"]).loc[(20, "object"), "power"] == pytest.approx(expected, rel=1e-9)

@@ -14,6 +14,23 @@ BIG = "1" + "0" * 400
 GOOD = {"veteran": {"cube": 45.0, "flat_cuboid": 55.0, "long_cuboid": 55.0},
         "beginner": {"cube": 55.0, "flat_cuboid": 70.0, "long_cuboid": 70.0}}  # fmt: skip
 
+
+def _correlations(diagonal=1.0, pair=0.5, other=0.3, asymmetric=False) -> str:
+    """[correlation.<group>] tables; the veteran's with the oddity asked for, the beginner's sound."""
+    text = ""
+    for group in GOOD:
+        d, p, o = (diagonal, pair, other) if group == "veteran" else (1.0, 0.5, 0.3)
+        back = 0.4 if asymmetric and group == "veteran" else p
+        text += (f"[correlation.{group}]\ncube = {{ cube = {d}, flat_cuboid = {p}, long_cuboid = {o} }}\n"
+                 f"flat_cuboid = {{ cube = {back}, flat_cuboid = 1.0, long_cuboid = {p} }}\n"
+                 f"long_cuboid = {{ cube = {o}, flat_cuboid = {p}, long_cuboid = 1.0 }}\n")
+    return text
+
+
+def _sds(long_cuboid: float) -> str:
+    return "".join(f"[sd.{group}]\ncube = 10.0\nflat_cuboid = 12.0\nlong_cuboid = "
+                   f"{long_cuboid if group == 'veteran' else 14.0}\n" for group in GOOD)
+
 CASES = {
     "unknown group": (effects_text({**GOOD, "expert": {"cube": 1.0}}, 20.0, 0.5), ["means.expert", "expert"]),
     "unknown object": (effects_text({**GOOD, "veteran": {**GOOD["veteran"], "ball": 50.0}}, 20.0, 0.5),
@@ -50,6 +67,22 @@ CASES = {
             "long_cuboid = { cube = 0.0, flat_cuboid = 0.0, long_cuboid = 4.0 }\n" for g in GOOD)),
         ["covariance.veteran.cube.cube = 1e+300", "a variance must be a positive number from 1e-100 to 1e+100"]),
     "nested too deeply": ("sd = " + "[" * 2000 + "]" * 2000 + "\n", ["nested too deeply"]),
+    "correlation matrix without 1 on its diagonal": (
+        effects_text(GOOD, 20.0, extra=_correlations(diagonal=0.9)), ["correlation.veteran.cube.cube = 0.9", "is 1"]),
+    "correlation matrix entry of 1": (
+        effects_text(GOOD, 20.0, extra=_correlations(pair=1.0)), ["correlation.veteran.cube.flat_cuboid = 1.0",
+                                                                   "(-1, 1)"]),
+    "correlation matrix not positive definite": (
+        effects_text(GOOD, 20.0, extra=_correlations(pair=0.95, other=-0.95)),
+        ["correlation.veteran", "not positive definite"]),
+    "asymmetric correlation matrix": (
+        effects_text(GOOD, 20.0, extra=_correlations(asymmetric=True)),
+        ["correlation.veteran.cube.flat_cuboid = 0.5", "symmetric"]),
+    "SD of 0 for one object": (
+        effects_text(GOOD, correlation=0.5, extra=_sds(0.0)), ["sd.veteran.long_cuboid = 0.0", "positive"]),
+    "SD table without a group": (
+        effects_text(GOOD, correlation=0.5, extra="[sd.veteran]\ncube = 1.0\nflat_cuboid = 1.0\nlong_cuboid = 1.0\n"),
+        ["missing table [sd.beginner]"]),
 }  # fmt: skip
 
 
@@ -109,3 +142,48 @@ def test_one_source_of_effects_exactly(effects_file, tmp_path):
 def test_exact_power_of_in_silico_studies_is_refused(tmp_path):
     result = CliRunner().invoke(main, ["power", "--simulated", "--method", "exact", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "--method exact" in result.output
+
+
+@pytest.mark.parametrize("sizes, shown", [
+    ("veteran=15", "no size for group 'beginner'"),
+    ("veteran=15,beginner=12,expert=3", "no group 'expert'"),
+    ("veteran=15,beginner=1", "group beginner needs at least 2"),
+])  # fmt: skip
+def test_unequal_groups_name_every_group_of_the_protocol(effects_file, tmp_path, sizes, shown):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--n", sizes, "--out", str(tmp_path)])
+    assert result.exit_code == 1 and result.output.startswith("Error: ") and shown in result.output, result.output
+
+
+def test_a_size_that_is_not_a_number_is_refused(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--n", "veteran=15,beginner=x",
+                                       "--out", str(tmp_path)])  # fmt: skip
+    assert result.exit_code == 2 and "'x' is not a whole number" in result.output
+
+
+@pytest.mark.parametrize("args, shown", [
+    (["--effect-size", "object:g=0.2"], "the effect size is f or np2"),
+    (["--effect-size", "object - cube:f=0.2"], "no such test"),
+    (["--effect-size", "np2=1.2"], "partial eta squared must lie in [0, 1)"),
+    (["--effect-size", "f=-0.1"], "Cohen's f must be 0 or more"),
+    (["--effect-size", "f=0.2", "--method", "montecarlo"], "computed exactly"),
+    (["--effect-size", "f=0.2", "--correction", "GG"], "needs the covariance"),
+    (["--sensitivity", "--method", "montecarlo"], "computed exactly"),
+    (["--sensitivity", "--correction", "HF"], "needs the covariance"),
+])  # fmt: skip
+def test_effect_sizes_and_sensitivity_refuse_what_they_cannot_compute(tmp_path, args, shown):
+    result = CliRunner().invoke(main, ["power", *args, "--n", "10", "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and result.output.startswith("Error: ") and shown in result.output, result.output
+
+
+def test_the_reports_mauchly_rule_needs_simulated_data_sets(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--correction", "mauchly",
+                                       "--out", str(tmp_path)])  # fmt: skip
+    assert result.exit_code == 1 and "--correction mauchly with --method exact" in result.output
+
+
+def test_sensitivity_takes_a_pattern_or_none(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--sensitivity", "--simulated", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "--sensitivity takes the pattern of --effects or --pilot" in result.output
+    both = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--effect-size", "f=0.1",
+                                     "--out", str(tmp_path)])  # fmt: skip
+    assert both.exit_code == 2 and "--effects and --effect-size" in both.output

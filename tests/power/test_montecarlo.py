@@ -49,3 +49,22 @@ def test_a_data_set_is_the_same_whichever_batch_draws_it(effects_file, design):
     assert np.array_equal(simulate(effects, 7, [6, 2], seed=3), whole[[6, 2]])
     assert not np.array_equal(simulate(effects, 7, [2], seed=4)[0], whole[2])
     assert not np.array_equal(simulate(effects, 8, [2], seed=3)[0, :14], whole[2])
+
+
+def test_unequal_groups_in_monte_carlo_agree_with_exact_power(effects_file, design):
+    """Under compound symmetry the uncorrected test's exact power is its true power: the Monte Carlo
+    power of groups of 9 and 5 lies within its 99 % interval for every test."""
+    effects = read_effects(effects_file, design)
+    sims = 600
+    rows = montecarlo_batch(effects, (9, 5), range(sims), seed=4, alpha=0.05, correction="none")
+    assert set(rows["n_per_group"]) == {"veteran=9,beginner=5"}
+    counted = power_table(rows, 0.05, "montecarlo", confidence=0.99).set_index("term")
+    exact = exact_power(effects, [(9, 5)], 0.05).set_index("term")
+    for term, row in counted.iterrows():
+        assert row["ci_low"] <= exact.loc[term, "power"] <= row["ci_high"], (term, row["power"], exact.loc[term, "power"])
+
+
+def test_equal_groups_draw_the_same_data_sets_however_they_are_named(effects_file, design):
+    effects = read_effects(effects_file, design)
+    assert np.array_equal(simulate(effects, 6, [3], seed=2), simulate(effects, (6, 6), [3], seed=2))
+    assert simulate(effects, (7, 4), [0], seed=2).shape == (1, 11, 3)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from microg.bench.display import IWER, emulate_headset, enter_and_place
 from microg.study import framelog
 from microg.study.inputs import PacedInputs
 from microg.study.protocol import load_protocol
@@ -31,8 +32,20 @@ WORK_S = 300.0
 only keeps a broken run from hanging."""
 
 
-def session_with_display(folder, display: ParticipantDisplay) -> threading.Thread:
-    """P01's session, paced at real time, shown on ``display``, answered on its page."""
+class GatedSink:
+    """The display taking each frame once ``gate`` is open (a test holds the session still)."""
+
+    def __init__(self, display: ParticipantDisplay, gate: threading.Event):
+        self.display, self.gate = display, gate
+
+    def take(self, moment) -> None:
+        self.gate.wait(WORK_S)
+        self.display.take(moment)
+
+
+def session_with_display(folder, display: ParticipantDisplay, gate: threading.Event) -> threading.Thread:
+    """P01's session, paced at real time, shown on ``display``, answered on its page; each frame
+    waits for ``gate`` to be open."""
     def run():
         with open_study(folder) as store:
             session = store.create_session("P01", "scripted", True, "simulation")
@@ -42,7 +55,7 @@ def session_with_display(folder, display: ParticipantDisplay) -> threading.Threa
 
             run_session(store, session.id, PacedInputs(scripted_inputs(), speed=1.0), clock=SimulationClock(),
                         operator=DisplayOperator(display, Unattended()), rater=DisplayRater(display, rejected),
-                        outputs=Outputs(sinks=(display,)))
+                        outputs=Outputs(sinks=(GatedSink(display, gate),)))
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
@@ -55,35 +68,57 @@ def wait(driver, script: str):
     return WebDriverWait(driver, WORK_S, poll_frequency=0.05).until(lambda d: d.execute_script(script))
 
 
+def picture_at(driver, level: dict) -> np.ndarray:
+    """A screenshot of the picture held still, drawn at ``level`` ({scale, antialias}) once the
+    page has drawn it there (its drawing buffer is the viewport times the scale) and shown it."""
+    driver.execute_script("window.microg.quality.fix(arguments[0])", level)
+    drawn = wait(driver, "const p = window.microg.picture; return p.level === window.microg.quality.level "
+                         "&& [p.width, p.height, p.frame];")
+    size = np.array(driver.execute_script("return [innerWidth, innerHeight]"))
+    assert np.array_equal(drawn[:2], np.floor(size * level["scale"])), (level, drawn)
+    wait(driver, f"return window.microg.picture.frame === {drawn[2]} && window.microg.animationFrames > {drawn[2] + 1}")
+    return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+
+
 @needs_browser
 def test_the_participant_sees_the_task_where_the_physics_puts_it_and_answers_on_the_page(tmp_path):
     from selenium.webdriver.common.by import By
 
     folder = new_study(tmp_path / "study")
     protocol = load_protocol(PROTOCOLS / "tiny.toml")
-    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+    events = []
+    with ParticipantDisplay(protocol, on_event=lambda kind, data: events.append((kind, data))) as display, \
+            chromium(WINDOW) as driver:
         assert display.url.startswith("http://127.0.0.1:")
         driver.get(display.url)
         wait(driver, "return document.body.innerText.includes('Waiting for the session')")
-        session = session_with_display(folder, display)
+        gate = threading.Event()
+        gate.set()
+        session = session_with_display(folder, display, gate)
 
-        # A place lights up when the object arrives there, held: hold the picture still then.
+        # A place lights up when the object arrives there, held: hold the picture and the session
+        # still then (no next task's scene), and draw the picture at the best level, the lowest
+        # resolution, and with antialiasing (a new renderer).
         drawn = wait(driver, "const d = window.microg.drawn; if (d && d.lit && d.hands.length) "
                              "{ window.microg.hold = true; return d; } return null;")
-        picture = np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+        gate.clear()
         project = lambda point: driver.execute_script("return window.microg.project(...arguments)", *point)
         obj = project(drawn["object"][:3])
         place = np.asarray(wait(driver, "return window.microg.scene")["places"][drawn["place"]])
         ring = np.hypot(*np.subtract(project(place + [0.04, 0, 0]), project(place)))
-        assert pixels_near(colour_mask(picture, "object"), obj, 25) > 400
-        assert pixels_near(colour_mask(picture, "lit"), project(place), ring * 1.3) > 150
         hand = drawn["hands"][0]
         touching = [np.add(s, e) / 2 for s, e, t in zip(hand["start"], hand["end"], hand["touching"]) if t]
         assert touching, "the drawn hand holds the object: some phalanx touches it"
-        for centre in touching:
-            assert pixels_near(colour_mask(picture, "highlight"), project(centre), 20) > 40
+        ladder = driver.execute_script("return window.microg.quality.levels")
+        for level in (ladder[0], ladder[-1], {"scale": 0.6, "antialias": True}):
+            picture = picture_at(driver, level)
+            assert pixels_near(colour_mask(picture, "object"), obj, 25) > 400, level
+            assert pixels_near(colour_mask(picture, "lit"), project(place), ring * 1.3) > 150, level
+            for centre in touching:
+                assert pixels_near(colour_mask(picture, "highlight"), project(centre), 20) > 40, level
         assert "Place" in page_text(driver) and "lit" in page_text(driver)
-        driver.execute_script("window.microg.hold = false")
+        driver.execute_script("window.microg.quality.release(); window.microg.hold = false")
+        gate.set()
 
         # The questionnaire on the page: an answer off the scale is refused and logged, then one counts.
         wait(driver, "return window.microg.question && !document.getElementById('question').hidden")
@@ -98,6 +133,9 @@ def test_the_participant_sees_the_task_where_the_physics_puts_it_and_answers_on_
             wait(driver, f"return window.microg.answered === {answered}")
         session.join(WORK_S)
         assert not session.is_alive()
+    # the session heard of each level the page drew at, with its drawing buffer's size
+    levels = {(data["render_scale"], data["render_width"]) for kind, data in events if kind == "display_quality"}
+    assert {(0.25, 250), (0.6, 600)} <= levels
 
     with open_study(folder) as store:
         session_id = store.session_of("P01").id
@@ -163,3 +201,23 @@ def test_a_mesh_object_is_drawn_from_its_own_triangles(tmp_path):
         ends = corners[[np.argmin(pixels[:, 0]), np.argmax(pixels[:, 0])]]
         for end in ends:
             assert pixels_near(colour_mask(picture, "object"), project(end), 12) > 20
+
+
+@pytest.mark.slow
+@needs_browser
+@pytest.mark.skipif(not IWER.exists(), reason=f"needs iwer (WebXR emulation: npm ci), missing at {IWER}")
+def test_a_headset_draws_the_best_level_and_leaving_it_the_screen_draws_at_its_own_again(tmp_path):
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        emulate_headset(driver)
+        driver.get(display.url)
+        screen = {"scale": 0.5, "antialias": False}
+        driver.execute_script("window.microg.quality.fix(arguments[0])", screen)
+        enter_and_place(driver)
+        best = driver.execute_script("return window.microg.quality.levels[0]")
+        assert driver.execute_script("return window.microg.quality.level") == best
+        driver.execute_script("window.emulatedHeadset.activeSession.end()")
+        wait(driver, "return window.microg.xr.step === 'off' && !window.microg.renderer.xr.isPresenting")
+        picture = wait(driver, "window.microg.dirty = true; const p = window.microg.picture; "
+                               "return p.level === window.microg.quality.level && [p.level, p.width, p.height]")
+        assert picture == [screen, WINDOW[0] * 0.5, WINDOW[1] * 0.5]

@@ -1,12 +1,17 @@
 // The participant's page: what the session sends, drawn at the display's refresh rate.
 //
 // Frames arrive over the WebSocket as fast as the physics computes them; the page keeps only the
-// newest and draws it on the next animation frame, so it never falls behind. Timeline messages
-// (instructions, "get ready", the completion cue, the questionnaire) change the text over the
-// scene. The page syncs its clock to the session's and, with ?latency=1 in its address, reports
-// when it drew each frame. window.microg exposes what was drawn, for tests and for the headset
-// module (xr.js), which adds the "Enter mixed reality" button where the browser offers WebXR.
+// newest and draws it on the next animation frame, so it never falls behind. It measures how long
+// its drawing takes and chooses the render resolution and antialiasing so that a frame fits the
+// display's refresh interval (quality.js), raising them again when there is headroom. Timeline
+// messages (instructions, "get ready", the completion cue, the questionnaire) change the text
+// over the scene. The page syncs its clock to the session's and, with ?latency=1 in its
+// address, reports when it drew each frame and at what level; ?quality=full holds the best level
+// whatever it costs (a benchmark's reference run). window.microg exposes what was drawn, for tests
+// and for the headset module (xr.js), which adds the "Enter mixed reality" button where the
+// browser offers WebXR.
 import * as THREE from "three";
+import { GpuTimer, Quality, SETTLE, WINDOW, ladder } from "./quality.js";
 import { Workspace } from "./workspace.js";
 import { setupHeadset } from "./xr.js";
 
@@ -19,11 +24,8 @@ const STAGES = {
   timeout: "Time is up",
 };
 
-/**
- * Whether WebGL runs on a graphics card. A software rasteriser (SwiftShader, llvmpipe: a computer
- * without a usable GPU) draws multisampled frames several times slower, long enough to hold up the
- * page's messages; there the page draws without antialiasing so that it keeps up with the tracker.
- */
+/** Whether WebGL runs on a graphics card, not a software rasteriser (SwiftShader, llvmpipe: a
+ *  computer without a usable GPU), where the page never multisamples (quality.js). */
 function onGraphicsCard() {
   const gl = document.createElement("canvas").getContext("webgl2");
   if (!gl) return false;
@@ -33,9 +35,6 @@ function onGraphicsCard() {
   return !/swiftshader|llvmpipe|softpipe|software/i.test(name);
 }
 
-const canvas = document.getElementById("scene");
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: onGraphicsCard() });
-renderer.setPixelRatio(window.devicePixelRatio);
 const scene = new THREE.Scene();
 scene.background = new THREE.Color(0x1b1e24);
 const camera = new THREE.PerspectiveCamera(40, 1, 0.01, 10);
@@ -56,7 +55,14 @@ const microg = {
   /** Answers the session accepted so far. */
   answered: 0,
   camera,
-  renderer,
+  /** The WebGL renderer: a new one on a new canvas whenever antialiasing turns on or off. */
+  renderer: null,
+  /** What the page draws (quality.js): `level`, `fix(level)`, `release()`. */
+  quality: null,
+  /** Animation frames so far, and the last picture drawn: its level, its drawing buffer's size
+   *  (px) and the animation frame that drew it. */
+  animationFrames: 0,
+  picture: { level: null, width: 0, height: 0, frame: 0 },
   three: scene,
   workspace,
   /** The session's workspace message: the point a headset's placement marks, the table's footprint. */
@@ -68,7 +74,7 @@ const microg = {
   /** Screen pixel (x, y from the top left) of a point in the tracker's frame. */
   project(x, y, z) {
     const p = new THREE.Vector3(x, y, z).project(camera);
-    const rect = canvas.getBoundingClientRect();
+    const rect = microg.renderer.domElement.getBoundingClientRect();
     return [rect.left + (p.x + 1) / 2 * rect.width, rect.top + (1 - p.y) / 2 * rect.height];
   },
   /** The session's clock now (ms). */
@@ -124,13 +130,34 @@ function timeline(m) {
   }
 }
 
+/** The task's stage, timers and attempts, set only when what they show changes (the timers by
+ *  tenths of a second): the page neither builds their text nor lays it out every frame. */
+const shownHud = { stage: null, task: null, place: null, lit: null, timer: null, places: null, attempts: null };
+const hudStage = document.getElementById("hud-stage");
+const hudPlace = document.getElementById("hud-place");
+const hudAttempts = document.getElementById("hud-attempts");
+
 function showHud(frame) {
+  const shown = shownHud;
   const places = workspace.layout ? workspace.layout.places.length : 0;
-  document.getElementById("hud-stage").textContent = `${STAGES[frame.stage] || frame.stage} · ${frame.task_timer.toFixed(1)} s`;
-  document.getElementById("hud-place").textContent = frame.lit
-    ? `Place ${frame.place + 1} lit: ${frame.place_timer.toFixed(1)} / ${workspace.layout.hold_s} s`
-    : frame.place < places ? `Place ${frame.place + 1} of ${places}` : `All ${places} places done`;
-  document.getElementById("hud-attempts").textContent = `Attempts: ${frame.attempts}`;
+  const task = Math.round(frame.task_timer * 10), timer = Math.round(frame.place_timer * 10);
+  if (frame.stage !== shown.stage || task !== shown.task) {
+    hudStage.textContent = `${STAGES[frame.stage] || frame.stage} · ${(task / 10).toFixed(1)} s`;
+  }
+  const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places;
+  if (place || (frame.lit && timer !== shown.timer)) {
+    hudPlace.textContent = frame.lit
+      ? `Place ${frame.place + 1} lit: ${(timer / 10).toFixed(1)} / ${workspace.layout.hold_s} s`
+      : frame.place < places ? `Place ${frame.place + 1} of ${places}` : `All ${places} places done`;
+  }
+  if (frame.attempts !== shown.attempts) hudAttempts.textContent = `Attempts: ${frame.attempts}`;
+  shown.stage = frame.stage;
+  shown.task = task;
+  shown.place = frame.place;
+  shown.lit = frame.lit;
+  shown.timer = timer;
+  shown.places = places;
+  shown.attempts = frame.attempts;
 }
 
 // ---------------------------------------------------------------- the questionnaire
@@ -228,6 +255,7 @@ function connect() {
   socket.addEventListener("open", () => {
     say("Connected", "Waiting for the session to begin.");
     ping();
+    reportLevel();
   });
   socket.addEventListener("message", (event) => {
     const m = JSON.parse(event.data);
@@ -246,6 +274,7 @@ function connect() {
       camera.updateProjectionMatrix();
       microg.latest = null;
       microg.dirty = true;
+      calibrating = CALIBRATION_FRAMES;
       for (const hook of microg.onScene) hook(m);
     } else if (m.type === "timeline") {
       timeline(m);
@@ -269,20 +298,68 @@ function connect() {
 
 // ---------------------------------------------------------------- drawing
 
+let timer = null;
+/** A new task's scene is drawn this many animation frames in a row, before the task's first frame
+ *  if the session waits ("get ready"): three decisions' worth of measurements, so the task starts
+ *  at a level that fits. */
+const CALIBRATION_FRAMES = 3 * (WINDOW + SETTLE);
+let calibrating = 0;
+
+/** Draw on a new canvas with a new renderer: antialiasing is fixed when a WebGL context is made. */
+function useRenderer(antialias) {
+  const old = microg.renderer;
+  const canvas = document.createElement("canvas");
+  canvas.id = "scene";
+  const renderer = new THREE.WebGLRenderer({ canvas, antialias });
+  if (old) {
+    old.setAnimationLoop(null);
+    old.dispose();
+    old.forceContextLoss();
+  }
+  document.getElementById("scene").replaceWith(canvas);
+  microg.renderer = renderer;
+  timer = new GpuTimer(renderer.getContext());
+  microg.quality.timed = timer.available;
+  renderer.setAnimationLoop(draw);
+}
+
 function resize() {
+  if (microg.renderer.xr.isPresenting) return;  // the headset's layer sets the size (three.js)
   const width = window.innerWidth, height = window.innerHeight;
-  renderer.setSize(width, height, false);
+  microg.renderer.setPixelRatio(window.devicePixelRatio * microg.quality.level.scale);
+  microg.renderer.setSize(width, height, false);
   camera.aspect = width / height;
   camera.updateProjectionMatrix();
   microg.dirty = true;
 }
-window.addEventListener("resize", resize);
-resize();
+
+/** Tell the session the level drawn (it logs it: display_quality). */
+function reportLevel() {
+  const { scale, antialias } = microg.quality.level;
+  const { width, height } = microg.renderer.domElement;
+  microg.send({ type: "quality", scale, antialias, width, height, refresh: microg.quality.refresh,
+                cost: microg.quality.cost });
+}
+
+/** Draw at `level` from now on. */
+function useLevel(level) {
+  const { renderer } = microg;
+  if (!renderer || renderer.getContextAttributes().antialias !== level.antialias) useRenderer(level.antialias);
+  resize();
+  reportLevel();
+}
 
 const measure = params.get("latency") === "1";
 const KEPT_REPORTS = 100000;
+const quality = new Quality(ladder(onGraphicsCard()), useLevel);
+microg.quality = quality;
+const gpuTime = (ms) => quality.gpuTime(ms);
 
 function draw(time, xrFrame) {
+  microg.animationFrames += 1;
+  const { renderer } = microg;
+  const presenting = renderer.xr.isPresenting;
+  if (!presenting) timer.poll(gpuTime);
   for (const hook of microg.beforeDraw) hook(time, xrFrame);
   const frame = microg.hold ? microg.drawn : microg.latest;
   const fresh = frame && frame !== microg.drawn;
@@ -292,16 +369,27 @@ function draw(time, xrFrame) {
     for (const hook of microg.onFrame) hook(frame);
   }
   const start = microg.now();
-  if (fresh || microg.dirty || renderer.xr.isPresenting) {
+  const drew = Boolean(fresh || microg.dirty || presenting || calibrating > 0);
+  if (drew) {
+    if (calibrating > 0) calibrating -= 1;
+    if (!presenting) timer.begin();
     renderer.render(scene, camera);
+    if (!presenting) timer.end();
     microg.dirty = false;
+    const { picture } = microg;
+    picture.level = quality.level;
+    picture.width = renderer.domElement.width;
+    picture.height = renderer.domElement.height;
+    picture.frame = microg.animationFrames;
   }
   if (fresh) {
     microg.drawn = frame;
     if (measure) {
       const drawn = microg.now();
+      const { scale, antialias } = quality.level;
       const report = { type: "drawn", i: frame.i, t: frame.t, ready: frame.ready, received: frame.received,
-                       render: drawn - start, drawn };
+                       render: drawn - start, drawn, scale, antialias, width: renderer.domElement.width,
+                       height: renderer.domElement.height, gpu: presenting ? null : quality.cost };
       // Hands read in this page: from reading them to drawing their physics, on the page's own clock.
       if (frame.read != null) report.trip = performance.timeOrigin + performance.now() - frame.read;
       microg.send(report);
@@ -309,8 +397,11 @@ function draw(time, xrFrame) {
       if (microg.reports.length > KEPT_REPORTS) microg.reports.splice(0, microg.reports.length - KEPT_REPORTS);
     }
   }
+  if (!presenting) quality.frame(time, drew);
 }
-renderer.setAnimationLoop(draw);
 microg.draw = draw;
+window.addEventListener("resize", resize);
+if (params.get("quality") === "full") quality.fix(quality.levels[0]);
+else useLevel(quality.level);
 connect();
 setupHeadset(microg);

@@ -219,8 +219,14 @@ class Headset {
   }
 
   async enter() {
-    const { renderer } = this.microg;
+    // The headset draws the best level at the resolution its runtime recommends (the layer's
+    // framebuffer scale stays 1: three.js fixes it when the session starts, and its runtime, not
+    // the page, paces and reprojects the frames); the screen's adapting resumes on leaving.
     const session = await navigator.xr.requestSession(this.state.mode, SESSION_INIT);
+    const { quality } = this.microg;
+    this.heldOnScreen = quality.held;
+    quality.fix(quality.levels[0]);
+    const { renderer } = this.microg;
     let type = "local-floor";
     try {
       await session.requestReferenceSpace(type);
@@ -262,7 +268,8 @@ class Headset {
     this.hands.clear();
     Object.assign(this.state, { step: "off", anchor: null });
     this.button.hidden = false;
-    window.dispatchEvent(new Event("resize"));
+    if (this.heldOnScreen) microg.quality.fix(this.heldOnScreen);
+    else microg.quality.release();
   }
 
   /** Every XR frame: read the hands, then placing, streaming, pressing, and the 3D text. */

@@ -8,15 +8,26 @@
 #     simple effects (emmeans joint_tests by BETWEEN) -> OUT_PREFIX_simple_effects.csv, their pairs
 #     -> OUT_PREFIX_simple_pairs.csv; Levene, Box's M, Shapiro-Wilk of the residuals
 #     -> OUT_PREFIX_assumptions.csv; mean, SD, SE, n per cell -> OUT_PREFIX_cell_means.csv
+#     ARTool's aligned ranks: the ANOVA of the ranks (type 2: ARTool's own anova of
+#     art(DV ~ BETWEEN * WITHIN + Error(SUBJECT)); type 3: afex on ARTool's ranks) -> OUT_PREFIX_art_anova.csv,
+#     ART-C contrasts (ARTool's ranks for each term, emmeans on afex's model) -> OUT_PREFIX_art_contrasts.csv
 #   Rscript reference.R study TRIALS.csv QUESTIONNAIRE.csv INTERACTION BASELINE OUT_DIR
 #     the whole analysis of a study export, following the rules in docs/analysis.md:
 #     <table>_<measure>_<interaction>.csv for each table above, count_model_attempts_<interaction>.csv
-#     (geepack), interactions.csv, likert_summary.csv, likert_tests.csv
+#     (geepack), interactions.csv, likert_summary.csv, likert_tests.csv; the ART of each questionnaire
+#     item (group x interaction) -> art_anova_<item>.csv, art_contrasts_<item>.csv; the linear mixed
+#     model of log completion time on every finished task (lme4/lmerTest) -> trial_model_<table>.csv;
+#     the ART of each measure's cells (complete cases) -> art_anova_<measure>_<interaction>.csv ...
+#   Rscript reference.R trials TRIALS.csv FIXED SLOPE OUT_PREFIX
+#     the linear mixed model of log(time_s) ~ FIXED with a random intercept and slope of SLOPE per
+#     participant (the intercept alone when singular) -> OUT_PREFIX{coefficients,anova,random}.csv
 # Factor levels are R's sorted levels; contrasts are "A - B" in that order.
 # Confidence intervals of partial eta squared and d_z are computed twice: by inverting R's
 # noncentral F / t with uniroot (np2_ci_low ...; exact) and by effectsize (*_effectsize; its
 # optimiser stops at about 1e-5 relative).
 suppressMessages({
+  library(ARTool)
+  library(lmerTest)
   library(afex)
   library(emmeans)
   library(car)
@@ -164,6 +175,89 @@ count_reference <- function(tasks, dv, within, between, subject) {
   }))
 }
 
+complete_cases <- function(d, dv, within, subject) {
+  present <- table(d[[subject]][!is.na(d[[dv]])])
+  d[d[[subject]] %in% names(present)[present == length(unique(d[[within]]))] & !is.na(d[[dv]]), ]
+}
+
+art_reference <- function(d, dv, within, between, subject, ss_type) {
+  # ARTool's aligned ranks on the complete cases; the ranks' mixed ANOVA and ART-C contrasts
+  d <- complete_cases(d, dv, within, subject)
+  d <- aggregate(d[dv], by = d[c(subject, between, within)], FUN = mean)
+  for (column in c(within, between, subject)) d[[column]] <- factor(d[[column]])
+  model <- art(as.formula(paste(dv, "~", between, "*", within, "+ Error(", subject, ")")), data = d)
+  terms <- c(between, within, paste0(between, ":", within))
+  ranked_anova <- function(ranks, term) {
+    d$.rank <- ranks
+    fit <- suppressWarnings(suppressMessages(aov_ez(id = subject, dv = ".rank", data = d, between = between,
+                                                    within = within, type = ss_type,
+                                                    anova_table = list(correction = "none"))))
+    list(fit = fit, row = as.data.frame(fit$anova_table)[term, ])
+  }
+  if (ss_type == 2) {  # ARTool's own ANOVA: the stratified (Error) model's sequential sums of squares
+    a <- as.data.frame(anova(model))
+    anova_table <- data.frame(source = a$Term, F = a$`F value`, df1 = a$Df, df2 = a$Df.res, p_unc = a$`Pr(>F)`)
+  } else {
+    anova_table <- do.call(rbind, lapply(terms, function(term) {
+      row <- ranked_anova(model$aligned.ranks[[term]], term)$row
+      data.frame(source = term, F = row$F, df1 = row$`num Df`, df2 = row$`den Df`, p_unc = row$`Pr(>F)`)
+    }))
+  }
+  # ART-C: the crossed term's factors joined into one and aligned for it (ARTool's art.con)
+  d$.cell <- factor(paste(d[[between]], d[[within]], sep = ","))
+  joined <- art(as.formula(paste(dv, "~ .cell + Error(", subject, ")")), data = d)
+  ranks <- list(model$aligned.ranks[[between]], model$aligned.ranks[[within]], joined$aligned.ranks$.cell)
+  specs <- list(as.formula(paste("~", between)), as.formula(paste("~", within)),
+                as.formula(paste("~", between, "*", within)))
+  contrasts <- do.call(rbind, lapply(1:3, function(i) {
+    emm <- emmeans(ranked_anova(ranks[[i]], terms[i])$fit, specs[[i]])
+    grid <- as.data.frame(summary(emm))
+    labels <- if (i == 3) paste(grid[[between]], grid[[within]], sep = ",") else as.character(grid[[c(between, within)[i]]])
+    ordered <- sort(labels)
+    pairs <- combn(length(ordered), 2)
+    methods <- lapply(seq_len(ncol(pairs)), function(j) (labels == ordered[pairs[1, j]]) - (labels == ordered[pairs[2, j]]))
+    names(methods) <- paste(ordered[pairs[1, ]], ordered[pairs[2, ]], sep = " - ")
+    tests <- as.data.frame(summary(contrast(emm, method = methods), adjust = "none", infer = TRUE))
+    data.frame(term = terms[i], A = ordered[pairs[1, ]], B = ordered[pairs[2, ]], estimate = tests$estimate,
+               SE = tests$SE, df = tests$df, T = tests$t.ratio, p_unc = tests$p.value,
+               p_bonf = p.adjust(tests$p.value, method = "bonferroni"))
+  }))
+  list(art_anova = anova_table, art_contrasts = contrasts)
+}
+
+trial_model_reference <- function(trials, fixed, slope, prefix) {
+  # log completion time of every finished task: FIXED, a random intercept and slope of SLOPE per
+  # participant, dropped to the intercept when singular (lme4's isSingular)
+  rows <- trials[trials$completed %in% c(TRUE, "True", "true") & !is.na(trials$time_s), ]
+  for (column in intersect(c("group", "object", "interaction", "participant"), names(rows))) {
+    rows[[column]] <- factor(rows[[column]])
+  }
+  old <- options(contrasts = c("contr.sum", "contr.poly"))
+  on.exit(options(old))
+  control <- lmerControl(optimizer = "bobyqa", optCtrl = list(rhoend = 1e-12, maxfun = 1e5))
+  fixed <- paste("log(time_s) ~", fixed)
+  fit <- lmer(as.formula(paste0(fixed, " + (1 + ", slope, " | participant)")), data = rows, REML = TRUE,
+              control = control)
+  with_slope <- !isSingular(fit)
+  if (!with_slope) fit <- lmer(as.formula(paste(fixed, "+ (1 | participant)")), data = rows, REML = TRUE,
+                               control = control)
+  coefficients <- as.data.frame(coef(summary(fit)))
+  write.csv(data.frame(term = rownames(coefficients), estimate = coefficients$Estimate,
+                       SE = coefficients$`Std. Error`, df = coefficients$df, t = coefficients$`t value`,
+                       p_unc = coefficients$`Pr(>|t|)`),
+            paste0(prefix, "coefficients.csv"), row.names = FALSE)
+  a <- as.data.frame(anova(fit, type = 3))
+  write.csv(data.frame(source = rownames(a), F = a$`F value`, df1 = a$NumDF, df2 = a$DenDF, p_unc = a$`Pr(>F)`),
+            paste0(prefix, "anova.csv"), row.names = FALSE)
+  random <- as.data.frame(VarCorr(fit))
+  variances <- random[is.na(random$var2), ]
+  write.csv(data.frame(slope = with_slope, n_trials = nrow(rows),
+                       name = ifelse(variances$grp == "Residual", "Residual", paste(variances$grp, variances$var1)),
+                       variance = variances$vcov, sd = variances$sdcor,
+                       correlation = c(NA, random$sdcor[!is.na(random$var2)], NA)),
+            paste0(prefix, "random.csv"), row.names = FALSE)
+}
+
 signed_rank <- function(x, y) {
   test <- suppressWarnings(wilcox.test(x, y, paired = TRUE))
   d <- x - y
@@ -206,6 +300,11 @@ study_reference <- function(trials_file, answers_file, interaction, baseline, ou
         tasks <- rows[[dv]][rows[[dv]]$interaction == s & rows[[dv]]$participant %in% complete, ]
         write.csv(count_reference(tasks, dv, "object", "group", "participant"),
                   file.path(out, paste0("count_model_", dv, "_", s, ".csv")), row.names = FALSE)
+      }
+      # the ART of the cells, complete cases (this export has participants with a missing cell)
+      art <- art_reference(c1, dv, "object", "group", "participant", 3)
+      for (table in names(art)) {
+        write.csv(art[[table]], file.path(out, paste0(table, "_", dv, "_", s, ".csv")), row.names = FALSE)
       }
     }
     means <- lapply(c(interaction, baseline), function(s) {
@@ -266,16 +365,26 @@ study_reference <- function(trials_file, answers_file, interaction, baseline, ou
   tests <- do.call(rbind, test_rows)
   tests$p_bonf <- p.adjust(tests$p_unc, method = "bonferroni")
   write.csv(tests, file.path(out, "likert_tests.csv"), row.names = FALSE)
+  for (item in sort(unique(answers$item))) {
+    art <- art_reference(answers[answers$item == item, ], "rating", "interaction", "group", "participant", 3)
+    for (table in names(art)) write.csv(art[[table]], file.path(out, paste0(table, "_", item, ".csv")), row.names = FALSE)
+  }
+  trial_model_reference(trials, "group * object * interaction + task_index", "task_index",
+                        file.path(out, "trial_model_"))
 }
 
 args <- commandArgs(trailingOnly = TRUE)
 if (length(args) == 8 && args[1] == "mixed") {
-  res <- mixed_reference(read.csv(args[2], stringsAsFactors = FALSE), args[3], args[4], args[5], args[6],
-                         as.integer(args[7]))
+  data <- read.csv(args[2], stringsAsFactors = FALSE)
+  res <- c(mixed_reference(data, args[3], args[4], args[5], args[6], as.integer(args[7])),
+           art_reference(data, args[3], args[4], args[5], args[6], as.integer(args[7])))
   for (table in names(res)) write.csv(res[[table]], paste0(args[8], "_", table, ".csv"), row.names = FALSE)
 } else if (length(args) == 6 && args[1] == "study") {
   study_reference(args[2], args[3], args[4], args[5], args[6])
+} else if (length(args) == 5 && args[1] == "trials") {
+  trial_model_reference(read.csv(args[2], stringsAsFactors = FALSE), args[3], args[4], args[5])
 } else {
   stop("usage: reference.R mixed DATA DV WITHIN BETWEEN SUBJECT SS_TYPE OUT_PREFIX | ",
-       "reference.R study TRIALS QUESTIONNAIRE INTERACTION BASELINE OUT_DIR")
+       "reference.R study TRIALS QUESTIONNAIRE INTERACTION BASELINE OUT_DIR | ",
+       "reference.R trials TRIALS FIXED SLOPE OUT_PREFIX")
 }
