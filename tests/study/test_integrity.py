@@ -10,7 +10,6 @@ import json
 import re
 import shutil
 import sqlite3
-import stat
 from pathlib import Path
 
 import pandas as pd
@@ -24,7 +23,7 @@ from microg.study.export import export_study, read_tables, run_frames
 from microg.study.framelog import DamagedFramesError
 from microg.study.protocol import load_protocol
 from microg.study.session import SimulationClock, run_session
-from microg.study.store import DATABASE, DamagedStudyError, StoreError, create_study, open_study
+from microg.study.store import DATABASE, DamagedStudyError, create_study, open_study
 
 from .conftest import PROTOCOLS, answers, scripted_inputs
 
