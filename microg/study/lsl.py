@@ -14,6 +14,8 @@ network ports to do that (``NETWORK_NOTICE`` says which, and how to keep them on
 from __future__ import annotations
 
 import json
+import math
+import time
 
 import numpy as np
 
@@ -49,9 +51,11 @@ def _describe(info, tags: dict[str, str]) -> None:
 
 class MarkerOutlet:
     """An LSL outlet of type ``Markers`` (the session's ``Markers``): each event the session logs,
-    stamped with the event's own time on LSL's clock. The event happened ``clock.now() - event.t``
-    seconds before it is sent (it is sent once committed), so the stamp does not carry the commit's
-    or a thread switch's delay."""
+    stamped with the event's own time on LSL's clock, so the stamp carries neither the commit's
+    delay (it is sent once committed) nor a thread switch's. A wall clock's time is a
+    ``time.monotonic`` reading (``WallClock.monotonic``), and LSL's clock runs at a fixed offset
+    from that, measured once here; a simulation clock has no wall time, so its events are stamped
+    when sent."""
 
     def __init__(self, tags: dict[str, str], clock, name: str = MARKERS_NAME, source_id: str = "microg-markers"):
         try:
@@ -61,10 +65,26 @@ class MarkerOutlet:
         info = pylsl.StreamInfo(name, "Markers", 1, pylsl.IRREGULAR_RATE, "string", source_id)
         _describe(info, tags)
         self._outlet, self._local_clock, self.clock = pylsl.StreamOutlet(info), pylsl.local_clock, clock
+        self._lsl_minus_monotonic = _offset(pylsl.local_clock)
 
     def mark(self, event) -> None:
-        stamp = self._local_clock() - (self.clock.now() - event.t)
+        if hasattr(self.clock, "monotonic"):
+            stamp = self.clock.monotonic(event.t) + self._lsl_minus_monotonic
+        else:
+            stamp = self._local_clock()
         self._outlet.push_sample([json.dumps({"kind": event.kind, **event.data}, sort_keys=True)], stamp)
+
+
+def _offset(local_clock, reads: int = 20) -> float:
+    """LSL's clock minus ``time.monotonic``: the reading bracketed most tightly by two monotonic
+    readings, of ``reads`` tries (a thread switch between two readings only widens a bracket)."""
+    best = (math.inf, 0.0)
+    for _ in range(reads):
+        before = time.monotonic()
+        lsl = local_clock()
+        after = time.monotonic()
+        best = min(best, (after - before, lsl - (before + after) / 2))
+    return best[1]
 
 
 JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")

@@ -60,6 +60,10 @@ class WallClock:
     def now(self) -> float:
         return self.offset + time.monotonic() - self._start
 
+    def monotonic(self, t: float) -> float:
+        """The ``time.monotonic`` reading at which this clock read ``t``."""
+        return t - self.offset + self._start
+
     def elapse(self, seconds: float) -> None:
         pass
 
