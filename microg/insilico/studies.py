@@ -62,28 +62,19 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
     """Play every running session of ``store`` (simulated participants, ``inputs_of(session)``
     their ``SimulatedInputs``) with ``engine.play_tasks`` and write each task's run as the session
     runner would, in the order it would run them; then end the sessions."""
-    from microg.study.inputs import participant_plan
-    from microg.study.session import SimulationClock
-    from microg.study.store import Event, derived_seed
+    from microg.study.session import SimulationClock, planned_runs
+    from microg.study.store import Event
 
     protocol = store.protocol
-    task_phases = {p.name for p in protocol.phases}
     sessions, units = [], []
     for record in store.participants():
         session = store.session_of(record.participant.id)
         if session is None or session.status != "running":
             continue
         inputs, tasks = inputs_of(session), store.tasks(session.id)
-        hand = "left" if record.participant.handedness == "left" else "right"
-        order = [task for phase in protocol.phases_for(record.group)
-                 if phase.name == "training" or phase.name in task_phases
-                 for task in tasks if task.phase == phase.name]
         played = []
-        for task in order:
-            first = all(t.object != task.object for t in tasks if t.index < task.index)
-            plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
-                                    first_with_object=first)
-            seed = derived_seed(session.seed, task.index)
+        for task, plan, seed in [run for phase in protocol.phases_for(record.group) if protocol.runs_tasks(phase)
+                                 for run in planned_runs(protocol, session, record, tasks, phase)]:
             skill = inputs.skill(plan)
             units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
             played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))

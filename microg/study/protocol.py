@@ -266,6 +266,10 @@ class Protocol:
         """The timeline as a participant of ``group`` goes through it."""
         return tuple(p for p in self.timeline if p.groups is None or group in p.groups)
 
+    def runs_tasks(self, phase: Phase) -> bool:
+        """Whether the timeline phase is one of tasks (the training, or one of ``[[phases]]``)."""
+        return phase.name == "training" or any(p.name == phase.name for p in self.phases)
+
     @property
     def interactions(self) -> tuple[str, ...]:
         """The interaction models the phases compare, in the phases' order."""

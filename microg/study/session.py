@@ -30,6 +30,7 @@ from typing import Protocol as Interface, Sequence
 from tqdm import tqdm
 
 from microg.hands.tracking import Tracking
+from microg.participant.plan import TaskPlan
 from microg.sim import World, make_world
 from microg.task import COMPLETED, Moment, TaskRules, play
 
@@ -275,7 +276,6 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     log = EventLog(store, session_id, clock, outputs.markers)
     participant = store.participant(session.participant_id)
     tasks = store.tasks(session_id)
-    task_phases = {p.name for p in protocol.phases}
     started_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_start"}
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
@@ -289,12 +289,11 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
                 log.emit("phase_start", {"phase": phase.name})
             if phase.name == "questionnaire":
                 _questionnaire(store, session_id, rater, clock, protocol)
-            elif phase.name == "training" or phase.name in task_phases:
-                for task in tasks:
-                    if task.phase == phase.name and task.index not in finished:
-                        first = all(t.object != task.object for t in tasks if t.index < task.index)
-                        _run_planned(log, session, task, inputs, operator=operator, sinks=outputs.sinks, bar=bar,
-                                     first_with_object=first)
+            elif protocol.runs_tasks(phase):
+                for task, plan, seed in planned_runs(protocol, session, participant, tasks, phase):
+                    if task.index not in finished:
+                        _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator,
+                                     sinks=outputs.sinks, bar=bar)
                         finished.add(task.index)
                         bar.update(1)
             else:
@@ -305,21 +304,30 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     return store.finish_session(session_id, clock.now())
 
 
-def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, operator: Operator,
-                 sinks: Sequence[FrameSink], bar, first_with_object: bool) -> TaskResult:
+def planned_runs(protocol: Protocol, session, participant, tasks: list[PlannedTask],
+                 phase: Phase) -> list[tuple[PlannedTask, TaskPlan, int]]:
+    """The tasks of a task ``phase`` of a session, in the order it runs them, each with what its
+    player knows of it (``participant_plan``: the participant's hand and seed, whether no earlier
+    task had the object) and the run's seed."""
+    hand = "left" if participant.participant.handedness == "left" else "right"
+    return [(task, participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
+                                    first_with_object=all(t.object != task.object for t in tasks
+                                                          if t.index < task.index)),
+             derived_seed(session.seed, task.index))
+            for task in tasks if task.phase == phase.name]
+
+
+def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, plan: TaskPlan, seed: int,
+                 operator: Operator, sinks: Sequence[FrameSink], bar) -> TaskResult:
     store, clock = log.store, log.clock
     protocol = store.protocol
-    seed = derived_seed(session.seed, task.index)
     if not operator.ready(task):
         run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
         log.mark(store.events(session.id, run_id))
         log.mark(store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator"))
         operator.finished(task, "skipped", None)
         return TaskResult("skipped", None, None, 0)
-    hand = "left" if store.participant(session.participant_id).participant.handedness == "left" else "right"
     world = task_world(protocol, task)
-    plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
-                            first_with_object=first_with_object)
     source = inputs.open(plan, seed)
     run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
     log.mark(store.events(session.id, run_id))
