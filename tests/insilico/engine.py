@@ -1,0 +1,43 @@
+"""A stand-in for ``simulate_trials`` in the tests of the calibration's machinery (the order of
+evaluations on Dask, resuming): the same table, from the same population draws and the same task
+plan, with each task's time and attempts in closed form instead of the physics, so that a study
+takes milliseconds. The calibration itself is tested against the real in-silico study
+(test_recovery.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from microg.participant.population import practise
+from microg.study.store import plan_tasks
+
+
+def closed_form_trials(protocol, n_per_group: int, seed: int, *, population=None) -> pd.DataFrame:
+    """A trials table: per task, time = 3 (hold + margin) + 2 (reaction + Exp(hesitation)) +
+    4 Fitts movements (a + 3 b, slower carrying and with elongated objects), attempts
+    Poisson(20 aim_sd); each person from ``population.draw`` and ``practise``."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    objects = tuple(o.name for o in protocol.objects)
+    for g, group in enumerate(protocol.groups):
+        for i in range(n_per_group):
+            person = population.draw(int(rng.integers(2**31)))
+            participant = f"{group.code}{i:02d}"
+            for task in plan_tasks(protocol, group.code, objects):
+                p = practise(person, task.index)
+                size = protocol.object(task.object).spec.size
+                elongation = math.log(max(size) / min(size))
+                movement = (p["movement_intercept"] + 3 * p["movement_slope"]) * (1 + p["carry_slowdown"]) / 2
+                time = (3 * (protocol.task.hold_s + p["hold_margin_s"])
+                        + 2 * (p["reaction_s"] + rng.exponential(p["hesitation_s"]))
+                        + 4 * movement * (1 + p["shape_caution"] * elongation))
+                completed = time < protocol.task.timeout_s
+                rows.append({"participant": participant, "group": group.code, "phase": task.phase,
+                             "interaction": task.interaction, "object": task.object_code, "order_position": task.order_position,
+                             "completed": completed, "time_s": time if completed else np.nan,
+                             "attempts": int(rng.poisson(20 * p["aim_sd"])), "status": "completed" if completed
+                             else "timeout", "task_index": task.index, "withdrawn": False})
+    return pd.DataFrame(rows)
