@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import datetime
 import fnmatch
-import functools
 import hashlib
 import json
 import logging
@@ -35,13 +34,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import cloudpickle
 import numpy as np
 import pandas as pd
 
 from microg.participant.population import NAMES, SPEC, Population, Spread, default_population
 from microg.study.protocol import Protocol
 
-from .sampler import EvaluationCache, OrderedDaskSampler, seeded_call
+from .sampler import EvaluationCache, OrderedDaskSampler, pickled_call
 from .studies import simulate_trials
 from .targets import Target, TargetError, simulated_values
 
@@ -288,7 +288,7 @@ def calibrate(request: CalibrationRequest, profile: str | Path, client, *, resum
     posterior = posterior_table(request.free, parameters, weights)
     population = fitted_population(request, parameters, weights, str(profile))
     draws = _check_draws(request, parameters, weights)
-    simulated = _check_studies(client, model, draws, request.seed, cache)
+    simulated, fresh = _check_studies(client, model, draws, request.seed, cache)
     cache.close()
     check = check_table(request.targets, simulated)
     epsilon = float(history.get_all_populations()["epsilon"].iloc[-1])
@@ -296,6 +296,7 @@ def calibrate(request: CalibrationRequest, profile: str | Path, client, *, resum
     summary = {
         "seconds": round(time.monotonic() - started, 2),
         "studies": studies + request.check,
+        "studies_run": sampler.studies_run + fresh,
         "epsilon": epsilon,
         "workers": max(sampler.workers_seen, len(client.scheduler_info()["workers"])),
     }
@@ -372,21 +373,24 @@ def _check_draws(request: CalibrationRequest, parameters: pd.DataFrame, weights:
     return [{k: float(v) for k, v in parameters.iloc[row].items()} for row in rows]
 
 
-def _check_studies(client, model: StudyModel, draws: list[dict], seed: int, cache: EvaluationCache) -> np.ndarray:
-    """The targets' statistics in one simulated study per draw (studies x targets), on Dask; each
-    study seeded from the run's seed and its index, each kept in the cache as it arrives."""
+def _check_studies(client, model: StudyModel, draws: list[dict], seed: int,
+                   cache: EvaluationCache) -> tuple[np.ndarray, int]:
+    """The targets' statistics in one simulated study per draw (studies x targets), on Dask, and how
+    many studies ran now; each study seeded from the run's seed and its index, each kept in the
+    cache as it arrives."""
     from distributed import as_completed
     from pyabc.parameters import Parameter
 
     done = cache.read("check")
-    futures = {client.submit(seeded_call, functools.partial(model, Parameter(draw)), [seed, CHECK_STREAM, i],
-                             pure=False): i
+    pickled = client.scatter(cloudpickle.dumps(model), broadcast=True)
+    futures = {client.submit(pickled_call, pickled, [seed, CHECK_STREAM, i], Parameter(draw), pure=False): i
                for i, draw in enumerate(draws) if i not in done}  # fmt: skip
     for future in as_completed(futures):
         done[futures[future]] = future.result()
         cache.write("check", futures[future], done[futures[future]])
         future.release()
-    return np.array([[done[i][_stat_name(j)] for j in range(len(model.targets))] for i in range(len(draws))])
+    values = np.array([[done[i][_stat_name(j)] for j in range(len(model.targets))] for i in range(len(draws))])
+    return values, len(futures)
 
 
 def check_table(targets, simulated: np.ndarray) -> pd.DataFrame:

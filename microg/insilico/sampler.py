@@ -43,15 +43,18 @@ def seeded_call(function, entropy: list[int]):
         return function()
 
 
-def _evaluate(simulate_one: bytes, entropy: list[int]) -> Particle:
-    """One evaluation on a worker; the generation's function is unpickled once per worker."""
-    if _LOADED[0] is not simulate_one:
-        _LOADED[:] = [simulate_one, cloudpickle.loads(simulate_one)]
-    return seeded_call(_LOADED[1], entropy)
+def pickled_call(function: bytes, entropy: list[int], *arguments):
+    """``function(*arguments)`` on a worker, seeded from ``entropy`` (``seeded_call``). The function
+    comes pickled with cloudpickle (by value where registered so, as Dask's own pickling may not),
+    and is unpickled once per worker and run."""
+    if _LOADED[0] is not function:
+        _LOADED[:] = [function, cloudpickle.loads(function)]
+    loaded = _LOADED[1]
+    return seeded_call(lambda: loaded(*arguments), entropy)
 
 
 _LOADED: list = [None, None]
-"""The worker's last generation function: (its pickled bytes, the function)."""
+"""The worker's last function: (its pickled bytes, the function)."""
 
 
 class EvaluationCache:
@@ -141,7 +144,7 @@ class OrderedDaskSampler(Sampler):
                 window = 2 * self._cores() + 2
                 while next_index <= bound and len(running) < window and next_index < max_eval:
                     if next_index not in done:
-                        running[self.client.submit(_evaluate, function, self._entropy(t, next_index), pure=False)] \
+                        running[self.client.submit(pickled_call, function, self._entropy(t, next_index), pure=False)] \
                             = next_index
                     next_index += 1
                 if not running:

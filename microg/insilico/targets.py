@@ -321,7 +321,7 @@ def _trials_source(trials: pd.DataFrame, protocol: Protocol, source: str, digest
         values = set(trials[column].dropna().astype(str))
         strange = sorted(values - set(known[column].values()))
         if strange:
-            raise TargetError(f"{source}: {column} = {strange[0]!r}: not a {column} of protocol {protocol.name!r} "
+            raise TargetError(f"{source}: {column} = {strange[0]!r}: not in protocol {protocol.name!r} "
                               f"(known: {', '.join(sorted(set(known[column].values())))})")
     targets, unused = data_targets(trials, source, seed)
     people = participant_cells(trials).groupby("group")["participant"].nunique()
