@@ -18,7 +18,8 @@ from click.testing import CliRunner
 
 from microg.cli import main
 from microg.insilico import simulate_trials
-from microg.participant import Population, Spread, default_population, read_population
+from microg.participant import Population, default_population, read_population
+from microg.participant.population import Spread
 from microg.study.protocol import load_protocol
 
 PROTOCOL = Path(__file__).parent / "protocols" / "recovery.toml"
