@@ -108,7 +108,7 @@ def _calibration_errors(command):
               "[default: the targets file's, else paper]; a study uses its own.")  # fmt: skip
 @click.option("--fit", "fit", default=None, metavar="NAME[:sd],...",
               help="The free values: NAME fits a parameter's population mean, NAME:sd its spread between people "
-                   "[default: hesitation_s, hesitation_s:sd, movement_slope, hold_margin_s, shape_caution, "
+                   "[default: hesitation_s, hesitation_s:sd, movement_slope, carry_slowdown, shape_caution, "
                    "learning_rate, aim_sd].")
 @click.option("--hold-out", "held_out", multiple=True, metavar="PATTERN",
               help="Numbers to report in the check but not fit (shell pattern on their names, e.g. 'attempts.*'); "

@@ -51,11 +51,14 @@ CHECK_STREAM = 0x434845
 """Mixed into the seeds of the posterior-predictive check's draws and studies."""
 CV_HIGH = 1.0
 """The largest coefficient of variation between people a fitted spread's prior allows."""
-DEFAULT_FIT = ("hesitation_s", "hesitation_s:sd", "movement_slope", "hold_margin_s", "shape_caution",
+PRIOR_FACTOR = 5.0
+"""A fitted mean's prior spans from the base's mean over this to the base's mean times this."""
+DEFAULT_FIT = ("hesitation_s", "hesitation_s:sd", "movement_slope", "carry_slowdown", "shape_caution",
                "learning_rate", "aim_sd")
-"""What ``--fit`` frees by default: the means of the parameters that move time (pauses, movement,
-holds), the object effect (caution with elongated objects), practice and precision (drops), and
-the spread between people of the largest source of time differences."""
+"""What ``--fit`` frees by default: the means of the parameters that move time (pauses, movements,
+carrying), the object effect (caution with elongated objects), practice and precision (drops),
+and the spread between people of the largest source of time differences. (``hold_margin_s`` does
+not move time in a session: the task's display shows when a hold is done.)"""
 LEVEL = 0.90
 """The credible and predictive intervals' level."""
 
@@ -67,34 +70,45 @@ class CalibrationError(ValueError):
 @dataclass(frozen=True)
 class Free:
     """One fitted value: the population mean of ``name`` (``what = "mean"``) or its spread between
-    people (``"sd"``, fitted as the coefficient of variation sd / mean)."""
+    people (``"sd"``, fitted as the coefficient of variation sd / mean), with its uniform prior
+    (``with_prior``): ``low`` and ``high`` on the value's own scale, pyabc working on their
+    logarithm where ``logged``."""
 
     name: str
     what: str = "mean"
+    low: float = 0.0
+    high: float = CV_HIGH
+    logged: bool = False
 
     @property
     def key(self) -> str:
         """How ``--fit`` and the posterior name it: ``NAME`` or ``NAME:sd``."""
         return self.name if self.what == "mean" else f"{self.name}:sd"
 
-    @property
-    def logged(self) -> bool:
-        """Whether pyabc works on its logarithm (a log-normal parameter whose bounds are positive)."""
-        return self.what == "mean" and SPEC[self.name].scale == "log" and SPEC[self.name].low > 0
+    def with_prior(self, base: Spread) -> Free:
+        """The value with its prior, from the base population's mean: a mean is log-uniform from
+        a fifth to five times the base's mean, inside the parameter's bounds (uniform over the
+        bounds for a fraction, or where the base's mean is 0); a spread's sd / mean is uniform in
+        [0, CV_HIGH]."""
+        spec = SPEC[self.name]
+        if self.what == "sd":
+            return replace(self, low=0.0, high=CV_HIGH, logged=False)
+        if spec.scale == "log" and base.mean > 0:
+            return replace(self, low=max(spec.low, base.mean / PRIOR_FACTOR), high=min(spec.high, base.mean * PRIOR_FACTOR),
+                           logged=True)  # fmt: skip
+        return replace(self, low=spec.low, high=spec.high, logged=False)
 
     @property
     def prior(self) -> tuple[float, float]:
-        """The uniform prior's bounds on pyabc's scale (the logarithm when ``logged``)."""
-        if self.what == "sd":
-            return 0.0, CV_HIGH
-        spec = SPEC[self.name]
-        return (np.log(spec.low), np.log(spec.high)) if self.logged else (spec.low, spec.high)
+        """The uniform prior's bounds on pyabc's scale."""
+        return (np.log(self.low), np.log(self.high)) if self.logged else (self.low, self.high)
 
-    def describe_prior(self) -> str:
-        spec = SPEC[self.name]
+    @property
+    def prior_text(self) -> str:
+        """The prior in words, e.g. ``log-uniform in [0.05, 1.25] s/bit``."""
         if self.what == "sd":
-            return f"{self.key}: sd / mean uniform in [0, {CV_HIGH:g}]"
-        return f"{self.key}: {'log-' if self.logged else ''}uniform in [{spec.low:g}, {spec.high:g}] {spec.unit}"
+            return f"sd / mean uniform in [0, {CV_HIGH:g}]"
+        return f"{'log-' if self.logged else ''}uniform in [{self.low:.4g}, {self.high:.4g}] {SPEC[self.name].unit}"
 
     def natural(self, theta: np.ndarray) -> np.ndarray:
         return np.exp(theta) if self.logged else np.asarray(theta, dtype=float)
@@ -158,6 +172,8 @@ class CalibrationRequest:
             raise CalibrationError("--fit: free at least one value")
         if not any(not t.held_out for t in self.targets):
             raise CalibrationError(f"{self.source}: every number is held out: nothing is left to fit")
+        base = self.population.parameters
+        object.__setattr__(self, "free", tuple(f.with_prior(base[f.name]) for f in self.free))  # priors from the base
 
     @property
     def population(self) -> Population:
@@ -171,7 +187,7 @@ class CalibrationRequest:
             "sha256": self.digest,
             "protocol_sha256": self.protocol.sha256,
             "targets": [[t.key, t.value, t.se, t.held_out] for t in self.targets],
-            "free": [f.key for f in self.free],
+            "free": [[f.key, f.prior_text] for f in self.free],
             "base_sha256": hashlib.sha256(self.population.to_toml().encode()).hexdigest(),
             "particles": self.particles,
             "generations": self.generations,
@@ -204,7 +220,7 @@ class StudyModel:
 
     def value(self, parameters, free: Free, otherwise):
         chosen = [f for f in self.free if f.key == free.key]
-        return float(chosen[0].natural(parameters[_pyabc_name(free)])) if chosen else otherwise
+        return float(chosen[0].natural(parameters[_pyabc_name(chosen[0])])) if chosen else otherwise
 
     def __call__(self, parameters) -> dict:
         study_seed = int(np.random.randint(0, 2**31 - 1))
@@ -213,7 +229,8 @@ class StudyModel:
 
 
 def _pyabc_name(free: Free) -> str:
-    return f"{free.name}.{'log_mean' if free.logged else 'mean' if free.what == 'mean' else 'cv'}"
+    """The name pyabc knows the value by (its value on pyabc's scale: a logarithm where logged)."""
+    return f"{free.name}.{'cv' if free.what == 'sd' else 'log_mean' if free.logged else 'mean'}"
 
 
 def _stat_name(index: int) -> str:
@@ -342,7 +359,7 @@ def posterior_table(free, parameters: pd.DataFrame, weights: np.ndarray) -> pd.D
     for f in free:
         values = f.natural(parameters[_pyabc_name(f)].to_numpy())
         rows.append({"value": f.key, "unit": "sd / mean" if f.what == "sd" else SPEC[f.name].unit,
-                     "prior": f.describe_prior().split(": ", 1)[1],
+                     "prior": f.prior_text,
                      "mean": float(np.sum(values * weights)),
                      "ci_low": _weighted_quantile(values, weights, tail),
                      "ci_high": _weighted_quantile(values, weights, 1 - tail)})  # fmt: skip
@@ -457,7 +474,7 @@ def _calibration_table(request: CalibrationRequest, studies: int, epsilon: float
         "measures_held_out": [t.key for t in request.targets if t.held_out],
         "not_used": list(request.unused),
         "free": [f.key for f in request.free],
-        "priors": [f.describe_prior() for f in request.free],
+        "priors": [f"{f.key}: {f.prior_text}" for f in request.free],
         "method": "ABC-SMC (pyabc), one simulated study per particle, distance the RMS of the fitted numbers' gaps in "
                   "standard errors, epsilon the median of the last generation's distances",
         "particles": request.particles,

@@ -195,9 +195,10 @@ def _selection(entry: dict, at: str, known: dict) -> tuple[tuple[str, str], ...]
 
 def _number(entry: dict, key: str, at: str, positive: bool = False) -> float:
     value = entry[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or (positive and value <= 0) or value < 0 and key != "slope":
-        kind = "a positive number" if positive else "a finite number" + ("" if key == "slope" else " >= 0")
+    signed = key == "slope"
+    number = not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+    if not number or (positive and value <= 0) or (not signed and value < 0):
+        kind = "a positive number" if positive else "a finite number" + ("" if signed else " >= 0")
         raise TargetError(f"{at}.{key} = {value!r}: must be {kind}")
     return float(value)
 

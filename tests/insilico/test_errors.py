@@ -94,3 +94,10 @@ def test_options_that_name_nothing(tmp_path):
     assert "--hold-out 'attempts.*': matches no number" in calibrate(*common, "--hold-out", "attempts.*")
     assert "every number is held out" in calibrate(*common, "--hold-out", "time_s.*")
     assert "give exactly one of STUDY, --trials FILE, --targets FILE" in calibrate("--out", tmp_path / "out.toml")
+
+
+def test_a_folder_that_is_no_study(tmp_path):
+    output = calibrate(tmp_path / "nothing", "--out", tmp_path / "out.toml")
+    assert f"no study in {tmp_path / 'nothing'}" in output
+    assert "--protocol: a study is simulated with its own protocol" in calibrate(
+        tmp_path / "nothing", "--protocol", "paper", "--out", tmp_path / "out.toml")
