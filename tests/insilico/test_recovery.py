@@ -31,6 +31,7 @@ default's."""
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)  # about 40 whole simulated studies on 2 shared cores
 def test_a_calibration_recovers_the_means_of_a_known_population(tmp_path):
     truth = Population(dict(default_population().parameters) | TRUTH)
     assert all(truth.parameters[name].mean != default_population().parameters[name].mean for name in TRUTH)
