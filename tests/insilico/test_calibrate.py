@@ -1,6 +1,6 @@
 """``microg.insilico.calibrate``'s machinery on Dask: the same seed gives the same posterior with one
 worker and with two (a real cluster), and a run killed mid-generation continues (``resume``) to the
-posterior of an uninterrupted run. The studies are the closed form of tests/insilico/engine.py, so
+posterior of an uninterrupted run. The studies are the closed form of tests/insilico/closed_form.py, so
 that each run takes seconds; test_recovery.py calibrates against the real in-silico study."""
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from microg.insilico.calibrate import CalibrationError, calibrate
 from microg.participant import read_population
 from microg.power.run import dask_client
 
-from . import engine
-from .engine import closed_form_request, closed_form_trials
+from . import closed_form
+from .closed_form import closed_form_request, closed_form_trials
 
-cloudpickle.register_pickle_by_value(engine)  # the workers of the external cluster cannot import tests/
+cloudpickle.register_pickle_by_value(closed_form)  # the workers of the external cluster cannot import tests/
 ROOT = Path(__file__).parents[2]
 FILES = ("posterior.csv", "calibration.csv")
 WAIT = 300.0
@@ -99,7 +99,7 @@ def evaluations(folder: Path, stage: str) -> int:
 def test_a_killed_run_resumes_to_the_posterior_of_an_uninterrupted_one(dask_cluster, tmp_path):
     cut = tmp_path / "cut"
     log = (tmp_path / "child.log").open("w")
-    child = subprocess.Popen([sys.executable, "-m", "tests.insilico.engine", dask_cluster.address,
+    child = subprocess.Popen([sys.executable, "-m", "tests.insilico.closed_form", dask_cluster.address,
                               str(cut / "profile.toml")], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT)  # fmt: skip
     try:
         deadline = time.monotonic() + WAIT
