@@ -1,0 +1,103 @@
+"""Bad input to ``microg participant calibrate``: clear errors naming the file, key and value,
+before any simulated study runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from microg.cli import main
+
+HERE = Path(__file__).parent
+PROTOCOL = HERE / "protocols" / "recovery.toml"
+TARGET = '''
+n_per_group = 4
+[[targets]]
+measure = "time_s"
+mean = 12.0
+sd = 2.0
+'''
+
+
+def calibrate(*arguments) -> str:
+    result = CliRunner().invoke(main, ["participant", "calibrate", *map(str, arguments)])
+    assert result.exit_code != 0, result.output
+    assert "Traceback" not in result.output
+    return result.output
+
+
+def test_a_profile_with_an_unknown_parameter(tmp_path):
+    base = tmp_path / "base.toml"
+    base.write_text("[parameters.grip_strength]\nmean = 1.0\nsd = 0.1\n")
+    targets = tmp_path / "targets.toml"
+    targets.write_text(TARGET)
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--base", base, "--out", tmp_path / "out.toml")
+    assert f"{base}: [parameters.grip_strength]: unknown parameter" in output
+
+
+def test_a_profile_with_a_negative_sd(tmp_path):
+    base = tmp_path / "base.toml"
+    base.write_text("[parameters.aim_sd]\nmean = 0.004\nsd = -0.001\n")
+    targets = tmp_path / "targets.toml"
+    targets.write_text(TARGET)
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--base", base, "--out", tmp_path / "out.toml")
+    assert f"{base}: parameters.aim_sd.sd = -0.001: must be >= 0" in output
+
+
+@pytest.mark.parametrize("entry, message", [
+    ('measure = "speed"\nmean = 1.0\nse = 0.1', "targets[0].measure = 'speed': unknown measure (known: time_s, "
+                                                "attempts, completed)"),
+    ('measure = "time_s"\ngroup = "X"\nmean = 1.0\nse = 0.1', "targets[0].group = 'X': unknown group (known: B, V)"),
+    ('measure = "time_s"\nobject = "cube"\nversus = { object = "F" }\nratio = 2.0\nse = 0.1',
+     "targets[0].versus.object = 'F': unknown object (known: C)"),
+    ('measure = "time_s"\nmean = 10.0', "targets[0].mean: a mean without its sd needs se"),
+    ('measure = "attempts"\ngroup = "B"\nversus = { group = "V" }\nratio = 2.0', "targets[0].ratio: needs se"),
+    ('measure = "time_s"\nmean = 10.0\nsd = -2.0', "targets[0].sd = -2.0: must be a finite number >= 0"),
+    ('measure = "time_s"\nmedian = 10.0\nse = 1.0', "targets[0].median: unknown key"),
+])  # fmt: skip
+def test_a_target_that_cannot_be_fitted(tmp_path, entry, message):
+    targets = tmp_path / "targets.toml"
+    targets.write_text(f"n_per_group = 4\n[[targets]]\n{entry}\n")
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--out", tmp_path / "out.toml")
+    assert f"{targets}: {message}" in output
+
+
+def test_a_pilot_too_small_to_fit(tmp_path):
+    rows = [["P1", "V", "stage1", "impulse_penetration", "C", True, 11.0, 0, 0],
+            ["P2", "B", "stage1", "impulse_penetration", "C", True, 12.0, 1, 0],
+            ["P3", "B", "stage1", "impulse_penetration", "C", True, 14.0, 0, 0]]
+    trials = tmp_path / "pilot.csv"
+    pd.DataFrame(rows, columns=["participant", "group", "phase", "interaction", "object", "completed", "time_s",
+                                "attempts", "task_index"]).to_csv(trials, index=False)  # fmt: skip
+    output = calibrate("--trials", trials, "--protocol", PROTOCOL, "--out", tmp_path / "out.toml")
+    assert f"{trials}: group = 'V': 1 participant; a calibration needs at least two per group" in output
+
+
+def test_a_pilot_with_an_object_the_protocol_lacks(tmp_path):
+    rows = [[f"P{i}", group, "stage1", "impulse_penetration", "mug", True, 11.0, 0, 0]
+            for i, group in enumerate("VVBB")]
+    trials = tmp_path / "pilot.csv"
+    pd.DataFrame(rows, columns=["participant", "group", "phase", "interaction", "object", "completed", "time_s",
+                                "attempts", "task_index"]).to_csv(trials, index=False)  # fmt: skip
+    output = calibrate("--trials", trials, "--protocol", PROTOCOL, "--out", tmp_path / "out.toml")
+    assert f"{trials}: object = 'mug': not in protocol 'recovery' (known: C)" in output
+
+
+def test_options_that_name_nothing(tmp_path):
+    targets = tmp_path / "targets.toml"
+    targets.write_text(TARGET)
+    common = ["--targets", targets, "--protocol", PROTOCOL, "--out", tmp_path / "out.toml"]
+    assert "--fit 'grip_strength': give NAME" in calibrate(*common, "--fit", "grip_strength")
+    assert "--hold-out 'attempts.*': matches no number" in calibrate(*common, "--hold-out", "attempts.*")
+    assert "every number is held out" in calibrate(*common, "--hold-out", "time_s.*")
+    assert "give exactly one of STUDY, --trials FILE, --targets FILE" in calibrate("--out", tmp_path / "out.toml")
+
+
+def test_a_folder_that_is_no_study(tmp_path):
+    output = calibrate(tmp_path / "nothing", "--out", tmp_path / "out.toml")
+    assert f"no study in {tmp_path / 'nothing'}" in output
+    assert "--protocol: a study is simulated with its own protocol" in calibrate(
+        tmp_path / "nothing", "--protocol", "paper", "--out", tmp_path / "out.toml")
