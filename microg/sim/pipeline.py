@@ -33,7 +33,7 @@ from .integrate import add_gravity, rotate_constant, rotate_free, update_positio
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
 from .state import (CLOCK_DRIFT, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS,
-                    unpack, unpack_mesh, unpack_params)
+                    OBJECT_COUNT, unpack, unpack_mesh, unpack_params)
 from .table import table_contacts
 from .vec import entry, kernel, rotation
 
@@ -105,7 +105,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
 
     @entry
     def advance(params, ints, reals, flags, counts, times, present, track, points, widths):
-        n = ints[0]
+        n = ints[OBJECT_COUNT]
         p = unpack_params(params, ints, n)
         if meshes:
             mesh = unpack_mesh(params, ints, n)
