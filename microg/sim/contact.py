@@ -147,8 +147,11 @@ def detect(p, s, o, rot, anchored, mesh):
 
     A new overlap starts a contact at the closest surface point (an *onset*); an anchored contact
     (god-object models) lasts while the sphere is below the anchor's tangent plane and over its
-    face; an unanchored one (the soft hand) is found afresh every step. A fresh phalanx found
-    inside becomes a ghost."""
+    face. An unanchored one (the soft hand) has no god-object: its point is the one of its face
+    under the phalanx, found again every step, and it lasts on the same terms, then is looked for
+    afresh (a finger that slid onto another face). Kept on the face it entered, a phalanx that a
+    coarse step takes past the middle of a thin plate still pushes it back, not on through its far
+    face. A fresh phalanx found inside becomes a ghost."""
     shape, half_size = p.shape[o], row(p.half_size, o)
     position = row(s.position, o)
     valid, fresh, radius, hand = s.valid, s.fresh, s.radius, s.hand_position
@@ -163,22 +166,29 @@ def detect(p, s, o, rot, anchored, mesh):
         if ghost[k, o]:
             ghost[k, o] = surface_point(mesh, o, shape, half_size, local)[2] < rho
             continue
-        if active[k, o] and anchored:
+        was = active[k, o]
+        if was and not anchored:  # the soft hand presses on the face it entered, at the point under the phalanx
+            under = add(local, scale(dot(sub(cell(anchor, k, o), local), cell(normal, k, o)), cell(normal, k, o)))
+            point, surface_normal = project_on_face(mesh, o, shape, half_size, under, cell(normal, k, o))
+            set_cell(anchor, k, o, point)
+            set_cell(normal, k, o, surface_normal)
+        if was:
             delta = dot(sub(cell(anchor, k, o), local), cell(normal, k, o)) + rho
+            beyond = rho if anchored else 0.0  # a god-object rests on its face's edge; a soft hand presses the edge
             if delta <= 0.0:
                 active[k, o] = False
             elif mesh is not None and shape == MESH:
-                active[k, o] = mesh_over_face(mesh, o, local, cell(anchor, k, o), cell(normal, k, o), rho)
+                active[k, o] = mesh_over_face(mesh, o, local, cell(anchor, k, o), cell(normal, k, o), beyond)
             else:
-                active[k, o] = over_face(shape, half_size, local, cell(normal, k, o), rho)
+                active[k, o] = over_face(shape, half_size, local, cell(normal, k, o), beyond)
             depth[k, o] = delta if active[k, o] else 0.0
-        else:
+        if not was or not (anchored or active[k, o]):  # a new contact, or the soft hand's off its face
             point, surface_normal, distance = surface_point(mesh, o, shape, half_size, local)
             overlap = distance < rho
-            if overlap and fresh[k] and not active[k, o]:
+            if overlap and fresh[k] and not was:
                 ghost[k, o] = True
                 continue
-            onset[k, o] = overlap and not active[k, o]
+            onset[k, o] = overlap and not was
             active[k, o] = overlap
             depth[k, o] = rho - distance if overlap else 0.0
             if overlap:

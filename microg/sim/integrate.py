@@ -16,10 +16,13 @@ effect, at constant world angular velocity.
 from __future__ import annotations
 
 
+from .scene import ANGULAR_INTEGRATORS
 from .vec import (add, conjugated, cross, kernel, mat_t_vec, mat_vec, quat_mul, quat_turn, quat_unit, rotation, row,
                   scale, set_row)
 
-MIDPOINT, SEMI_IMPLICIT_EULER, EXPLICIT_EULER = 0, 1, 2
+MIDPOINT, SEMI_IMPLICIT_EULER, EXPLICIT_EULER = (ANGULAR_INTEGRATORS.index(name) for name in
+                                                 ("midpoint", "semi_implicit_euler", "explicit_euler"))
+"""The scene's ``angular_integrator`` as the model's ``angular_method``."""
 
 
 @kernel

@@ -16,7 +16,10 @@ Each set of effects compiles once and is cached on disk (``microg.skeleton.cache
 
 A step in which an object would turn more than ``MAX_TURN`` is cut into as many parts as that
 takes (a hard impact can spin a light bar to hundreds of rad/s, which a contact linearised over a
-whole step would no longer follow); almost always it is one.
+whole step would no longer follow); almost always it is one. In the baselines, whose contact springs
+take a bounce over several steps, a step is cut too where a spring on a light object would swing
+through more than ``MAX_SWING`` of its oscillation in one (docs/physics.md, "The baselines at
+coarse steps"); the paper's model takes a bounce by its impulse and is not cut for its springs.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .bodies import MESH
 from .contact import detect, sweep
 from .hand_path import move_hand, take_hands
 from .impulse import apply_impulses, spring_onsets
@@ -33,14 +37,17 @@ from .integrate import add_gravity, rotate_constant, rotate_free, update_positio
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
 from .state import (CLOCK_DRIFT, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS,
-                    unpack, unpack_mesh, unpack_params)
+                    OBJECT_COUNT, unpack, unpack_mesh, unpack_params)
 from .table import table_contacts
-from .vec import entry, kernel, rotation
+from .vec import add, cell, entry, kernel, mat_t_vec, norm, rotation, row, scale, sub
 
 CONTACT_EFFECTS = frozenset({"impulse", "penetration", "soft_hand"})
 MAX_TURN = 0.1
 """rad: the most an object may turn in one physics step; faster spins cut the step into parts."""
 MAX_PARTS = 64
+MAX_SWING = 1.0
+"""rad: the most of its oscillation (w h) a contact spring of a baseline may swing through in one
+physics step; stiffer contacts on lighter objects cut the step into parts."""
 
 
 @kernel
@@ -62,13 +69,53 @@ def steps_due(s, h):
 
 
 @kernel
-def parts_of_step(s, h):
-    """Into how many parts this step is cut so that no object turns more than ``MAX_TURN`` in one."""
-    fastest = 0.0
+def parts_of_step(p, s, h, stiffness):
+    """Into how many parts this step is cut so that no object turns more than ``MAX_TURN`` in one,
+    and, for contact springs of ``stiffness`` (N/m; 0: not cut for them), none swings through more
+    than ``MAX_SWING`` of its oscillation."""
+    fastest, stiffest = 0.0, 0.0
     for o in range(s.angular_velocity.shape[0]):
         w = s.angular_velocity[o]
         fastest = max(fastest, w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-    return min(MAX_PARTS, max(1, math.ceil(math.sqrt(fastest) * h / MAX_TURN)))
+        if stiffness > 0.0:
+            stiffest = max(stiffest, stiffness * contact_compliance(p, s, o, h))
+    return min(MAX_PARTS, max(1, math.ceil(math.sqrt(fastest) * h / MAX_TURN),
+                              math.ceil(math.sqrt(stiffest) * h / MAX_SWING)))
+
+
+@kernel
+def arm_compliance(p, o, r, margin):
+    """An upper bound on n^T K n (Eq. 12) in any direction n for a contact at body-frame offset r
+    (give or take ``margin``) on object o: 1/m plus the trace of [r]x^T I^-1 [r]x, the sum over the
+    principal axes of (distance of r from the axis)^2 / I."""
+    total = 1.0 / p.mass[o]
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        off_axis = math.sqrt(r[j] * r[j] + r[k] * r[k]) + margin
+        total += off_axis * off_axis / p.inertia[o, i]
+    return total
+
+
+@kernel
+def contact_compliance(p, s, o, h):
+    """An upper bound on the sum of n^T K n over the contacts object o has, or may start within a
+    step of h (a phalanx that is within reach of its bounding sphere): times a spring's stiffness,
+    the square of the fastest oscillation they can set up. A contact's arm is its god-object
+    phalanx's centre; a phalanx not in contact is taken anywhere within its radius of its centre."""
+    rot = rotation(s.orientation[o])
+    bound = norm(row(p.half_size, o)) * (2.0 if p.shape[o] == MESH else 1.0)  # a mesh's centre is anywhere in its box
+    reach = h * (norm(row(s.velocity, o)) + norm(row(s.angular_velocity, o)) * bound)
+    total = 0.0
+    for k in range(s.active.shape[0]):
+        if not s.valid[k] or s.ghost[k, o]:
+            continue
+        if s.active[k, o]:
+            total += arm_compliance(p, o, add(cell(s.anchor, k, o), scale(s.radius[k], cell(s.normal, k, o))), 0.0)
+            continue
+        offset = sub(row(s.hand_position, k), row(s.position, o))
+        if norm(offset) - bound - s.radius[k] <= reach + h * norm(row(s.hand_velocity, k)):
+            total += arm_compliance(p, o, mat_t_vec(rot, offset), s.radius[k])
+    return total
 
 
 @kernel
@@ -105,8 +152,10 @@ def specialise(effects: frozenset[str], meshes: bool = False):
 
     @entry
     def step_worlds(params, ints, reals, flags, counts, times, present, track, points, widths):
-        n = ints[0]
+        n = ints[OBJECT_COUNT]
         p = unpack_params(params, ints, n)
+        # the contact springs a step is cut for: a model's without the impulse phase (the baselines)
+        springs = p.soft_stiffness if soft_hand else p.penetration_stiffness if penetration and not impulse else 0.0
         if meshes:
             mesh = unpack_mesh(params, ints, n)
         else:
@@ -118,7 +167,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
             take_hands(s, present[world], track[world], points[world], widths[world], interval)
             due = steps_due(s, p.dt)
             while s.counter[COUNT_STEPS] < due:
-                parts = parts_of_step(s, p.dt)
+                parts = parts_of_step(p, s, p.dt, springs)
                 h = p.dt / parts
                 for _ in range(parts):
                     move_hand(s, s.clock[CLOCK_PREVIOUS_FRAME], s.clock[CLOCK_FRAME], s.clock[CLOCK_TIME], h)

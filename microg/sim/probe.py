@@ -15,13 +15,13 @@ from .contact import detect
 from .impulse import apply_impulses as _apply_impulses
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
-from .state import unpack, unpack_params
+from .state import OBJECT_COUNT, unpack, unpack_params
 from .vec import entry, rotation
 
 
 @entry
 def _detect(params, ints, reals, flags, counts, anchored):
-    n = ints[0]
+    n = ints[OBJECT_COUNT]
     p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
     for o in range(n):
         detect(p, s, o, rotation(s.orientation[o]), anchored, None)
@@ -29,7 +29,7 @@ def _detect(params, ints, reals, flags, counts, anchored):
 
 @entry
 def _impulses(params, ints, reals, flags, counts, springs):
-    n = ints[0]
+    n = ints[OBJECT_COUNT]
     p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
     for o in range(n):
         _apply_impulses(p, s, o, rotation(s.orientation[o]), springs, p.dt)
@@ -37,7 +37,7 @@ def _impulses(params, ints, reals, flags, counts, springs):
 
 @entry
 def _forces(params, ints, reals, flags, counts, cone, penetration, soft_hand, friction, h):
-    n = ints[0]
+    n = ints[OBJECT_COUNT]
     p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
     wrenches = np.zeros((n, 6))
     stiffness, damping = np.zeros((6, 6)), np.zeros((6, 6))

@@ -1,11 +1,17 @@
-"""The world's changing state as three flat buffers, and the named views the physics reads.
+"""The world's changing state and the model's numbers as flat buffers, and the named views the
+physics reads.
 
 Everything that changes while a world runs lives in three arrays: ``reals`` (float64), ``flags``
 (bool) and ``counts`` (int64). Copying a world's state is three ``memcpy``s, a batch of worlds is
 the same three arrays with a leading world axis, and a compiled call takes three arguments
-whatever the scene. The named fields (``position``, ``active``, ...) are views into them, laid out
-in ``FIELDS`` order: ``layout`` gives Python their place, ``unpack`` gives the compiled kernels
-the same views as a ``STATE`` StructRef (tests check that the two agree).
+whatever the scene. The model's numbers (``world.Model``) are two more, ``reals`` and ``ints``.
+
+Each buffer's contents are declared once: ``FIELDS`` for the state, ``PARAMETERS`` for the model
+(name, buffer, shape; a parameter also says where ``make_model`` takes it from). ``places`` lays a
+declaration out, field after field, as ``Place``s; Python reads a field through them (``view``,
+``parameter``), and the compiled kernels that give the physics its named views (``unpack``,
+``unpack_params``) are made from them (``views``): no offset is written by hand, and a new field
+or parameter is one line of its declaration (and its use).
 
 Shapes: N objects, K = 40 phalanx slots (``hand.SLOTS``); contact arrays are (K, N, ...), anchors
 and normals in the object's body frame.
@@ -13,13 +19,18 @@ and normals in the object's body frame.
 
 from __future__ import annotations
 
+import textwrap
+from collections import namedtuple
 from functools import lru_cache
+from typing import Callable, NamedTuple
 
 import numpy as np
 from numba import types
 from numba.experimental import structref
 
 from microg.skeleton import SLOTS
+from .bodies import SHAPES
+from .scene import ANGULAR_INTEGRATORS
 from .vec import kernel
 
 CLOCK_TIME, CLOCK_START, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_DRIFT = 0, 1, 2, 3, 4
@@ -62,6 +73,95 @@ FIELDS: tuple[tuple[str, int, tuple], ...] = (
 )
 """Every field of the state: name, buffer, shape (N: objects, K: phalanx slots)."""
 
+MODEL_REALS, MODEL_INTS = 0, 1
+OBJECT_COUNT = 0
+"""Index of the number of objects in the model's ints: it opens them, and every place depends on it."""
+PARAMETERS: tuple[tuple[str, int, tuple, Callable], ...] = (
+    ("angular_method", MODEL_INTS, (), lambda scene: ANGULAR_INTEGRATORS.index(scene.angular_integrator)),
+    ("shape", MODEL_INTS, ("N",), lambda spec: SHAPES.index(spec.shape)),
+    # a box's half extents; a sphere's radius in every column; a mesh's half extent
+    ("half_size", MODEL_REALS, ("N", 3), lambda spec: spec.half_extents),
+    ("mass", MODEL_REALS, ("N",), lambda spec: spec.mass),
+    ("inertia", MODEL_REALS, ("N", 3), lambda spec: spec.principal_inertia),  # principal moments, body frame
+    ("restitution", MODEL_REALS, ("N",), lambda spec: spec.material.restitution),
+    ("static_friction", MODEL_REALS, ("N",), lambda spec: spec.material.static_friction),
+    ("dynamic_friction", MODEL_REALS, ("N",), lambda spec: spec.material.dynamic_friction),
+    ("gravity", MODEL_REALS, (3,), lambda scene: scene.gravity),
+    ("penetration_stiffness", MODEL_REALS, (), lambda scene: scene.penetration_stiffness),
+    ("resting_tolerance", MODEL_REALS, (), lambda scene: scene.resting_tolerance),
+    ("dt", MODEL_REALS, (), lambda scene: scene.dt),
+    ("soft_stiffness", MODEL_REALS, (), lambda scene: scene.soft_hand.stiffness),
+    ("soft_damping", MODEL_REALS, (), lambda scene: scene.soft_hand.damping),
+    ("soft_slip_velocity", MODEL_REALS, (), lambda scene: scene.soft_hand.slip_velocity),
+    # the table's settings are 0 in a scene without one (its kernel is not compiled in then)
+    ("table_height", MODEL_REALS, (), lambda scene: getattr(scene.table, "height", 0.0)),
+    ("table_stiffness", MODEL_REALS, (), lambda scene: getattr(scene.table, "stiffness", 0.0)),
+    ("table_damping", MODEL_REALS, (), lambda scene: getattr(scene.table, "damping", 0.0)),
+    ("table_slip_velocity", MODEL_REALS, (), lambda scene: getattr(scene.table, "slip_velocity", 0.0)),
+)
+"""Every number of the model: name (the kernels' field, ``p.mass``, and the Model's attribute),
+buffer, shape (N: objects), and where ``make_model`` takes it from: a function of each object's
+``ObjectSpec`` (shape N, ...) or of the ``Scene``. A new parameter is one line here and its use."""
+
+
+class Place(NamedTuple):
+    """Where a field lies in its buffer for n objects: from ``start + n * start_per_object``, with
+    extents ``extent[i] + n * extent_per_object[i]`` (linear in n: a shape names N at most once);
+    the extents past a field's dimensions are 1 and 0."""
+
+    buffer: int
+    start: int
+    start_per_object: int
+    extent: tuple[int, int, int]
+    extent_per_object: tuple[int, int, int]
+
+
+def size(place: Place) -> tuple[int, int]:
+    """A field's number of entries as (fixed, per object): it holds fixed + n * per_object."""
+    entries = int(np.prod([e for e, p in zip(place.extent, place.extent_per_object) if not p]))
+    return (0, entries) if any(place.extent_per_object) else (entries, 0)
+
+
+def places(declaration, opening: tuple[int, ...]):
+    """The ``Place`` of every declared field, laid out in declaration order in its buffer after the
+    ``opening`` entries of each; a named tuple by field name."""
+    start = [(first, 0) for first in opening]
+    laid = {}
+    for name, buffer, shape, *_ in declaration:
+        extent = tuple(0 if d == "N" else SLOTS if d == "K" else d for d in shape) + (1,) * (3 - len(shape))
+        per_object = tuple(1 if d == "N" else 0 for d in shape) + (0,) * (3 - len(shape))
+        laid[name] = place = Place(buffer, *start[buffer], extent, per_object)
+        fixed, by_object = size(place)
+        start[buffer] = (start[buffer][0] + fixed, start[buffer][1] + by_object)
+    return namedtuple("Places", laid)(**laid)
+
+
+def tail(laid, buffer: int) -> Place:
+    """The empty place just past the last field of ``buffer``: where what follows them starts."""
+    last = [place for place in laid if place.buffer == buffer][-1]
+    fixed, by_object = size(last)
+    return Place(buffer, last.start + fixed, last.start_per_object + by_object, (0, 1, 1), (0, 0, 0))
+
+
+PLACES = places(FIELDS, opening=(0, 0, 0))
+PARAMETER_PLACES = places(PARAMETERS, opening=(0, 1))
+"""The model's places: its reals start with the parameters, its ints with the number of objects
+(``OBJECT_COUNT``)."""
+MESH_REALS, MESH_INTS = tail(PARAMETER_PLACES, MODEL_REALS), tail(PARAMETER_PLACES, MODEL_INTS)
+"""Where the model's buffers' mesh tails start (``unpack_mesh``)."""
+
+
+def where(place: Place, n_objects: int, dimensions: int) -> tuple[int, int, tuple[int, ...]]:
+    """A field's start, stop and shape in its buffer for ``n_objects`` objects."""
+    start = place.start + n_objects * place.start_per_object
+    shape = tuple(e + n_objects * p for e, p in zip(place.extent, place.extent_per_object))[:dimensions]
+    return start, start + int(np.prod(shape)), shape
+
+
+def _array(dtype, ndim: int):
+    return types.Array(dtype, ndim, "C")
+
+
 @structref.register
 class StructType(types.StructRef):
     """Named fields passed by reference (a numba StructRef): what the kernels get as the state and the
@@ -73,26 +173,64 @@ class StructType(types.StructRef):
         return tuple((name, types.unliteral(typ)) for name, typ in fields)
 
 
-def _array(dtype, ndim: int):
-    return types.Array(dtype, ndim, "C")
-
-
 STATE = StructType([(name, _array({REALS: types.float64, FLAGS: types.bool_, COUNTS: types.int64}[buffer],
                                   len(shape))) for name, buffer, shape in FIELDS])
+PARAMS = StructType([(name, _array(dtype, len(shape)) if shape else dtype)
+                     for name, buffer, shape, _ in PARAMETERS
+                     for dtype in ({MODEL_REALS: types.float64, MODEL_INTS: types.int64}[buffer],)])
+"""What the kernels read of the model (``world.Model``)."""
+
+
+def _span(place: Place, dimensions: int) -> tuple[str, str, str]:
+    """A field's start, stop and shape (of two or more dimensions) for n objects as source text:
+    ``5``, ``5 + 3 * n``, ``(n, 3)``."""
+    def linear(fixed: int, per_object: int) -> str:
+        terms = [str(fixed)] * bool(fixed or not per_object)
+        return " + ".join(terms + [f"{per_object} * n" if per_object > 1 else "n"] * bool(per_object))
+
+    fixed, per_object = size(place)
+    extents = ["n" if p else str(e) for e, p in zip(place.extent, place.extent_per_object)][:dimensions]
+    return (linear(place.start, place.start_per_object),
+            linear(place.start + fixed, place.start_per_object + per_object), f"({', '.join(extents)})")
+
+
+def views(name: str, struct: str, declaration, laid, buffers: tuple[str, ...], doc: str):
+    """The kernel ``name(*buffers, n)`` that gives the ``declaration``'s fields as a ``struct`` of
+    views into the buffers (the number, for a field of shape ()), made from their places ``laid``:
+    one line a field, ``s.position = reals[5:5 + 3 * n].reshape((n, 3))``, and no offset written by
+    hand. The source is compiled as code of this file, in its namespace, so numba caches the kernel
+    like any other (across processes: checked with ``NUMBA_DEBUG_CACHE=1``), and it compiles to what
+    a hand-written one would: the cold start did not grow (written as calls of view helpers instead,
+    it grew by about 1 s in 20). The kernel's docstring shows its source."""
+    lines = [f"def {name}({', '.join(buffers)}, n):", f"    s = structref.new({struct})"]
+    for field, buffer, shape, *_ in declaration:
+        start, stop, extents = _span(getattr(laid, field), len(shape))
+        whole = f"{buffers[buffer]}[{start}:{stop}]"
+        lines.append(f"    s.{field} = " + (f"{buffers[buffer]}[{start}]" if not shape else
+                                           whole if len(shape) == 1 else f"{whole}.reshape({extents})"))
+    source = "\n".join(lines + ["    return s"])
+    namespace = {}
+    exec(compile(source, __file__, "exec"), globals(), namespace)
+    function = namespace[name]
+    function.__module__, function.__doc__ = __name__, f"{doc}\n\n{textwrap.indent(source, '    ')}"
+    return kernel(function)
+
+
+unpack = views("unpack", "STATE", FIELDS, PLACES, ("reals", "flags", "counts"),
+               "One world's buffers as a ``STATE`` of views, at their ``PLACES``:")
+unpack_params = views("unpack_params", "PARAMS", PARAMETERS, PARAMETER_PLACES, ("reals", "ints"),
+                      "The model's buffers as ``PARAMS`` (arrays are views), at their ``PARAMETER_PLACES``:")
 
 
 @lru_cache(maxsize=None)
 def layout(n_objects: int) -> tuple[dict[str, tuple[int, int, int, tuple[int, ...]]], tuple[int, int, int]]:
-    """Where each field lives for ``n_objects`` objects: name -> (buffer, start, stop, shape), and
-    the three buffer sizes."""
+    """Where each field of the state lives for ``n_objects`` objects: name -> (buffer, start, stop,
+    shape), and the three buffer sizes."""
+    fields = {name: (buffer, *where(getattr(PLACES, name), n_objects, len(shape))) for name, buffer, shape in FIELDS}
     sizes = [0, 0, 0]
-    places = {}
-    for name, buffer, template in FIELDS:
-        shape = tuple(n_objects if d == "N" else SLOTS if d == "K" else d for d in template)
-        size = int(np.prod(shape))
-        places[name] = (buffer, sizes[buffer], sizes[buffer] + size, shape)
-        sizes[buffer] += size
-    return places, (sizes[0], sizes[1], sizes[2])
+    for buffer, _, stop, _ in fields.values():
+        sizes[buffer] = max(sizes[buffer], stop)
+    return fields, (sizes[0], sizes[1], sizes[2])
 
 
 def empty_buffers(n_objects: int, worlds: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -109,109 +247,27 @@ def view(buffers, n_objects: int, name: str) -> np.ndarray:
     return buffers[buffer][start:stop].reshape(shape)
 
 
-@kernel
-def unpack(reals, flags, counts, n):
-    """One world's buffers as a ``STATE`` of views, in ``FIELDS`` order."""
-    k = SLOTS
-    s = structref.new(STATE)
-    r = 0
-    s.clock = reals[r:r + 5]
-    r += 5
-    s.position = reals[r:r + 3 * n].reshape((n, 3))
-    r += 3 * n
-    s.orientation = reals[r:r + 4 * n].reshape((n, 4))
-    r += 4 * n
-    s.velocity = reals[r:r + 3 * n].reshape((n, 3))
-    r += 3 * n
-    s.angular_velocity = reals[r:r + 3 * n].reshape((n, 3))
-    r += 3 * n
-    s.hand_position = reals[r:r + 3 * k].reshape((k, 3))
-    r += 3 * k
-    s.hand_previous = reals[r:r + 3 * k].reshape((k, 3))
-    r += 3 * k
-    s.hand_from = reals[r:r + 3 * k].reshape((k, 3))
-    r += 3 * k
-    s.hand_to = reals[r:r + 3 * k].reshape((k, 3))
-    r += 3 * k
-    s.hand_velocity = reals[r:r + 3 * k].reshape((k, 3))
-    r += 3 * k
-    s.radius = reals[r:r + k]
-    r += k
-    s.anchor = reals[r:r + 3 * k * n].reshape((k, n, 3))
-    r += 3 * k * n
-    s.normal = reals[r:r + 3 * k * n].reshape((k, n, 3))
-    r += 3 * k * n
-    s.depth = reals[r:r + k * n].reshape((k, n))
-    r += k * n
-    s.normal_velocity = reals[r:r + k * n].reshape((k, n))
-    r += k * n
-    s.impulse = reals[r:r + k * n].reshape((k, n))
-    f = 0
-    s.valid = flags[f:f + k]
-    f += k
-    s.fresh = flags[f:f + k]
-    f += k
-    s.present = flags[f:f + 2]
-    f += 2
-    s.active = flags[f:f + k * n].reshape((k, n))
-    f += k * n
-    s.ghost = flags[f:f + k * n].reshape((k, n))
-    f += k * n
-    s.onset = flags[f:f + k * n].reshape((k, n))
-    f += k * n
-    s.sliding = flags[f:f + k * n].reshape((k, n))
-    s.counter = counts[0:2]
-    s.track_id = counts[2:4]
-    return s
-
-
-PARAMS = StructType([(name, _array(types.int64 if name == "shape" else types.float64,
-                                  2 if name in ("half_size", "inertia") else 1))
-                    for name in ("shape", "half_size", "mass", "inertia", "restitution", "static_friction",
-                                 "dynamic_friction", "gravity")]
-                   + [(name, types.float64) for name in (
-                       "penetration_stiffness", "resting_tolerance", "dt", "soft_stiffness",
-                       "soft_damping", "soft_slip_velocity", "table_height", "table_stiffness", "table_damping",
-                       "table_slip_velocity")] + [("angular_method", types.int64)])
-"""What the kernels read of the model (``world.Model``): per-object arrays, then scalars."""
-PARAMS_PER_OBJECT = 10
-"""Reals per object in the model buffer: half size (3), mass, inertia (3), restitution, mu, phi."""
-SCALARS = ("penetration_stiffness", "resting_tolerance", "dt", "soft_stiffness", "soft_damping",
-           "soft_slip_velocity", "table_height", "table_stiffness", "table_damping", "table_slip_velocity")
-"""The model buffer's scalars after gravity, in order."""
-SCALAR_COUNT = len(SCALARS)
-
-
-def pack_params(shape, half_size, mass, inertia, restitution, static_friction, dynamic_friction, gravity,
-                scalars: dict[str, float], angular_method: int, meshes=None) -> tuple[np.ndarray, np.ndarray]:
-    """The model's numbers as two buffers (reals, ints) for ``unpack_params``; ``meshes``, the
-    (reals, ints) of ``mesh.pack_meshes``, follow as the buffers' tails (``unpack_mesh``)."""
+def pack_params(scene, meshes=None) -> tuple[np.ndarray, np.ndarray]:
+    """The scene's numbers as the model's two buffers (reals, ints) for ``unpack_params``, each
+    ``PARAMETERS`` entry taken from its source; ``meshes``, the (reals, ints) of
+    ``mesh.pack_meshes``, follow as the buffers' tails (``unpack_mesh``)."""
+    specs = [placed.spec for placed in scene.objects]
+    packed = ([], [len(specs)])
+    for name, buffer, shape, source in PARAMETERS:
+        value = [source(spec) for spec in specs] if shape[:1] == ("N",) else source(scene)
+        _, _, shape_here = where(getattr(PARAMETER_PLACES, name), len(specs), len(shape))
+        packed[buffer].extend(np.reshape(np.asarray(value, dtype=(np.float64, np.int64)[buffer]), shape_here).ravel())
     mesh_reals, mesh_ints = meshes if meshes is not None else ([], [])
-    reals = np.concatenate([np.ravel(half_size), mass, np.ravel(inertia), restitution, static_friction,
-                            dynamic_friction, gravity, [float(scalars[name]) for name in SCALARS],
-                            mesh_reals]).astype(np.float64)
-    ints = np.concatenate([[len(shape), angular_method], shape, mesh_ints]).astype(np.int64)
-    return reals, ints
+    return (np.concatenate([np.asarray(packed[MODEL_REALS], dtype=np.float64), mesh_reals]).astype(np.float64),
+            np.concatenate([np.asarray(packed[MODEL_INTS], dtype=np.int64), mesh_ints]).astype(np.int64))
 
 
-@kernel
-def unpack_params(reals, ints, n):
-    """The model buffers as ``PARAMS`` (arrays are views; layout of ``pack_params``)."""
-    p = structref.new(PARAMS)
-    p.shape = ints[2:2 + n]
-    p.half_size = reals[:3 * n].reshape((n, 3))
-    p.mass = reals[3 * n:4 * n]
-    p.inertia = reals[4 * n:7 * n].reshape((n, 3))
-    p.restitution = reals[7 * n:8 * n]
-    p.static_friction = reals[8 * n:9 * n]
-    p.dynamic_friction = reals[9 * n:10 * n]
-    p.gravity = reals[10 * n:10 * n + 3]
-    g = reals[10 * n + 3:]
-    p.penetration_stiffness, p.resting_tolerance, p.dt = g[0], g[1], g[2]
-    p.soft_stiffness, p.soft_damping, p.soft_slip_velocity = g[3], g[4], g[5]
-    p.table_height, p.table_stiffness, p.table_damping, p.table_slip_velocity = g[6], g[7], g[8], g[9]
-    p.angular_method = ints[1]
-    return p
+def parameter(reals: np.ndarray, ints: np.ndarray, name: str) -> np.ndarray | float | int:
+    """The named parameter of a model's buffers: a view for an array, else the number."""
+    buffer, shape = next((buffer, shape) for field, buffer, shape, _ in PARAMETERS if field == name)
+    start, stop, shape_here = where(getattr(PARAMETER_PLACES, name), int(ints[OBJECT_COUNT]), len(shape))
+    values = (reals, ints)[buffer]
+    return values[start:stop].reshape(shape_here) if shape else values[start].item()
 
 
 MESH = StructType([(name, _array(types.int64, 2)) for name in ("object_parts", "object_corners", "part_faces",
@@ -226,7 +282,7 @@ object (its parts, its corners), per part (its faces) and per face (its edges); 
 def unpack_mesh(reals, ints, n):
     """The tails of the model buffers as ``MESH`` (views; layout of ``mesh.pack_meshes``)."""
     m = structref.new(MESH)
-    i = 2 + n
+    i = MESH_INTS.start + MESH_INTS.start_per_object * n
     parts, faces, edges, corners = ints[i], ints[i + 1], ints[i + 2], ints[i + 3]
     i += 4
     m.object_parts = ints[i:i + 2 * n].reshape((n, 2))
@@ -236,7 +292,7 @@ def unpack_mesh(reals, ints, n):
     m.part_faces = ints[i:i + 2 * parts].reshape((parts, 2))
     i += 2 * parts
     m.face_edges = ints[i:i + 2 * faces].reshape((faces, 2))
-    r = 10 * n + 3 + SCALAR_COUNT
+    r = MESH_REALS.start + MESH_REALS.start_per_object * n
     m.planes = reals[r:r + 4 * faces].reshape((faces, 4))
     r += 4 * faces
     m.edges = reals[r:r + 10 * edges].reshape((edges, 10))

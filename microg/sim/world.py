@@ -29,42 +29,27 @@ from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
-from .bodies import SHAPES, SceneError
+from .bodies import SceneError
 from microg.skeleton import N_BONES, N_DIGITS, SIDES, HandFrame
 from .mesh import pack_meshes
 from .pipeline import specialise
 from .scene import Scene
 from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, FIELDS,
-                    POINTS, empty_buffers, pack_params, view)
-
-ANGULAR_METHODS = {"midpoint": 0, "semi_implicit_euler": 1, "explicit_euler": 2}
-"""``integrate.MIDPOINT``, ``SEMI_IMPLICIT_EULER``, ``EXPLICIT_EULER``."""
+                    PARAMETERS, POINTS, empty_buffers, pack_params, parameter, view)
 
 
 @dataclass(frozen=True, eq=False)
 class Model:
-    """What does not change while the world runs: the scene as arrays, and its compiled step."""
+    """What does not change while the world runs: the scene, its numbers packed for the compiled
+    step, and the step. Every parameter of ``state.PARAMETERS`` is an attribute (``model.mass``,
+    ``model.dt``, ...): a view into ``params`` or ``ints`` for an array, the number otherwise."""
 
     scene: Scene
     names: tuple[str, ...]
     effects: frozenset[str]
     params: np.ndarray
-    """The numbers below packed for the compiled step (``state.pack_params``)."""
+    """The model's reals (``state.pack_params``)."""
     ints: np.ndarray
-    shape: np.ndarray
-    half_size: np.ndarray
-    """(N, 3) box half extents; a sphere's radius in every column; a mesh's half extent."""
-    mass: np.ndarray
-    inertia: np.ndarray
-    """(N, 3) principal moments in the body frame."""
-    restitution: np.ndarray
-    static_friction: np.ndarray
-    dynamic_friction: np.ndarray
-    gravity: np.ndarray
-    penetration_stiffness: float
-    resting_tolerance: float
-    angular_method: int
-    dt: float
     step_worlds: Callable
     """The compiled step for this scene's effects (``pipeline.specialise``)."""
 
@@ -78,6 +63,25 @@ class Model:
             return self.names.index(name)
         except ValueError:
             raise KeyError(f"no object named {name!r} in this world (objects: {list(self.names)})") from None
+
+
+class _Kept:
+    """A named part of an instance's buffers (``read(instance, name)``), read on first access and
+    then kept in the instance, which answers every later access directly (each world a step returns
+    makes its own views, a dozen a frame)."""
+
+    def __init__(self, name: str, read: Callable):
+        self.name, self.read = name, read
+
+    def __get__(self, instance, owner: type):
+        if instance is None:
+            return self
+        value = instance.__dict__[self.name] = self.read(instance, self.name)
+        return value
+
+
+for _name, _, _, _ in PARAMETERS:
+    setattr(Model, _name, _Kept(_name, lambda model, name: parameter(model.params, model.ints, name)))
 
 
 class Data:
@@ -105,24 +109,9 @@ class Data:
         return Data(self.n_objects, self.reals.copy(), self.flags.copy(), self.counts.copy())
 
 
-class _FieldView:
-    """A field of ``Data``: its view into the buffers, made on first access and then kept in the
-    instance, which answers every later access directly (each world a step returns makes its own
-    views, a dozen a frame)."""
-
-    def __init__(self, name: str):
-        self.name = name
-
-    def __get__(self, data: Data | None, owner: type) -> np.ndarray | _FieldView:
-        if data is None:
-            return self
-        field = view((data.reals, data.flags, data.counts), data.n_objects, self.name)
-        data.__dict__[self.name] = field
-        return field
-
-
 for _name, _, _ in FIELDS:
-    setattr(Data, _name, _FieldView(_name))
+    setattr(Data, _name, _Kept(_name, lambda data, name: view((data.reals, data.flags, data.counts), data.n_objects,
+                                                               name)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,34 +127,10 @@ class World:
 def make_model(scene: Scene) -> Model:
     """Validate the scene and compile (or load) its step."""
     scene.validate()
-    specs = [p.spec for p in scene.objects]
-    shape = np.array([SHAPES.index(s.shape) for s in specs], dtype=np.int64)
-    half_size = np.array([s.half_extents for s in specs])
-    mass = np.array([s.mass for s in specs], dtype=np.float64)
-    inertia = np.array([s.principal_inertia for s in specs])
-    restitution = np.array([s.material.restitution for s in specs], dtype=np.float64)
-    static_friction = np.array([s.material.static_friction for s in specs], dtype=np.float64)
-    dynamic_friction = np.array([s.material.dynamic_friction for s in specs], dtype=np.float64)
-    gravity = np.asarray(scene.gravity, dtype=np.float64)
-    table, soft = scene.table, scene.soft_hand
-    scalars = {"penetration_stiffness": scene.penetration_stiffness, "resting_tolerance": scene.resting_tolerance,
-               "dt": scene.dt, "soft_stiffness": soft.stiffness,
-               "soft_damping": soft.damping, "soft_slip_velocity": soft.slip_velocity,
-               "table_height": table.height if table else 0.0, "table_stiffness": table.stiffness if table else 0.0,
-               "table_damping": table.damping if table else 0.0,
-               "table_slip_velocity": table.slip_velocity if table else 0.0}
-    method = ANGULAR_METHODS[scene.angular_integrator]
-    meshes = None
-    if scene.has_meshes:
-        meshes = pack_meshes([s.mesh for s in specs])
-    params, ints = pack_params(shape, half_size, mass, inertia, restitution, static_friction, dynamic_friction,
-                               gravity, scalars, method, meshes)
-    return Model(scene=scene, names=tuple(s.name for s in specs), effects=scene.effects, params=params, ints=ints,
-                 shape=shape, half_size=half_size, mass=mass, inertia=inertia, restitution=restitution,
-                 static_friction=static_friction, dynamic_friction=dynamic_friction, gravity=gravity,
-                 penetration_stiffness=float(scene.penetration_stiffness),
-                 resting_tolerance=float(scene.resting_tolerance), angular_method=method, dt=scene.dt,
-                 step_worlds=specialise(scene.effects, scene.has_meshes))
+    meshes = pack_meshes([placed.spec.mesh for placed in scene.objects]) if scene.has_meshes else None
+    params, ints = pack_params(scene, meshes)
+    return Model(scene=scene, names=tuple(placed.spec.name for placed in scene.objects), effects=scene.effects,
+                 params=params, ints=ints, step_worlds=specialise(scene.effects, scene.has_meshes))
 
 
 def initial_data(model: Model) -> Data:
