@@ -350,6 +350,7 @@ def _read_scales(top: _Table, items: tuple[Item, ...]) -> tuple[Scale, ...]:
         members = sc.strings("items", ()) if not parts or "items" in sc.data else ()
         if bool(parts) == bool(members):
             raise sc.fail("items", list(members), "give the scale's items, or (for a sum of sums) its scales")
+        sc.unique("items", list(members), "item")
         for item_id in members:
             if item_id not in known:
                 raise sc.fail("items", list(members), f"names item {item_id!r}, which the instrument does not have")

@@ -1,4 +1,4 @@
-"""Statistics and reports for microg studies: reads tidy tables (trials, questionnaire), never the
+"""Statistics and reports for microg studies: reads tidy tables (trials, questionnaire, answers), never the
 simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
 returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack, ARTool,
 lme4 and lmerTest)."""
@@ -25,6 +25,7 @@ from microg.analysis.paired import (
 )
 from microg.analysis.posthoc import POSTHOC_COLUMNS, posthoc, simple_effects
 from microg.analysis.report import write_report
+from microg.analysis.scoring import check_answers, missing_items, score_answers
 from microg.analysis.tables import (
     AnalysisInputError,
     check_questionnaire,
@@ -51,6 +52,7 @@ __all__ = [
     "art_contrasts",
     "assumption_checks",
     "cell_means",
+    "check_answers",
     "check_questionnaire",
     "check_trials",
     "choose_interactions",
@@ -60,6 +62,7 @@ __all__ = [
     "incomplete_cases",
     "likert_summary",
     "likert_tests",
+    "missing_items",
     "mixed_anova",
     "paired_means",
     "partial_eta_squared_ci",
@@ -69,6 +72,7 @@ __all__ = [
     "posthoc",
     "read_questionnaire",
     "read_trials",
+    "score_answers",
     "signed_rank",
     "simple_effects",
     "sphericity_correction",
