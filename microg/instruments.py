@@ -175,6 +175,10 @@ class Instrument:
             return tuple(dict.fromkeys(i for name in scale.scales for i in self.scale_items(self.scale(name))))
         return tuple(dict.fromkeys(scale.items))
 
+    def choice_label(self, choice: str) -> str:
+        """How a choice is shown: the title of the item it names (NASA-TLX's "Mental Demand"), else itself."""
+        return next((i.title for i in self.items if i.id == choice and i.title), choice)
+
     def weights_of(self, scale: Scale) -> tuple[Item, ...]:
         """The choice items that weigh a ``weighted`` scale: those whose choices are its items."""
         return tuple(i for i in self.items if i.choices and set(i.choices) <= set(scale.items))

@@ -68,6 +68,16 @@ def model_rating(item: str, lived: Experience, scale: tuple[int, int], leaning: 
     return int(np.clip(round(value), low, high))
 
 
+def unanswered(instrument) -> str:
+    """Why the rating model cannot answer ``instrument`` (a ``microg.instruments.Instrument``); "" when it can."""
+    if instrument.id != "paper":
+        return f"the rating model of simulated participants answers only the instruments ['paper']"
+    unknown = [item.id for item in instrument.items if item.id not in PENALTIES]
+    if unknown:
+        return f"the rating model of simulated participants rates only {sorted(PENALTIES)}, not {unknown}"
+    return ""
+
+
 class RatingModel:
     """One simulated participant's answers: a leaning drawn once, noise drawn per answer (seeded)."""
 

@@ -10,7 +10,7 @@ from microg.participant.ratings import Experience, RatingModel
 from microg.skeleton import SIDES, side_slots
 
 from . import framelog
-from .protocol import Item, Questionnaire, TaskPhase
+from .questionnaire import Answer, Question
 from .store import FINAL_RUN, Store
 
 
@@ -71,8 +71,10 @@ class ModelRater:
         self._model = RatingModel(seed)
         self._lived: dict[str, Experience] = {}
 
-    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
-        if phase.interaction not in self._lived:
-            self._lived[phase.interaction] = experience(self.store, self.session_id, phase.interaction)
-        return self._model.rate(item.name, self._lived[phase.interaction],
-                                (questionnaire.scale_min, questionnaire.scale_max))
+    def answer(self, question: Question) -> Answer:
+        if question.interaction not in self._lived:
+            self._lived[question.interaction] = experience(self.store, self.session_id, question.interaction)
+        response = question.item.response
+        rating = self._model.rate(question.item.id, self._lived[question.interaction],
+                                  (int(response.low), int(response.high)))
+        return Answer(rating, None)

@@ -48,8 +48,8 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from microg.skeleton import SIDES, side_slots
-from microg.study.protocol import Item, Phase, Protocol, Questionnaire, TaskPhase, Viewpoint
-from microg.study.questionnaire import RatingError, parse_rating
+from microg.study.protocol import Phase, Protocol, Viewpoint
+from microg.study.questionnaire import Answer, Question, RatingError, parse_answer
 from microg.study.store import PlannedTask
 from microg.task import Moment
 
@@ -223,12 +223,14 @@ class ParticipantDisplay:
         self._frame_version += 1
         self._notify()
 
-    def ask(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> None:
+    def ask(self, question: Question) -> None:
         """Show one questionnaire item (its answers come from ``next_answer``)."""
         self.deliver_events()
-        self._publish("question", {"kind": "question", "item": item.name, "label": phase.label,
-                                   "question": item.question, "low": item.low, "high": item.high,
-                                   "min": questionnaire.scale_min, "max": questionnaire.scale_max})
+        item, words = question.item, dict(question.item.words)
+        response = item.response
+        self._publish("question", {"kind": "question", "item": item.id, "label": question.label,
+                                   "question": item.text, "low": words.get(response.low, ""),
+                                   "high": words.get(response.high, ""), "min": response.low, "max": response.high})
 
     def next_answer(self) -> str:
         """Wait for the page's next answer to the question shown (its text, not yet checked),
@@ -465,16 +467,17 @@ class DisplayRater:
     def __init__(self, display: ParticipantDisplay, on_rejected=None):
         self.display, self.on_rejected = display, on_rejected
 
-    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
-        self.display.ask(item, phase, questionnaire)
+    def answer(self, question: Question) -> Answer:
+        self.display.ask(question)
+        shown = time.monotonic()
         while True:
             text = self.display.next_answer()
             try:
-                rating = parse_rating(text, questionnaire.scale_min, questionnaire.scale_max)
+                value = parse_answer(question, text)
             except RatingError as error:
                 self.display.answer_rejected(str(error))
                 if self.on_rejected:
-                    self.on_rejected(item, phase, text, str(error))
+                    self.on_rejected(question, text, str(error))
                 continue
             self.display.answer_accepted()
-            return rating
+            return Answer(value, time.monotonic() - shown)

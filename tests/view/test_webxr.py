@@ -212,7 +212,7 @@ def session_in_background(folder, display: ParticipantDisplay, failures: list) -
                 clock = WallClock()
                 display.on_event = EventLog(store, session.id, clock).emit
 
-                def rejected(item, phase, text, message):
+                def rejected(question, text, message):
                     store.log(session.id, [Event(clock.now(), "answer_rejected", {"answer": text})])
 
                 try:
