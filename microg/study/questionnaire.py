@@ -55,7 +55,11 @@ class Rater(Interface):
     source: str
     """``participant`` (a person answered) or ``model`` (a simulated participant's rating model)."""
 
-    def answer(self, question: Question) -> Answer: ...
+    def answer(self, question: Question) -> Answer:
+        """Ask until an answer counts."""
+
+    def saved(self, question: Question) -> None:
+        """The answer is committed (the participant's page says so)."""
 
 
 Rejected = Callable[[Question, str, str], None]
@@ -154,3 +158,6 @@ class TerminalRater:
                 self.write(f"  {error}")
                 if self.on_rejected:
                     self.on_rejected(question, text, str(error))
+
+    def saved(self, question: Question) -> None:
+        pass

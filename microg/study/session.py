@@ -340,15 +340,17 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
 
 def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol,
                    phase: Phase) -> None:
+    """Ask a questionnaire phase's items that are not answered yet (a resumed session carries on at the
+    first unanswered one), each committed as it is given, then confirmed to the rater."""
     if rater is None:
         store.log(session_id, [Event(clock.now(), "questionnaire_skipped", {"reason": "no rater for this session"})])
         return
     answered = store.answers(session_id)
     for question in questions(protocol, phase):
-        if (question.interaction, question.item.id) not in answered:
+        if question.key not in answered:
             answer = rater.answer(question)
-            store.save_answer(session_id, question.interaction, question.item.id, answer.value, rater.source,
-                              clock.now())
+            store.save_answer(session_id, question.key, answer.value, rater.source, clock.now(), answer.response_time_s)
+            rater.saved(question)
 
 
 def resume_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, operator: Operator | None = None,

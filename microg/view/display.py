@@ -479,5 +479,7 @@ class DisplayRater:
                 if self.on_rejected:
                     self.on_rejected(question, text, str(error))
                 continue
-            self.display.answer_accepted()
             return Answer(value, time.monotonic() - shown)
+
+    def saved(self, question: Question) -> None:
+        self.display.answer_accepted()
