@@ -194,6 +194,7 @@ function button(value, text, anchor) {
   return element;
 }
 
+/** The anchors under the scale, each at its point's share of the way from one end to the other. */
 function showAnchors(m) {
   const row = document.getElementById("anchors");
   row.replaceChildren();
@@ -201,9 +202,12 @@ function showAnchors(m) {
     const share = (point - m.min) / (m.max - m.min);
     const span = document.createElement("span");
     span.textContent = `${point}: ${text}`;
-    span.style.left = `${100 * share}%`;
-    if (share === 0) span.className = "start";
-    if (share === 1) span.className = "end";
+    if (share === 1) {
+      span.className = "end";
+    } else {
+      span.style.left = `${100 * share}%`;
+      if (share === 0) span.className = "start";
+    }
     row.append(span);
   }
 }

@@ -10,8 +10,9 @@
 // behind the workspace and a panel within reach with the item (its instrument, the interaction
 // model it is about, its text and anchors) and its answer buttons, pressed by poking them with a
 // fingertip or by pointing at them and pinching: a button per point of a rating (each with its
-// anchor when every point has one; rows of 11 for a longer scale, and steps of a twentieth of its
-// span for one of more than 21 points, as a 0-100 visual analogue scale), a wide one per choice.
+// anchor when every one of up to 6 points has one, else the anchors on a line of the panel; rows of
+// 11 for a longer scale, and steps of a twentieth of its span for one of more than 21 points, as a
+// 0-100 visual analogue scale), a wide one per choice.
 import * as THREE from "three";
 
 const JOINTS = [
@@ -26,7 +27,8 @@ const SESSION_INIT = { requiredFeatures: ["hand-tracking"], optionalFeatures: ["
 const UP = new THREE.Vector3(0, 1, 0);
 const BOARD = { width: 0.5, height: 0.25, clear: 0.05, behind: 0.25 };
 const PANEL = { width: 0.62, height: 0.36, above: 0.25, ahead: 0.05, tilt: -0.45 };
-const BUTTON = { size: 0.042, gap: 0.008, depth: 0.012, row: -0.09, wide: 0.24, perRow: 11, most: 21 };
+const BUTTON = { size: 0.042, gap: 0.008, depth: 0.012, row: -0.09, wide: 0.24, worded: 0.078, perRow: 11, most: 21,
+                 mostWorded: 6 };
 const TEXT = "#f4f4f4", DIM = "#c9ccd2", GOLD = "#ffd700", RED = "#ff8080";
 const PX_PER_M = 2048;
 const RAY_LENGTH = 1.0;
@@ -116,8 +118,8 @@ function label(text, width = BUTTON.size, words = "") {
   g.font = `600 ${words ? 52 : 64}px system-ui, sans-serif`;
   g.fillText(text, canvas.width / 2, words ? 48 : 68, canvas.width - 8);
   if (words) {
-    g.font = "600 24px system-ui, sans-serif";
-    g.fillText(words, canvas.width / 2, 100, canvas.width - 6);
+    g.font = "600 30px system-ui, sans-serif";
+    g.fillText(words, canvas.width / 2, 100, canvas.width - 10);
   }
   const texture = new THREE.CanvasTexture(canvas);
   texture.colorSpace = THREE.SRGBColorSpace;
@@ -135,7 +137,7 @@ function answersOf(question) {
     return question.choices.map(([value, text], k) => ({ value, text: `${k + 1}: ${text}`, wide: true }));
   }
   const words = new Map(question.anchors.map(([point, text]) => [point, text]));
-  const every = question.points.length <= BUTTON.perRow && question.points.every((point) => words.has(point));
+  const every = question.points.length <= BUTTON.mostWorded && question.points.every((point) => words.has(point));
   const step = Math.ceil((question.points.length - 1) / (BUTTON.most - 1));
   const last = question.points.length - 1;
   return question.points.filter((_, k) => k % step === 0 || k === last)
@@ -199,8 +201,11 @@ class Headset {
     this.pokedBy = new Map();
     this.rays = new Map();
     this.raycaster = new THREE.Raycaster();
-    /** What tests and the researcher can read: mode, step, anchor, hands sent. */
-    this.state = { mode: null, step: "off", space: null, anchor: null, sent: 0, pressed: [], button: (value) => this.buttonAt(value) };
+    /** What tests and the researcher can read: mode, step, anchor, hands sent, answers pressed, the
+     *  buttons of the question shown (value and words) and where each is. */
+    this.state = { mode: null, step: "off", space: null, anchor: null, sent: 0, pressed: [],
+                   button: (value) => this.buttonAt(value),
+                   answers: () => this.buttons.map((b) => [b.userData.value, b.userData.words]) };
     this.build();
   }
 
@@ -406,7 +411,7 @@ class Headset {
     if (this.buttonsKey === key) return;
     this.buttonsKey = key;
     for (const button of this.buttons) this.panelGroup.remove(button);
-    const width = answers[0].wide ? BUTTON.wide : BUTTON.size;
+    const width = answers[0].wide ? BUTTON.wide : answers[0].words ? BUTTON.worded : BUTTON.size;
     const perRow = answers[0].wide ? 2 : BUTTON.perRow;
     const rows = Math.ceil(answers.length / perRow);
     const pitch = { x: width + BUTTON.gap, y: BUTTON.size + BUTTON.gap };
@@ -416,7 +421,7 @@ class Headset {
       const button = label(text, width, words);
       button.position.set((k % perRow - (inRow - 1) / 2) * pitch.x, BUTTON.row + ((rows - 1) / 2 - row) * pitch.y,
                           BUTTON.depth / 2 + 0.002);
-      button.userData.value = value;
+      Object.assign(button.userData, { value, words });
       this.panelGroup.add(button);
       this.buttons.push(button);
     });
