@@ -96,7 +96,7 @@ TLX_WORKLOAD = {
     "mental": (40.0, 0.4, 8.0, 0.0), "physical": (30.0, 0.3, 4.0, 0.0), "temporal": (35.0, 0.2, 0.0, 20.0),
     "performance": (20.0, 0.0, 10.0, 40.0), "effort": (45.0, 0.4, 8.0, 0.0), "frustration": (20.0, 0.0, 12.0, 30.0),
 }
-"""NASA-TLX subscale -> (base, per s of completion time over 20 s, per attempt a task, per share not completed)."""
+"""NASA-TLX subscale -> (base, per s of completion time over 20 s, per attempt per task, per share not completed)."""
 MODELS = ("paper", "ssq", "ipq", "tlx", "sus")
 """The instruments the rating model answers (by id)."""
 EXPOSURE_ONLY = ("ssq",)
@@ -143,28 +143,41 @@ class InstrumentModel:
         rng = np.random.default_rng([self.seed, 0x5241, _code(instrument.id), _code(administration),
                                      _code(interaction)])
         ratings = [i for i in instrument.items if not i.choices]
-        if lived is not None:
-            time_over = max(0.0, lived.time_s - 20.0) if np.isfinite(lived.time_s) else 60.0
-            attempts, missed = lived.attempts_per_task, lived.not_completed
         if instrument.id == "ssq":
             susceptibility = float(own.lognormal(np.log(0.5), 0.7))
-            levels = {i.id: (0.15 + susceptibility * exposure_min / 20 + rng.normal(0, 0.4)) / 3 for i in ratings}
-            answers = {i.id: on_scale(i, levels[i.id], 0.0) for i in ratings}
+            answers = {i.id: on_scale(i, (0.15 + susceptibility * exposure_min / 20 + rng.normal(0, 0.4)) / 3, 0.0)
+                       for i in ratings}
         elif instrument.id == "tlx":
             leaning = float(own.normal(0, 10))
-            answers = {i.id: on_scale(i, (base + per_s * time_over + per_attempt * attempts + per_miss * missed
-                                          + leaning + rng.normal(0, 8)) / 100, 0.0)
-                       for i in ratings for base, per_s, per_attempt, per_miss in [TLX_WORKLOAD[i.id]]}
+            answers = {i.id: on_scale(i, (_workload(i.id, lived) + leaning + rng.normal(0, 8)) / 100, 0.0)
+                       for i in ratings}
         else:
             presence = instrument.id == "ipq"
-            level = (0.6 - 0.02 * max(0.0, lived.penetration_mm - 5.0) - 0.06 * attempts - 0.2 * missed
-                     + own.normal(0, 0.12)) if presence else (0.72 - 0.08 * attempts - 0.3 * missed
-                                                              - 0.004 * time_over + own.normal(0, 0.1))
+            level = (_presence(lived) + own.normal(0, 0.12)) if presence else (_usability(lived) + own.normal(0, 0.1))
             answers = {i.id: on_scale(i, level, rng.normal(0, 0.7 if presence else 0.5)) for i in ratings}
         for item in instrument.items:
             if item.choices:
                 answers[item.id] = max(item.choices, key=lambda c: float(answers.get(c, 0)) + rng.normal(0, 10))
         return answers
+
+
+def _time_over(lived: Experience) -> float:
+    """Seconds of the mean completion time over 20 s (a minute when nothing was completed)."""
+    return max(0.0, lived.time_s - 20.0) if np.isfinite(lived.time_s) else 60.0
+
+
+def _workload(subscale: str, lived: Experience) -> float:
+    base, per_s, per_attempt, per_miss = TLX_WORKLOAD[subscale]
+    return base + per_s * _time_over(lived) + per_attempt * lived.attempts_per_task + per_miss * lived.not_completed
+
+
+def _presence(lived: Experience) -> float:
+    return (0.6 - 0.02 * max(0.0, lived.penetration_mm - 5.0) - 0.06 * lived.attempts_per_task
+            - 0.2 * lived.not_completed)
+
+
+def _usability(lived: Experience) -> float:
+    return 0.72 - 0.08 * lived.attempts_per_task - 0.3 * lived.not_completed - 0.004 * _time_over(lived)
 
 
 class RatingModel:
