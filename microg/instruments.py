@@ -58,6 +58,8 @@ SCORES = ("sum", "mean", "weighted")
 IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 """What an instrument, item or scale id must be: it names columns and rows of tables."""
 STEP_TOLERANCE = 1e-9
+MAX_POINTS = 101
+"""Answers a rating may offer: a 0-100 visual analogue scale's (the page shows a button or a slider's step each)."""
 
 
 class InstrumentError(ValueError):
@@ -200,13 +202,10 @@ def _tidy(value: float) -> float | int:
 def _number(value) -> float | None:
     if isinstance(value, bool):
         return None
-    if isinstance(value, (int, float)):
-        number = float(value)
-    else:
-        try:
-            number = float(str(value).strip())
-        except ValueError:
-            return None
+    try:
+        number = float(value) if isinstance(value, (int, float)) else float(str(value).strip())
+    except (ValueError, OverflowError):
+        return None  # not a number, or an integer beyond a float
     return number if math.isfinite(number) else None
 
 
@@ -300,6 +299,9 @@ def _read_responses(top: _Table) -> dict[str, Response]:
             step = r.number("step", 1.0)
             if step <= 0 or abs((high - low) / step - round((high - low) / step)) > STEP_TOLERANCE:
                 raise r.fail("step", step, f"must be positive and divide max - min = {_tidy(high - low)}")
+            if round((high - low) / step) + 1 > MAX_POINTS:
+                raise r.fail("max", _tidy(high), f"the scale from min = {_tidy(low)} in steps of {_tidy(step)} offers "
+                             f"{round((high - low) / step) + 1:g} answers; at most {MAX_POINTS}")
             response = Response(name, kind, low, high, step)
             responses[name] = Response(name, kind, low, high, step, _anchors(r, response))
         r.done()
@@ -409,7 +411,7 @@ class _Table:
 
     def number(self, key: str, default=...) -> float:
         value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or _number(value) is None:
             raise self.fail(key, value, "must be a number")
         return float(value)
 

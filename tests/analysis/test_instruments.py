@@ -145,6 +145,9 @@ def test_a_researchers_own_instrument_is_a_file_of_the_same_form(tmp_path):
      'choices = ["c1", "no"]\n\n[[scales]]\nname = "comfort"\nitems = ["c1", "c2"]\nscore = "weighted"',
      ["scales[0].score = 'weighted'", "the instrument has none"]),
     ('min = 1', 'min = 1 1', ["not valid TOML"]),
+    ("min = 1\nmax = 7", "min = 0\nmax = 1000000000000000000", ["responses.seven.max = 1000000000000000000",
+                                                              "offers 1e+18 answers; at most 101"]),
+    ("min = 1\nmax = 7", f"min = 1\nmax = {10 ** 400}", ["responses.seven.max = 1000", "must be a number"]),
 ])
 def test_a_bad_instrument_file_is_refused_naming_file_key_and_value(tmp_path, old, new, expected):
     assert old in MINE, old

@@ -352,8 +352,7 @@ BIG = "1" + "0" * 400
                                                      "within 100 of zero"]),
     ("[task]\nhold_s = 100.0\n", "", ["task.timeout_s = 15.0: the 3 holds of hold_s = 100 s take longer"]),
     ("[task]\nplaces = [" + "[0.0, 0.2, 0.0], " * 101 + "]\n", "", ["task.places: 101 positions; at most 100"]),
-    ("[questionnaire]\nscale_max = 1000000000000000000\n", "", ["questionnaire.scale_max = 1000000000000000000: the "
-                                                                "scale from scale_min = 0 offers"]),
+    ("[questionnaire]\nscale_max = 1000000000000000000\n", "", ["[questionnaire] is now an instrument file"]),
     ("x = " + "[" * 2000 + "]" * 2000 + "\n", "", ["not a protocol file: its tables or arrays are nested too deeply"]),
     ("# " + "x" * (1 << 20) + "\n", "", ["over 1 MiB: not a protocol file"]),
 ])
