@@ -797,9 +797,13 @@ def _read_instruments(top: _Reader, resolved: dict, files: dict) -> dict[str, In
                                    "protocols/instruments/paper.toml: id, text, anchors) and ask it in the timeline: "
                                    'phase = "questionnaire", instruments = ["NAME"], about = "each"')
     texts = resolved.get("instrument_files", {})
+    if not isinstance(texts, dict):
+        raise ProtocolError(f"{top.where}: the stored protocol's instrument files are not a table of texts")
     instruments = {}
-    for name, text in texts.items() if isinstance(texts, dict) else ():
+    for name, text in texts.items():
         where = files.get(f"instrument:{name}") or f"{top.where}: instrument file {name}.toml (as kept with the protocol)"
+        if not isinstance(text, str):
+            raise ProtocolError(f"{where}: no text kept for it (found {type(text).__name__})")
         try:
             instruments[name] = read_instrument(text, where, name)
         except InstrumentError as error:
