@@ -1,4 +1,4 @@
-"""Where the project's shipped files live: protocols, object definitions, sample recordings.
+"""Where the project's shipped files live: protocols, object definitions, instruments, sample recordings.
 
 They are the repository's top-level ``protocols/`` and ``data/`` folders; an installed package
 carries them as ``microg/protocols`` and ``microg/data`` (package data, see pyproject.toml).
@@ -20,6 +20,8 @@ PROTOCOLS = _shipped("protocols")
 OBJECTS = PROTOCOLS / "objects"
 POPULATIONS = PROTOCOLS / "populations"
 """Populations of simulated participants (``microg.participant.population``)."""
+INSTRUMENTS = PROTOCOLS / "instruments"
+"""The shipped questionnaire instruments (``microg.instruments``)."""
 DATA = _shipped("data")
 LEAP_RECORDINGS = DATA / "leap-v2-recordings"
 """Four real Leap Motion recordings in LeapJS v2 JSON (see the README beside them)."""

@@ -1,8 +1,11 @@
 """The columns of the exported tables, in one place: the export writes them, the analysis reads them.
 
 Each table is a tuple of :class:`Column` (name, pandas dtype, one-line description) in the order the
-export writes them. ``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` are the names in that order,
-``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` map each name to its dtype. Columns marked optional
+export writes them. ``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` / ``ANSWER_COLUMNS`` are the names
+in that order, ``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` / ``ANSWER_DTYPES`` map each name to its
+dtype. The questionnaire table holds the paper's kind of 0-10 items (the Likert analysis reads it);
+the answers table holds every answer to every instrument, and ``scores.csv`` their scores
+(``microg.analysis.scoring``). Columns marked optional
 may be absent from a table; readers must not require them.
 """
 
@@ -66,7 +69,29 @@ QUESTIONNAIRE = (
            "in the study itself", optional=True),
 )
 
+ANSWERS = (
+    Column("study", "string", "the study's name"),
+    Column("participant", "string", "participant id, e.g. P01"),
+    Column("group", "string", "the participant's group code"),
+    Column("instrument", "string", "the instrument's id: ssq, ipq, tlx, sus, paper or a study's own"),
+    Column("administration", "string", "when it was asked, e.g. pre, post, after, end"),
+    Column("interaction", "string", "code of the interaction model it is about; empty for none"),
+    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
+           optional=True),
+    Column("item", "string", "the item's id, e.g. ssq08, SP2, pair_mental_effort, sus10"),
+    Column("value", "string", "the answer: a number on the item's scale, or the choice made"),
+    Column("source", "string", "who answered: participant or model"),
+    Column("response_time_s", "float64", "seconds from showing the item to the answer; empty for the model"),
+    Column("t", "float64", "session-clock seconds when the answer was committed"),
+    Column("simulated", "bool", "whether the answer comes from the rating model"),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True),
+)
+
 TRIAL_COLUMNS = tuple(column.name for column in TRIALS)
 QUESTIONNAIRE_COLUMNS = tuple(column.name for column in QUESTIONNAIRE)
+ANSWER_COLUMNS = tuple(column.name for column in ANSWERS)
 TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
 QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
+ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}

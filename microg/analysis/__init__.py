@@ -1,4 +1,4 @@
-"""Statistics and reports for microg studies: reads tidy tables (trials, questionnaire), never the
+"""Statistics and reports for microg studies: reads tidy tables (trials, questionnaire, answers), never the
 simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
 returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack, ARTool,
 lme4 and lmerTest)."""
@@ -14,7 +14,7 @@ from microg.analysis.art import ART_COLUMNS, ART_CONTRAST_COLUMNS, art_anova, ar
 from microg.analysis.assumptions import assumption_checks
 from microg.analysis.counts import count_model
 from microg.analysis.describe import cell_means
-from microg.analysis.figures import plot_bars, plot_ratings
+from microg.analysis.figures import plot_bars, plot_ratings, plot_scores
 from microg.analysis.likert import likert_summary, likert_tests, unpaired_raters
 from microg.analysis.mixed_model import COEFFICIENT_COLUMNS, MODEL_ANOVA_COLUMNS, TrialModel, trial_model
 from microg.analysis.paired import (
@@ -24,7 +24,15 @@ from microg.analysis.paired import (
     unpaired_participants,
 )
 from microg.analysis.posthoc import POSTHOC_COLUMNS, posthoc, simple_effects
+from microg.analysis.questionnaires import (
+    analyse_questionnaires,
+    compare_scores,
+    internal_consistency,
+    score_changes,
+    score_summary,
+)
 from microg.analysis.report import write_report
+from microg.analysis.scoring import check_answers, missing_items, score_answers
 from microg.analysis.tables import (
     AnalysisInputError,
     check_questionnaire,
@@ -46,29 +54,38 @@ __all__ = [
     "AnalysisInputError",
     "StudyAnalysis",
     "TrialModel",
+    "analyse_questionnaires",
     "analyse_study",
     "art_anova",
     "art_contrasts",
     "assumption_checks",
     "cell_means",
+    "check_answers",
     "check_questionnaire",
     "check_trials",
     "choose_interactions",
     "compare_interactions",
+    "compare_scores",
     "complete_cases",
     "count_model",
     "incomplete_cases",
+    "internal_consistency",
     "likert_summary",
     "likert_tests",
+    "missing_items",
     "mixed_anova",
     "paired_means",
     "partial_eta_squared_ci",
     "participant_cells",
     "plot_bars",
     "plot_ratings",
+    "plot_scores",
     "posthoc",
     "read_questionnaire",
     "read_trials",
+    "score_answers",
+    "score_changes",
+    "score_summary",
     "signed_rank",
     "simple_effects",
     "sphericity_correction",

@@ -1,5 +1,6 @@
 """The report's figures: bars per object and group with every participant's value and significance
-marks (the paper's Fig. 11) and the diverging stacked rating distribution (the paper's Fig. 12)."""
+marks (the paper's Fig. 11), the diverging stacked rating distribution (the paper's Fig. 12), and
+each instrument's scores per administration and interaction model with every participant's score."""
 
 from __future__ import annotations
 
@@ -152,6 +153,66 @@ def plot_ratings(summary: pd.DataFrame, title: str | None = None, item: str = "i
     ax.spines[["top", "right"]].set_visible(False)
     if title:
         ax.set_title(title, fontsize="medium")
+    return fig
+
+
+def plot_scores(scores: pd.DataFrame, title: str | None = None, labels: dict[str, str] | None = None,
+                columns: int = 4) -> Figure:
+    """One panel per scale: each administration and interaction model a box (median and quartiles, whiskers
+    to 1.5 IQR) with every participant's score a dot.
+
+    Parameters
+    ----------
+    scores : pandas.DataFrame
+        :func:`microg.analysis.score_answers` of one instrument.
+    title : str, optional
+    labels : dict, optional
+        How each interaction model is named (its label); absent ones by their code.
+    columns : int
+        Panels per row.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.figures import plot_scores
+    >>> scores = pd.DataFrame({"participant": ["a", "b"] * 2, "instrument": "ssq", "interaction": "",
+    ...                        "administration": ["pre", "pre", "post", "post"], "scale": "total",
+    ...                        "score": [0.0, 3.74, 11.22, 7.48]})
+    >>> fig = plot_scores(scores)
+    >>> fig.axes[0].get_title(), [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    ('total', ['pre', 'post'])
+    """
+    labels = labels or {}
+    scales = list(dict.fromkeys(scores["scale"]))
+    conditions = list(dict.fromkeys(zip(scores["administration"], scores["interaction"])))
+    rows = -(-len(scales) // columns)
+    fig = Figure(figsize=(min(columns, len(scales)) * (1.2 + 0.7 * len(conditions)), 2.8 * rows + 0.4),
+                 layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, min(columns, len(scales)), squeeze=False).ravel())
+    names = ["\n".join(part for part in (administration, labels.get(about, about)) if part)
+             for administration, about in conditions]
+    for ax, scale in zip(axes, scales):
+        rows_of = scores[(scores["scale"] == scale) & scores["score"].notna()]
+        for index, (administration, about) in enumerate(conditions):
+            values = np.sort(rows_of.loc[(rows_of["administration"] == administration)
+                                         & (rows_of["interaction"] == about), "score"].to_numpy(float))
+            colour = GROUP_COLOURS[index % len(GROUP_COLOURS)]
+            if len(values):
+                ax.boxplot(values, positions=[index], widths=0.5, showfliers=False, medianprops={"color": "black"},
+                           boxprops={"color": colour}, whiskerprops={"color": colour}, capprops={"color": colour})
+                ax.scatter(index + _spread(len(values), 0.35), values, s=9, color=colour, edgecolor="black",
+                           linewidth=0.4, zorder=2)  # fmt: skip
+        ax.set_xticks(range(len(conditions)), names, fontsize="small")
+        ax.set_title(scale, fontsize="medium")
+        ax.spines[["top", "right"]].set_visible(False)
+    for ax in axes[len(scales):]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title, fontsize="medium")
     return fig
 
 

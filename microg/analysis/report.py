@@ -18,8 +18,9 @@ from microg.analysis import results as r
 from microg.analysis.analyse import EXCLUDED_PHASES, StudyAnalysis, analyse_study
 from microg.analysis.anova import ANOVA_COLUMNS, SPHERICITY_ALPHA
 from microg.analysis.assumptions import BOX_M_ALPHA
-from microg.analysis.figures import plot_bars, plot_ratings, save_figure
+from microg.analysis.figures import plot_bars, plot_ratings, plot_scores, save_figure
 from microg.analysis.posthoc import POSTHOC_COLUMNS
+from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
 
 MEASURE_FILES = {"time_s": "time"}
@@ -37,6 +38,8 @@ TIDY_TABLES = {"sample": "sample", "cell_means": "cell_means", "corrections": "c
 """The tidy tables written as they are: StudyAnalysis field -> CSV file name."""
 SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated participants (a motor model), not people."
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
+QUESTIONNAIRE_TABLES = {"scores": "scores", "summary": "score_summary", "consistency": "consistency"}
+"""The questionnaire section's CSV files (the comparisons and changes go together into score_tests.csv)."""
 
 
 def write_report(
@@ -48,6 +51,8 @@ def write_report(
     ss_type: int = 3,
     excluded_phases: Sequence[str] = EXCLUDED_PHASES,
     title: str = "Study report",
+    answers: pd.DataFrame | None = None,
+    instruments: dict | None = None,
     **columns,
 ) -> Path:
     """Analyse a study's tables and write the report into ``out_dir``.
@@ -56,6 +61,12 @@ def write_report(
     ----------
     trials, questionnaire, interaction, baseline, ss_type, excluded_phases
         As for :func:`microg.analysis.analyse_study`.
+    answers : pandas.DataFrame, optional
+        The questionnaires' answers, one row per answer (:func:`microg.analysis.check_answers`): each
+        instrument other than the paper's kind of 0-10 items (which ``questionnaire`` holds) gets its
+        section (:func:`microg.analysis.questionnaires.analyse_questionnaires`).
+    instruments : dict, optional
+        The instruments of ``answers`` by id (a study's own); the shipped ones serve the rest.
     out_dir : str or Path
         Folder for report.html, report.md, the CSV tables and figures/.
     title : str
@@ -82,18 +93,22 @@ def write_report(
     ('report.html', True)
     """
     analysis = analyse_study(trials, questionnaire, interaction, baseline, ss_type, excluded_phases, **columns)
+    found = None
+    if answers is not None and len(answers):
+        found = analyse_questionnaires(answers, instruments, analysis.interaction, analysis.baseline, analysis.alpha)
+        found = found if found.instruments else None
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    write_tables(analysis, out)
-    figures = write_figures(analysis, out / "figures")
-    sections = report_sections(analysis)
+    write_tables(analysis, out, found)
+    figures = write_figures(analysis, out / "figures", found)
+    sections = report_sections(analysis, found)
     (out / MARKDOWN_FILE).write_text(render_markdown(analysis, title, sections), encoding="utf-8")
     path = out / REPORT_FILE
     path.write_text(render_html(analysis, figures, title, sections), encoding="utf-8")
     return path
 
 
-def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
+def write_tables(analysis: StudyAnalysis, out: Path, found: QuestionnaireAnalysis | None = None) -> list[Path]:
     """The CSV tables at full precision; returns the files written.
 
     Per interaction model and measure (suffix ``_<interaction>`` for models other than the one under test):
@@ -105,6 +120,8 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
     trial_model_coefficients.csv, trial_model_random.csv. Also interactions.csv (interaction model under
     test vs baseline), likert.csv, art_anova.csv and art_contrasts.csv (the questionnaire's aligned rank
     transform, per item), dropped.csv and conditions.csv (labels).
+    With ``found`` (the questionnaires' analysis): scores.csv, score_summary.csv, score_tests.csv (the
+    comparisons between interaction models and between administrations) and consistency.csv.
     """
     a = analysis
     written = []
@@ -128,6 +145,10 @@ def write_tables(analysis: StudyAnalysis, out: Path) -> list[Path]:
         written.append(_csv(a.likert_art_contrasts, out / "art_contrasts.csv"))
     written.append(_csv(a.conditions, out / "conditions.csv"))
     written.append(_csv(a.dropped, out / "dropped.csv"))
+    if found is not None:
+        written += [_csv(getattr(found, name), out / f"{file}.csv") for name, file in QUESTIONNAIRE_TABLES.items()]
+        tests = pd.concat([found.comparisons, found.changes], ignore_index=True)
+        written.append(_csv(tests, out / "score_tests.csv"))
     return written
 
 
@@ -142,8 +163,9 @@ def likert_table(analysis: StudyAnalysis) -> pd.DataFrame:
     return analysis.likert_summary.merge(tests.rename(columns={"item": item}), on=item, how="left")
 
 
-def write_figures(analysis: StudyAnalysis, folder: Path) -> list[dict]:
-    """Bars with each participant's point per interaction model and measure, and the rating distribution."""
+def write_figures(analysis: StudyAnalysis, folder: Path, found: QuestionnaireAnalysis | None = None) -> list[dict]:
+    """Bars with each participant's point per interaction model and measure, the rating distribution, and
+    each instrument's scores."""
     a = analysis
     figures = []
     for name, dv in a.analysed():
@@ -163,10 +185,16 @@ def write_figures(analysis: StudyAnalysis, folder: Path) -> list[dict]:
                            item=summary.columns[0], interaction=summary.columns[1])  # fmt: skip
         caption = "Distribution of the 0-10 ratings per item and interaction model (diverging at the neutral 5)"
         figures.append(_figure(fig, folder / "ratings", caption))
+    for instrument in found.instruments if found is not None else ():
+        fig = plot_scores(found.rows("scores", instrument.id), instrument.title,
+                          dict(zip(a.conditions["interaction"], a.conditions["label"])))
+        caption = (f"{instrument.title}: each scale per administration and interaction model, boxes median and "
+                   "quartiles (whiskers to 1.5 IQR), dots individual participants")
+        figures.append(_figure(fig, folder / f"scores_{instrument.id}", caption))
     return figures
 
 
-def report_sections(analysis: StudyAnalysis) -> dict:
+def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None = None) -> dict:
     """Everything the HTML page and the Markdown file show, as text and display tables."""
     a = analysis
     blocks = []
@@ -237,8 +265,44 @@ def report_sections(analysis: StudyAnalysis) -> dict:
         "art": r.art_paragraph(a) if not a.likert_art.empty else "",
         "art_table": r.art_table(a) if not a.likert_art.empty else None,
         "art_cells": art_cells,
-        "methods": methods(a),
+        "instruments": instrument_blocks(a, found),
+        "simulated_answers": SIMULATED_RATINGS if found is not None and found.simulated else "",
+        "methods": methods(a) + ([QUESTIONNAIRE_METHODS] if found is not None else []),
     }
+
+
+QUESTIONNAIRE_METHODS = (
+    "Questionnaires: each instrument scored by its published key (microg.analysis.scoring, the same function as "
+    "microg questionnaire score and the export's scores.csv); a scale with an unanswered item is not scored. Per "
+    "scale, administration and interaction model: n, mean, SD, median and quartiles (linear interpolation). Paired "
+    "comparisons between the interaction model under test and the baseline in each administration, and of each "
+    "later administration with the first (as SSQ post vs pre), on participants scored in both, by the test that "
+    f"fits the scale: a single item of at most {ORDINAL_POINTS} points is ordinal (Wilcoxon signed-rank test, "
+    "r_rb with its 95 % CI); a score of several items is compared by the paired t-test (d_z with its 95 % CI) unless "
+    "the Shapiro-Wilk test rejects normal differences, then by the Wilcoxon test; p Bonferroni-corrected over the "
+    "instrument's scales compared together. Internal consistency: Cronbach's alpha of each scale of two or more items "
+    "(reversed items reversed) with its 95 % CI (Feldt's, pingouin), on participants who answered all its items."
+)
+
+
+def instrument_blocks(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None) -> list[dict]:
+    """One block per instrument: its title and source, the Results paragraphs and the tables."""
+    if found is None:
+        return []
+    label = analysis.label
+    blocks = []
+    for instrument in found.instruments:
+        tables = [("Scores per administration and interaction model", r.instrument_summary_table(found, instrument.id,
+                                                                                                  label))]
+        tests = r.instrument_tests_table(found, instrument.id, label)
+        if len(tests):
+            tables.append(("Paired comparisons (the test that fits the scale; differences first \u2212 second)", tests))
+        consistency = r.consistency_table(found, instrument.id, label)
+        if len(consistency):
+            tables.append(("Internal consistency", consistency))
+        blocks.append({"title": instrument.title, "source": instrument.source,
+                       "results": r.instrument_paragraphs(found, instrument.id, label), "tables": tables})
+    return blocks
 
 
 def render_html(analysis: StudyAnalysis, figures: list[dict], title: str, sections: dict | None = None) -> str:
@@ -306,6 +370,10 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
             lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["likert_distribution"] is not None:
         lines += [markdown_table(sections["likert_distribution"]), ""]
+    for block in sections["instruments"]:
+        lines += [f"### {block['title']}", "", f"Source: {block['source']}", "", *[p + "\n" for p in block["results"]]]
+        for caption, table in block["tables"]:
+            lines += [f"**{caption}**", "", markdown_table(table), ""]
     lines += ["## Methods", "", *[f"- {line}" for line in sections["methods"]], ""]
     return "\n".join(lines)
 

@@ -91,6 +91,17 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 {% for caption, table in art_cells %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}{% endif %}
 {% else %}<p>No questionnaire table was given.</p>{% endif %}
 
+{% if instruments %}
+<h2>Questionnaires</h2>
+{% if simulated_answers %}<div class="banner">{{ simulated_answers }}</div>{% endif %}
+{% for block in instruments %}
+<h3>{{ block.title }}</h3>
+<p class="muted">{{ block.source }}</p>
+{% for p in block.results %}<p class="results">{{ p }}</p>{% endfor %}
+{% for caption, table in block.tables %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}
+{% endfor %}
+{% endif %}
+
 <h2>Figures</h2>
 {% for figure in figures %}
 <figure><img alt="{{ figure.caption }}" src="data:image/png;base64,{{ figure.png }}">

@@ -22,10 +22,12 @@ from microg.analysis.apa import (
 from microg.analysis.art import CELL_SEPARATOR
 from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.likert import SCALE
+from microg.analysis.questionnaires import PAIRED_T, QuestionnaireAnalysis
 
 MEASURE_LABELS = {"time_s": "completion time (s)", "attempts": "attempts (drops)"}
 ETA_P, ETA_G, EPSILON, CHI2 = "\u03b7p\u00b2", "\u03b7G\u00b2", "\u03b5", "\u03c7\u00b2"
 MINUS = " \u2212 "
+ALPHA_SIGN = "\u03b1"
 
 
 def measure_label(dv: str) -> str:
@@ -367,6 +369,114 @@ def likert_analyse_batch(analysis: StudyAnalysis) -> pd.DataFrame:
             "r_rb [95 % CI]": _with_interval(table, "rbc", bounded),
         }
     )
+
+
+def instrument_paragraphs(found: QuestionnaireAnalysis, instrument: str, label) -> list[str]:
+    """An instrument's comparisons in words: each pair of interaction models in an administration and each
+    later administration against the first (e.g. SSQ post vs pre), then its internal consistency.
+    ``label`` names an interaction model for the reader."""
+    title = next(i.title for i in found.instruments if i.id == instrument)
+    paragraphs = []
+    for table in (found.rows("comparisons", instrument), found.rows("changes", instrument)):
+        for (first, second, held), rows in table.groupby(["first", "second", "held"], sort=False):
+            if rows["compared"].iloc[0] == "interaction":
+                what = f"{label(first)} vs {label(second)} ({held})"
+            else:
+                what = f"{first} vs {second}" + (f", about {label(held)}" if held else "")
+            parts = [_test_words(row) for _, row in rows.iterrows()]
+            paragraphs.append(f"{title}, {what}; p Bonferroni-corrected over {len(rows)} scale(s): "
+                              + "; ".join(parts) + ".")
+    consistency = found.rows("consistency", instrument)
+    if len(consistency):
+        parts = [f"{row['scale']} ({_condition(row['administration'], row['interaction'], label)}, n = "
+                 f"{int(row['n'])}, {int(row['items'])} items) {bounded(row['alpha'])} "
+                 f"{interval(row['alpha_ci_low'], row['alpha_ci_high'], bounded)}"
+                 for _, row in consistency.iterrows()]
+        paragraphs.append(f"Internal consistency of the {title} (Cronbach's {ALPHA_SIGN} [95 % CI]): "
+                          + "; ".join(parts) + ".")
+    return paragraphs
+
+
+def instrument_summary_table(found: QuestionnaireAnalysis, instrument: str, label) -> pd.DataFrame:
+    """An instrument's scores per scale, administration and interaction model."""
+    table = found.rows("summary", instrument)
+    return pd.DataFrame(
+        {
+            "Scale": table["scale"],
+            "Administration": table["administration"],
+            "Interaction model": table["interaction"].map(lambda code: label(code) if code else ""),
+            "n": table["n"].astype(int),
+            "M": table["mean"].map(number),
+            "SD": table["sd"].map(number),
+            "Mdn": table["median"].map(number),
+            "IQR [Q1, Q3]": [f"{number(iqr)} [{number(lo)}, {number(hi)}]"
+                             for iqr, lo, hi in zip(table["iqr"], table["q1"], table["q3"])],
+        }
+    )
+
+
+def instrument_tests_table(found: QuestionnaireAnalysis, instrument: str, label) -> pd.DataFrame:
+    """An instrument's paired comparisons (interaction models, administrations) with the test read."""
+    table = pd.concat([found.rows("comparisons", instrument), found.rows("changes", instrument)], ignore_index=True)
+
+    def compared(row) -> str:
+        if row["compared"] == "interaction":
+            return f"{label(row['first'])}{MINUS}{label(row['second'])} ({row['held']})"
+        return f"{row['first']}{MINUS}{row['second']}" + (f" ({label(row['held'])})" if row["held"] else "")
+
+    return pd.DataFrame(
+        {
+            "Scale": table["scale"],
+            "Compared": table.apply(compared, axis=1) if len(table) else [],
+            "n": table["n"].astype(int),
+            "Difference M [95 % CI]": [f"{number(d)} {interval(lo, hi)}" for d, lo, hi in
+                                       zip(table["mean_diff"], table["diff_ci_low"], table["diff_ci_high"])],
+            "Test": table["test"],
+            "Statistic": [f"t({degrees(row['dof'])}) = {number(row['T'])}" if row["test"] == PAIRED_T
+                          else f"V = {number(row['V'], 1)}" for _, row in table.iterrows()],
+            "p": table["p"].map(p_cell),
+            "p (Bonferroni)": table["p_bonf"].map(p_cell),
+            "Effect [95 % CI]": [_effect(row) for _, row in table.iterrows()],
+        }
+    )
+
+
+def consistency_table(found: QuestionnaireAnalysis, instrument: str, label) -> pd.DataFrame:
+    """Cronbach's alpha of an instrument's multi-item scales."""
+    table = found.rows("consistency", instrument)
+    return pd.DataFrame(
+        {
+            "Scale": table["scale"],
+            "Administration": table["administration"],
+            "Interaction model": table["interaction"].map(lambda code: label(code) if code else ""),
+            "n": table["n"].astype(int),
+            "Items": table["items"].astype(int),
+            f"Cronbach's {ALPHA_SIGN} [95 % CI]": _with_interval(table, "alpha", bounded),
+        }
+    )
+
+
+def _test_words(row) -> str:
+    """One comparison in APA style: the test read, its p (Bonferroni) and effect size."""
+    if row["test"] == PAIRED_T:
+        return (f"{row['scale']} (n = {int(row['n'])}): M = {number(row['mean_first'])} (SD = "
+                f"{number(row['sd_first'])}) vs M = {number(row['mean_second'])} (SD = {number(row['sd_second'])}), "
+                f"{t_test(row['T'], row['dof'], row['p_bonf'])}, d_z = {number(row['d_z'])}, 95 % CI "
+                f"{interval(row['d_z_ci_low'], row['d_z_ci_high'])}")
+    return (f"{row['scale']} (n = {int(row['n'])}): Mdn = {number(row['median_first'], 1)} vs "
+            f"{number(row['median_second'], 1)}, Wilcoxon signed-rank V = {number(row['V'], 1)}, p "
+            f"{p_value(row['p_bonf'])}, r_rb = {bounded(row['rbc'])}, 95 % CI "
+            f"{interval(row['rbc_ci_low'], row['rbc_ci_high'], bounded)}")
+
+
+def _effect(row) -> str:
+    if row["test"] == PAIRED_T:
+        return f"d_z = {number(row['d_z'])} {interval(row['d_z_ci_low'], row['d_z_ci_high'])}"
+    return f"r_rb = {bounded(row['rbc'])} {interval(row['rbc_ci_low'], row['rbc_ci_high'], bounded)}"
+
+
+def _condition(administration: str, interaction: str, label) -> str:
+    return ", ".join(part for part in (administration, label(interaction) if interaction else "") if part)
 
 
 def sample_table(analysis: StudyAnalysis) -> pd.DataFrame:

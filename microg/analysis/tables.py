@@ -13,14 +13,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from microg.schema import QUESTIONNAIRE, TRIALS
+from microg.schema import ANSWERS, QUESTIONNAIRE, TRIALS
 
 RATING_RANGE = (0, 10)
 LARGEST_VALUE = 1e12
 """Largest magnitude a measure may have. No task lasts 1e12 s (31 700 years) or has 1e12 drops; a
 value near float64's limit (1e308) is a logging error, and its square overflows to infinity inside
 the sums of squares."""
-TEXT_COLUMNS = tuple(column.name for column in (*TRIALS, *QUESTIONNAIRE) if column.dtype == "string")
+TEXT_COLUMNS = tuple(dict.fromkeys(c.name for c in (*TRIALS, *QUESTIONNAIRE, *ANSWERS) if c.dtype == "string"))
 FLAG_COLUMNS = ("completed", "simulated", "withdrawn")
 COLUMN_OPTIONS = ("subject", "group", "within", "interaction_column", "dv", "counts", "completed", "phase", "label",
                   "item", "rating", "practice")  # fmt: skip

@@ -32,7 +32,8 @@ from .common import clear_errors, study_dir_argument
 @clear_errors
 def export(study_dir: str, out_dir: str | None, formats: tuple[str, ...], frames: bool, bids: bool, overwrite: bool,
            accept_damaged: bool, quiet: bool, xdf_file: str | None) -> None:
-    """Export STUDY_DIR: trials and questionnaire tables, frames, Motion-BIDS; or line up an XDF file."""
+    """Export STUDY_DIR: trials, questionnaire, answers and scores tables (with the study's instrument
+    files), frames, Motion-BIDS; or line up an XDF file."""
     if xdf_file is not None:
         _export_xdf(study_dir, Path(xdf_file), Path(out_dir) if out_dir else Path(study_dir) / "export-xdf", formats,
                     overwrite)

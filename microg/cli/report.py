@@ -15,6 +15,11 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
 @click.argument("study", required=False, type=ExistingPath(file_okay=False, path_type=Path))
 @click.option("--trials", type=FILE, help="Exported trials table (CSV or Parquet), instead of a STUDY folder.")
 @click.option("--likert", type=FILE, help="Exported questionnaire table (CSV or Parquet), with --trials.")
+@click.option("--answers", "answers_file", type=FILE,
+              help="Answers table of the questionnaires' instruments (CSV or Parquet: participant, instrument, "
+                   "item, value, and administration, interaction), with --trials.")
+@click.option("--instrument", "instrument_files", multiple=True, type=FILE,
+              help="An instrument file of your own that --answers names (repeatable); the shipped ones are known.")
 @click.option("--compare", type=ExistingPath(file_okay=False, path_type=Path), default=None,
               help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
                    "also writes OUT/comparison.md and its CSVs, the two side by side.")
@@ -53,6 +58,8 @@ def report(
     study: Path | None,
     trials: Path | None,
     likert: Path | None,
+    answers_file: Path | None,
+    instrument_files: tuple[Path, ...],
     compare: Path | None,
     out: Path,
     interaction: str | None,
@@ -70,9 +77,10 @@ def report(
     columns_file: Path | None,
 ) -> None:
     """Mixed ANOVA, post hoc tests, the trial model of every task, interaction model vs baseline, Likert
-    analysis with the aligned rank transform, and figures of a study.
+    analysis with the aligned rank transform, the questionnaires' scores and their comparisons, and
+    figures of a study.
 
-    Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert). Writes
+    Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert, --answers). Writes
     OUT/report.html (self-contained),
     OUT/report.md (Results and tables as Markdown) and the tables as CSV next to them. Any tidy table
     works: name its columns with --subject, --group, --within, --interaction-column, --dv and --count, or
@@ -91,26 +99,34 @@ def report(
     if "dv" in columns:
         columns.setdefault("counts", [])
 
-    if study is not None and (trials is not None or likert is not None):
-        raise click.UsageError("give either STUDY or --trials/--likert, not both")
+    if study is not None and (trials is not None or likert is not None or answers_file is not None):
+        raise click.UsageError("give either STUDY or --trials/--likert/--answers, not both")
     if study is None and trials is None:
         raise click.UsageError("give a STUDY folder, or --trials FILE (and optionally --likert FILE)")
     from microg.study.store import StoreError
 
-    if study is not None:
-        from microg.study.export import read_tables
+    from microg.instruments import InstrumentError, load_instrument
 
-        try:
+    try:
+        if study is not None:
+            from microg.study.export import read_answers, read_tables
+
             trials_table, questionnaire = read_tables(study)
-        except (FileNotFoundError, StoreError) as error:
-            raise click.ClickException(str(error)) from error
-        if questionnaire is not None and questionnaire.empty:
-            questionnaire = None
-    else:
-        trials_table, questionnaire = trials, likert
+            answers, instruments = read_answers(study)
+            if questionnaire is not None and questionnaire.empty:
+                questionnaire = None
+        else:
+            from microg.analysis.tables import read_table
+
+            trials_table, questionnaire = trials, likert
+            answers = read_table(answers_file) if answers_file is not None else None
+            instruments = {i.id: i for i in map(load_instrument, instrument_files)}
+    except (FileNotFoundError, StoreError, InstrumentError, AnalysisInputError) as error:
+        raise click.ClickException(str(error)) from error
     try:
         path = write_report(trials_table, questionnaire, out, interaction, baseline, int(ss_type), excluded_phases,
-                            drop_duplicates=drop_duplicates, **columns)
+                            drop_duplicates=drop_duplicates, answers=answers, instruments=instruments,
+                            **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""
         raise click.ClickException(f"{where}{error}") from error

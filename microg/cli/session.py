@@ -74,9 +74,10 @@ class SessionOptions:
 
 
 def _rejected_logger(log: EventLog):
-    def rejected(item, phase, text, message):
-        log.emit("answer_rejected", {"interaction": phase.interaction, "item": item.name, "answer": text,
-                                     "message": message})
+    def rejected(question, text, message):
+        instrument, administration, interaction, item = question.key
+        log.emit("answer_rejected", {"instrument": instrument, "administration": administration,
+                                     "interaction": interaction, "item": item, "answer": text, "message": message})
     return rejected
 
 

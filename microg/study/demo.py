@@ -5,8 +5,8 @@ participants with the paper's demographics, runs every session through the real 
 and physics with simulated hands (``--input simulated``: the protocol's ``practice`` profile, so
 the veterans differ from the beginners only by the practice their training gave), answers the
 questionnaires with the rating model (``microg.participant.ratings``; marked simulated), exports the
-tables (trials and questionnaire; the frames stay in the store, ``microg export`` writes them and
-Motion-BIDS) and writes the statistics report. Sessions run in parallel worker processes, each writing
+tables (trials, questionnaire, answers and scores; the frames stay in the store, ``microg export``
+writes them and Motion-BIDS) and writes the statistics report. Sessions run in parallel worker processes, each writing
 its own session to the study's SQLite store; every session is seeded from the study's seed, so the
 same seed gives the same tables whatever the number of workers.
 """
@@ -26,7 +26,7 @@ from tqdm import tqdm
 from microg.paths import protocol_file
 
 from .assignment import paper_sample
-from .export import export_study
+from .export import export_study, read_answers
 from .inputs import open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .model_rater import ModelRater
@@ -131,6 +131,8 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
 
     tables = out / "tables"
     export_study(study_dir, tables, frames=False, bids=False, progress=False)
+    answers, instruments = read_answers(tables)
     report = write_report(tables / "trials.csv", tables / "questionnaire.csv", out / "report",
-                          title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}")
+                          title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}",
+                          answers=answers, instruments=instruments)
     return DemoStudy(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)

@@ -1,13 +1,17 @@
-"""Tidy tables from the log store: trials, questionnaire answers and frames (CSV, Parquet).
+"""Tidy tables from the log store: trials, questionnaire answers, scores and frames (CSV, Parquet).
 
 - ``trials``: one row per planned task of every session (its last run decides);
-- ``questionnaire``: one row per answer;
-  both name the station that ran the session (``station``; empty for one run in the study itself);
+- ``questionnaire``: one row per answer to the paper's kind of 0-10 items (the Likert analysis's);
+- ``answers``: one row per answer to every instrument, in the order they were given;
+  the three name the station that ran the session (``station``; empty for one run in the study itself);
   their columns, types and meanings are ``microg.schema`` (what the analysis reads);
+- ``scores``: the answers scored by the instruments' keys (``microg.analysis.scoring``, the same
+  function as ``microg questionnaire score``), with ``instruments/`` beside them: the instrument
+  files the study keeps, so that the export scores and reports the same way anywhere;
 - ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``).
 
-``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics: from a study's
-database, or from a folder of exported ``trials``/``questionnaire`` files.
+``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics and ``read_answers``
+(answers, instruments): from a study's database, or from a folder of exported files.
 """
 
 from __future__ import annotations
@@ -26,7 +30,9 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
-from microg.schema import QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, TRIAL_DTYPES
+from microg.instruments import Instrument, load_instrument
+from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, \
+    TRIAL_DTYPES
 from microg.skeleton import HandFrame
 
 from . import framelog, ledger
@@ -78,22 +84,53 @@ def trials_table(store: Store) -> pd.DataFrame:
     return table.astype(TRIAL_DTYPES)
 
 
-def questionnaire_table(store: Store) -> pd.DataFrame:
-    """One row per answer (the module docstring lists the columns)."""
+def answers_table(store: Store) -> pd.DataFrame:
+    """One row per answer to every instrument, per participant in the order given (``microg.schema.ANSWERS``)."""
     labels = interaction_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, s.station,
-               a.interaction, a.item, a.rating, a.source
+               a.instrument, a.administration, a.interaction, a.item, a.value, a.source, a.response_time_s, a.t
         FROM answers a JOIN sessions s ON s.id = a.session_id JOIN participants p ON p.id = s.participant_id
-        ORDER BY p.number, a.interaction, a.item""").fetchall()
+        ORDER BY p.number, a.rowid""").fetchall()
+    table = pd.DataFrame([{
+        "study": store.name, "participant": r["participant"], "group": r["group_code"], "instrument": r["instrument"],
+        "administration": r["administration"], "interaction": r["interaction"],
+        "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"],
+        "value": str(r["value"]), "source": r["source"], "response_time_s": r["response_time_s"], "t": r["t"],
+        "simulated": bool(r["simulated"]) or r["source"] == "model",
+        "withdrawn": r["participant_status"] == "withdrawn", "station": r["station"],
+    } for r in rows], columns=ANSWER_COLUMNS)
+    return table.astype(ANSWER_DTYPES)
+
+
+def questionnaire_table(store: Store) -> pd.DataFrame:
+    """One row per answer to the paper's kind of 0-10 items about an interaction model (the Likert
+    analysis's table; ``microg.instruments.Instrument.likert``)."""
+    labels = interaction_labels(store)
+    likert = [name for name, instrument in store.protocol.instruments.items() if instrument.likert]
+    rows = store.db.execute(f"""
+        SELECT p.id AS participant, p.group_code, p.status AS participant_status, s.simulated, s.station,
+               a.interaction, a.item, a.value, a.source
+        FROM answers a JOIN sessions s ON s.id = a.session_id JOIN participants p ON p.id = s.participant_id
+        WHERE a.instrument IN ({",".join("?" * len(likert))}) AND a.interaction != ''
+        ORDER BY p.number, a.interaction, a.item""", likert).fetchall()
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "interaction": r["interaction"],
-        "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"], "rating": r["rating"],
+        "interaction_label": labels.get(r["interaction"], r["interaction"]), "item": r["item"], "rating": r["value"],
         "source": r["source"],
         "simulated": bool(r["simulated"]) or r["source"] == "model",
         "withdrawn": r["participant_status"] == "withdrawn", "station": r["station"],
     } for r in rows], columns=QUESTIONNAIRE_COLUMNS)
     return table.astype(QUESTIONNAIRE_DTYPES)
+
+
+def scores_table(store: Store, answers: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Every answer (``answers``: the study's, when already read) scored by its instrument's key
+    (``microg.analysis.scoring.score_answers``)."""
+    from microg.analysis.scoring import score_answers  # the statistics' imports take seconds: only when scoring
+
+    answers = answers_table(store) if answers is None else answers
+    return score_answers(answers, store.protocol.instruments, source=str(store.dir))
 
 
 def run_frames(store: Store, run_id: int) -> pd.DataFrame:
@@ -128,6 +165,22 @@ def frames_columns(store: Store, runs: list[dict] | None = None) -> Iterator[dic
                 "run_status": run["status"], "phase": run["phase"], "interaction": run["interaction"],
                 "object": run["object"]}
         yield {**{k: pa.repeat(v, len(columns["t"])) for k, v in keys.items()}, **columns}
+
+
+def read_answers(study_dir: str | Path) -> tuple[pd.DataFrame | None, dict[str, Instrument]]:
+    """(answers, instruments) of a study folder or of an export folder (its ``answers`` table and
+    ``instruments/``); answers None for an export written before there were instruments."""
+    study_dir = Path(study_dir)
+    if (study_dir / DATABASE).exists():
+        with open_study(study_dir, readonly=True) as store:
+            return answers_table(store), dict(store.protocol.instruments)
+    instruments = {path.stem: load_instrument(path) for path in sorted((study_dir / "instruments").glob("*.toml"))}
+    for name in ("answers.parquet", "answers.csv"):
+        if (study_dir / name).exists():
+            from microg.analysis.tables import read_table
+
+            return read_table(study_dir / name), instruments
+    return None, instruments
 
 
 def read_tables(study_dir: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -183,8 +236,10 @@ def check_output(out_dir: Path, overwrite: bool) -> None:
 def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),
                  frames: bool = True, frames_csv: bool = False, bids: bool = True, overwrite: bool = False,
                  accept_damaged: bool = False, progress: bool = True, say=print) -> list[Path]:
-    """Write the trials and questionnaire tables (``formats``), the frames (Parquet; also CSV with
-    ``frames_csv``) and Motion-BIDS into the folder ``out_dir``; returns the files written.
+    """Write the trials, questionnaire, answers and scores tables (``formats``) with the study's
+    instrument files (``instruments/``), the frames (Parquet; also CSV with ``frames_csv``) and
+    Motion-BIDS into the folder ``out_dir``; returns the files written. Items a scale needs that were
+    not answered are reported through ``say`` (their scales are left unscored).
 
     The export is atomic: it is written into ``<out_dir>.partial`` and renamed at the end, so a
     folder named ``out_dir`` always holds a complete export. An existing ``out_dir`` is replaced
@@ -213,7 +268,7 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
             say(f"note: {partial} holds an earlier export that was cut off before it finished; it is replaced now")
             shutil.rmtree(partial)
         try:
-            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress, damage)
+            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress, damage, say)
         except OSError as error:
             shutil.rmtree(partial, ignore_errors=True)
             full = error.errno == errno.ENOSPC
@@ -232,22 +287,35 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
 
 
 def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
-                  progress: bool, damage: list[tuple[int, str]]) -> list[Path]:
+                  progress: bool, damage: list[tuple[int, str]], say) -> list[Path]:
     """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it.
-    The runs with a damaged frame batch (``damage``: run id, what is wrong) have no frames in it."""
+    The runs with a damaged frame batch (``damage``: run id, what is wrong) have no frames in it;
+    items a scale needs that were not answered are reported through ``say``."""
     from tqdm import tqdm
+
+    from microg.analysis.scoring import missing_items
 
     from .bids import write_motion_bids
 
     head = ledger.head_of(store.db)
     left_out = {run_id for run_id, _ in damage}
     folder.mkdir(parents=True)
-    for name, table in (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store))):
+    answers = answers_table(store)
+    tables = (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store)), ("answers", answers),
+              ("scores", scores_table(store, answers)))
+    for name, table in tables:
         for fmt in formats:
             if fmt == "csv":
                 table.to_csv(folder / f"{name}.csv", index=False)
             else:
                 table.to_parquet(folder / f"{name}.parquet", index=False)
+    (folder / "instruments").mkdir()
+    for name, instrument in store.protocol.instruments.items():
+        (folder / "instruments" / f"{name}.toml").write_text(instrument.text, encoding="utf-8")
+    for row in missing_items(answers, store.protocol.instruments).itertuples(index=False):
+        say(f"note: participant {row.participant}, {row.instrument} ({row.administration}"
+            f"{', ' + row.interaction if row.interaction else ''}): item {row.item} was not answered; {row.scales} "
+            "not scored")
     runs = [run for run in run_list(store) if run["run_id"] not in left_out]
     if frames and runs:
         _write_frames(store, runs, folder, frames_csv, tqdm(total=len(runs), unit="run", desc="frames",

@@ -92,7 +92,8 @@ FACTS = (
     Fact("result", "task_runs", ("id",), ("status", "reason", "ended_at", "time_s", "attempts", "frames",
                                           "ended_wall"), open_status="running"),
     Fact("event", "events", ("id",), ("session_id", "run_id", "t", "wall", "kind", "data")),
-    Fact("answer", "answers", ("session_id", "interaction", "item"), ("rating", "source", "t", "wall")),
+    Fact("answer", "answers", ("session_id", "instrument", "administration", "interaction", "item"),
+         ("value", "source", "response_time_s", "t", "wall")),
     Fact("frames", "frames", ("run_id", "first"), ("count", "t_first", "t_last", "checksum"), checksummed=True),
     Fact("station", "stations", ("name",), ("participants", "made_at")),
 )
@@ -291,7 +292,8 @@ def describe(db: sqlite3.Connection, fact: Fact, key: tuple) -> str:
         "run": lambda: f"the start of {run_name(db, first)}",
         "result": lambda: f"the result of {run_name(db, first)}",
         "event": lambda: _event_name(db, first),
-        "answer": lambda: f"the answer of session {first} for {key[1]} {key[2]}",
+        "answer": lambda: f"the answer of session {first} to {key[1]} item {key[4]} ({key[2]}"
+                          + (f", about {key[3]})" if key[3] else ")"),
         "frames": lambda: f"frames of {run_name(db, first)}, the batch from frame {key[1]}",
         "station": lambda: f"station {first}",
     }

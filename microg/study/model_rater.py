@@ -1,16 +1,16 @@
-"""The questionnaire answers of simulated participants: what each went through with each interaction model,
-read back from the study's log, rated by the participant's rating model
-(``microg.participant.ratings``). The answers are stored with ``source = model``."""
+"""The questionnaire answers of simulated participants: what each went through with each interaction model
+(and how long it has spent on tasks so far), read back from the study's log, answered by the
+participant's rating model (``microg.participant.ratings``). The answers are stored with ``source = model``."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from microg.participant.ratings import Experience, RatingModel
+from microg.participant.ratings import EXPOSURE_ONLY, Experience, InstrumentModel, RatingModel
 from microg.skeleton import SIDES, side_slots
 
 from . import framelog
-from .protocol import Item, Questionnaire, TaskPhase
+from .questionnaire import Answer, Question
 from .store import FINAL_RUN, Store
 
 
@@ -34,14 +34,15 @@ def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
 
 
 def experience(store: Store, session_id: int, interaction: str) -> Experience:
-    """Measures of the session's finished task runs with ``interaction`` (the last run of each task)."""
+    """Measures of the session's finished task runs with ``interaction`` (the last run of each task; ""
+    for every interaction model)."""
     rows = store.db.execute("""
         SELECT r.id, r.status, r.time_s, r.attempts FROM task_runs r JOIN tasks t
             ON t.session_id = r.session_id AND t.task_index = r.task_index
-        WHERE r.session_id = ? AND t.interaction = ? AND r.status IN (%s)
+        WHERE r.session_id = ? AND (? = '' OR t.interaction = ?) AND r.status IN (%s)
           AND r.run = (SELECT MAX(run) FROM task_runs m WHERE m.session_id = r.session_id
                                                            AND m.task_index = r.task_index)
-        """ % ",".join("?" * len(FINAL_RUN)), (session_id, interaction, *FINAL_RUN)).fetchall()
+        """ % ",".join("?" * len(FINAL_RUN)), (session_id, interaction, interaction, *FINAL_RUN)).fetchall()
     rows = [r for r in rows if r["status"] != "skipped"]
     if not rows:
         return Experience(0, 0.0, 1.0, float("nan"), float("nan"), float("nan"))
@@ -61,18 +62,46 @@ def experience(store: Store, session_id: int, interaction: str) -> Experience:
     )
 
 
+def exposure_minutes(store: Store, session_id: int) -> float:
+    """Minutes the session has spent on tasks so far (every run, on the session's clock)."""
+    row = store.db.execute("SELECT COALESCE(SUM(ended_at - started_at), 0) FROM task_runs WHERE session_id = ? "
+                           "AND ended_at IS NOT NULL", (session_id,)).fetchone()
+    return float(row[0]) / 60.0
+
+
 class ModelRater:
-    """Rates from the log store with the rating model; answers are stored with ``source = model``."""
+    """Answers from the log store with the rating model; answers are stored with ``source = model``.
+    The paper's items draw from one stream in the order they are asked; every other instrument's
+    filling-in is answered whole when its first item is asked."""
 
     source = "model"
 
     def __init__(self, store: Store, session_id: int, seed: int):
         self.store, self.session_id = store, session_id
-        self._model = RatingModel(seed)
-        self._lived: dict[str, Experience] = {}
+        self._paper = RatingModel(seed)
+        self._model = InstrumentModel(seed)
+        self._lived: dict[tuple[str, str], Experience] = {}
+        self._filled: dict[tuple[str, str, str], dict] = {}
 
-    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
-        if phase.interaction not in self._lived:
-            self._lived[phase.interaction] = experience(self.store, self.session_id, phase.interaction)
-        return self._model.rate(item.name, self._lived[phase.interaction],
-                                (questionnaire.scale_min, questionnaire.scale_max))
+    def answer(self, question: Question) -> Answer:
+        instrument, administration, interaction, item = question.key
+        if instrument == "paper":
+            response = question.item.response
+            return Answer(self._paper.rate(item, self._lived_with(administration, interaction),
+                                           (int(response.low), int(response.high))), None)
+        filling = (instrument, administration, interaction)
+        if filling not in self._filled:
+            lived = None if instrument in EXPOSURE_ONLY else self._lived_with(administration, interaction)
+            self._filled[filling] = self._model.answers(question.instrument, administration, interaction, lived,
+                                                        exposure_minutes(self.store, self.session_id))
+        return Answer(self._filled[filling][item], None)
+
+    def saved(self, question: Question) -> None:
+        pass
+
+    def _lived_with(self, administration: str, interaction: str) -> Experience:
+        """What the participant went through with ``interaction`` by this administration."""
+        key = (administration, interaction)
+        if key not in self._lived:
+            self._lived[key] = experience(self.store, self.session_id, interaction)
+        return self._lived[key]

@@ -2,8 +2,11 @@
 
 A protocol declares the groups and their balancing, the objects and the order scheme, the
 pick-and-place task and its rules, the phases and the interaction model each one runs, the
-training, the questionnaire and the timeline. ``protocols/paper.toml`` is the paper's study
-(section 4.3) and documents every key. A file may start from another one with
+training and the timeline, which places the questionnaires: entries with ``instruments`` (files
+of ``microg.instruments``: SSQ, IPQ, NASA-TLX, SUS, the paper's items, a study's own), asked
+before, between or after the phases, once or about each interaction model.
+``protocols/paper.toml`` is the paper's study (section 4.3) and documents every key;
+``protocols/paper-vr.toml`` adds the questionnaires of VR research. A file may start from another one with
 ``extends = "other.toml"``: its tables are merged key by key over the other's, and lists
 (``groups``, ``phases``, ``timeline``, ...) replace the other's lists whole.
 
@@ -18,7 +21,7 @@ tracker, a session of at most a day, a physics that steps at most ``MAX_STEP_RAT
 Each section of the file has its own reader below (``_read_scene``, ``_read_groups``, ...); the
 checks that span sections (every object in every phase's world, object codes, the timeline's
 minutes) run once all sections are read. What only simulated participants need (skill profiles,
-questionnaire items the rating model rates) is reported by ``Protocol.simulation_problems``:
+instruments the rating model answers) is reported by ``Protocol.simulation_problems``:
 ``microg study init`` warns about it, and a simulated session refuses to start.
 """
 
@@ -38,6 +41,8 @@ import numpy as np
 
 from microg.hands.filter import FILTER_WINDOW
 from microg.hands.guard import GuardConfig
+from microg.instruments import IDENTIFIER, Instrument, InstrumentError, instrument_file, read_instrument, \
+    shipped_instruments
 from microg.paths import OBJECTS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
@@ -52,6 +57,8 @@ PRACTICE = "practice"
 and practice improves them with each task done (``microg.study.inputs.SimulatedInputs``)."""
 PHASES_INFO = ("orientation", "instructions")
 """Timeline phases that show text and log their start and end."""
+ABOUT_EACH = "each"
+"""A questionnaire's ``about``: asked once about each interaction model the phases compare."""
 ORDER_SCHEMES = ("latin_square", "permutation")
 BALANCING = ("gender", "none")
 SCENE_OPTIONS = ("tracking_rate", "substeps", "penetration_stiffness", "angular_integrator", "resting_tolerance")
@@ -78,8 +85,6 @@ MAX_FILTER_WINDOW = 100
 MAX_FRAME_BATCH = 10_000
 """Frames per database transaction: a crash loses at most these (90 s at 110 Hz)."""
 MAX_PLACES = 100
-MAX_SCALE_POINTS = 101
-"""Answers a questionnaire scale offers (the paper's has 11); the page shows one button each."""
 MAX_AGE = 150
 FOV_RANGE = (10.0, 120.0)
 """Degrees: the vertical field of view a screen may span from the eyes (as ``--fov``)."""
@@ -146,27 +151,19 @@ class Training:
 
 
 @dataclass(frozen=True)
-class Item:
-    name: str
-    question: str
-    low: str
-    high: str
-
-
-@dataclass(frozen=True)
-class Questionnaire:
-    scale_min: int
-    scale_max: int
-    items: tuple[Item, ...]
-
-
-@dataclass(frozen=True)
 class Phase:
     name: str
     minutes: float
     text: str = ""
     groups: tuple[str, ...] | None = None
     """Only these groups go through the phase; None: everyone."""
+    instruments: tuple[str, ...] = ()
+    """A questionnaire phase: the instruments it asks, in order (``Protocol.instruments``)."""
+    about: str | None = None
+    """What a questionnaire asks about: the interaction model of one of ``[[phases]]`` (its name), each
+    interaction model (``each``), or none (None)."""
+    administration: str = ""
+    """The name its answers are kept under (``pre``, ``post``, ...): its ``administration``, else its name."""
 
 
 @dataclass(frozen=True)
@@ -206,7 +203,8 @@ class Protocol:
     task: TaskRules
     training: Training | None
     phases: tuple[TaskPhase, ...]
-    questionnaire: Questionnaire | None
+    instruments: dict[str, Instrument]
+    """The instruments the timeline asks, by id, as the study keeps them."""
     timeline: tuple[Phase, ...]
     frame_batch: int
     viewpoint: Viewpoint
@@ -244,9 +242,9 @@ class Protocol:
 
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
-        value): a group's skill profile that does not exist, a questionnaire item the rating model
-        does not rate. Empty when simulated sessions can run it."""
-        from microg.participant.ratings import PENALTIES
+        value): a group's skill profile that does not exist, an instrument the rating model does not
+        answer. Empty when simulated sessions can run it."""
+        from microg.participant.ratings import unanswered
         from microg.participant.skill import PROFILES
 
         problems = []
@@ -256,11 +254,18 @@ class Protocol:
                 problems.append(f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: "
                                 f"simulated participants play a population file (FILE.toml) or one of {profiles} "
                                 "(the default is the group's name)")
-        for i, item in enumerate(self.questionnaire.items if self.questionnaire else ()):
-            if item.name not in PENALTIES:
-                problems.append(f"{self.where}: questionnaire.items[{i}].name = {item.name!r}: the rating model of "
-                                f"simulated participants rates only {sorted(PENALTIES)}")
+        for i, phase in enumerate(self.timeline):
+            for name in phase.instruments:
+                why = unanswered(self.instruments[name])
+                if why:
+                    problems.append(f"{self.where}: timeline[{i}].instruments = {list(phase.instruments)}: {name}: "
+                                    f"{why}")
         return problems
+
+    def about(self, phase: Phase) -> tuple[TaskPhase | None, ...]:
+        """The phases of tasks whose interaction models a questionnaire phase asks about, in order (None:
+        about no interaction model)."""
+        return _about(phase, self.phases)
 
     def phases_for(self, group: str) -> tuple[Phase, ...]:
         """The timeline as a participant of ``group`` goes through it."""
@@ -417,6 +422,7 @@ def load_protocol(path: str | Path) -> Protocol:
             mesh = _mesh_file(objects[name], found)
             if mesh is not None:
                 meshes[name] = base64.b64encode(mesh.read_bytes()).decode("ascii")
+    instruments = _instrument_files(path, data, files)
     resolved = dict(data, object_files=objects, sources=sources)
     if meshes:
         resolved["mesh_files"] = meshes
@@ -431,14 +437,36 @@ def load_protocol(path: str | Path) -> Protocol:
             populations[profile] = _read_text(found, "population file")
     if populations:
         resolved["population_files"] = populations
+    if instruments:
+        resolved["instrument_files"] = instruments
     return _build(_Reader(str(path), data), resolved, files)
+
+
+def _instrument_files(path: Path, data: dict, files: dict) -> dict[str, str]:
+    """The texts of the instrument files the timeline names (next to the protocol in instruments/,
+    else shipped); ``files`` gets where each came from."""
+    texts = {}
+    timeline = data.get("timeline")
+    for i, entry in enumerate(timeline if isinstance(timeline, list) else ()):
+        names = entry.get("instruments") if isinstance(entry, dict) else None
+        for name in names if isinstance(names, list) else ():
+            if not isinstance(name, str) or name in texts:
+                continue  # reported by the validation below, with its key
+            found = instrument_file(name, path.parent)
+            if found is None:
+                raise ProtocolError(f"{path}: timeline[{i}].instruments = {names!r}: no instrument {name!r}: no "
+                                    f"file instruments/{name}.toml next to the protocol, and no shipped one "
+                                    f"(shipped: {shipped_instruments()})")
+            texts[name], files[f"instrument:{name}"] = _read_text(found, "instrument file"), str(found)
+    return texts
 
 
 def protocol_from_resolved(resolved: dict, where: str) -> Protocol:
     """The protocol a study database keeps (see ``Protocol.resolved``)."""
     if not isinstance(resolved, dict) or not isinstance(resolved.get("object_files", {}), dict):
         raise ProtocolError(f"{where}: the stored protocol is not a protocol table")
-    data = {k: v for k, v in resolved.items() if k not in ("object_files", "mesh_files", "population_files", "sources")}
+    data = {k: v for k, v in resolved.items() if k not in ("object_files", "mesh_files", "population_files",
+                                                           "instrument_files", "sources")}
     return _build(_Reader(where, data), resolved, {})
 
 
@@ -761,52 +789,97 @@ def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files
     return training
 
 
-def _read_questionnaire(top: _Reader) -> Questionnaire | None:
-    """``[questionnaire]``: the scale and the items, each asked once per interaction model."""
-    q = top.table("questionnaire", None)
-    if q is None:
-        return None
-    scale_min = q.integer("scale_min", minimum=0)
-    scale_max = q.integer("scale_max", minimum=1)
-    if scale_max <= scale_min:
-        raise q.fail("scale_max", scale_max, f"must exceed scale_min = {scale_min}")
-    if scale_max - scale_min + 1 > MAX_SCALE_POINTS:
-        raise q.fail("scale_max", scale_max, f"the scale from scale_min = {scale_min} offers "
-                     f"{scale_max - scale_min + 1} answers; at most {MAX_SCALE_POINTS}")
-    items = []
-    for it in q.tables("items"):
-        items.append(Item(name=it.text("name"), question=it.text("question"), low=it.text("low"),
-                          high=it.text("high")))
-        it.done()
-    q.unique("items", [i.name for i in items], "item name")
-    q.done()
-    return Questionnaire(scale_min, scale_max, tuple(items))
+def _read_instruments(top: _Reader, resolved: dict, files: dict) -> dict[str, Instrument]:
+    """The instruments the timeline asks, from their files' texts (``microg.instruments``); errors name
+    the instrument file (or, for a study's stored copy, the database and the file's name)."""
+    _renamed(top, "questionnaire", "[questionnaire] is now an instrument file: move its items into "
+                                   "instruments/NAME.toml next to the protocol (in the form of the shipped "
+                                   "protocols/instruments/paper.toml: id, text, anchors) and ask it in the timeline: "
+                                   'phase = "questionnaire", instruments = ["NAME"], about = "each"')
+    texts = resolved.get("instrument_files", {})
+    if not isinstance(texts, dict):
+        raise ProtocolError(f"{top.where}: the stored protocol's instrument files are not a table of texts")
+    instruments = {}
+    for name, text in texts.items():
+        where = files.get(f"instrument:{name}") or f"{top.where}: instrument file {name}.toml (as kept with the protocol)"
+        if not isinstance(text, str):
+            raise ProtocolError(f"{where}: no text kept for it (found {type(text).__name__})")
+        try:
+            instruments[name] = read_instrument(text, where, name)
+        except InstrumentError as error:
+            raise ProtocolError(str(error)) from None
+    return instruments
 
 
 def _read_timeline(top: _Reader, groups: tuple[Group, ...], phases: tuple[TaskPhase, ...],
-                   training: Training | None, questionnaire: Questionnaire | None) -> tuple[Phase, ...]:
-    """``[[timeline]]``: the phases in order; every one of ``[[phases]]``, the training and the
-    questionnaire exactly once, the questionnaire after the phases it asks about."""
+                   training: Training | None, instruments: dict[str, Instrument]) -> tuple[Phase, ...]:
+    """``[[timeline]]``: the phases in order; every one of ``[[phases]]`` and the training exactly once,
+    and questionnaires (entries with ``instruments``) where the protocol wants them (``_read_asking``)."""
     codes = [g.code for g in groups]
-    phase_names = tuple(p.name for p in phases)
-    required = (("training",) if training else ()) + phase_names + (("questionnaire",) if questionnaire else ())
+    required = (("training",) if training else ()) + tuple(p.name for p in phases)
     timeline = []
     for p in top.tables("timeline"):
-        name = p.text("phase", choices=PHASES_INFO + required)
+        asks = "instruments" in p.data
+        name = p.text("phase") if asks else p.text("phase", choices=PHASES_INFO + required)
         phase_groups = p.strings("groups") if "groups" in p.data else None
         for code in phase_groups or ():
             if code not in codes:
                 raise p.fail("groups", list(phase_groups), f"names group {code!r}; groups are {codes}")
+        asking = _read_asking(p, name, PHASES_INFO + required, phases, instruments, [t.name for t in timeline]) \
+            if asks else {}
         timeline.append(Phase(name=name, minutes=p.number("minutes", unit=" (minutes)"), text=p.text("text", ""),
-                              groups=training.groups if name == "training" else phase_groups))
+                              groups=training.groups if name == "training" else phase_groups, **asking))
         p.done()
     seen = [p.name for p in timeline]
     for name in required:
         if seen.count(name) != 1:
             raise top.fail("timeline", seen, f"must list phase {name!r} exactly once")
-    if questionnaire and seen.index("questionnaire") < max(seen.index(s) for s in phase_names):
-        raise top.fail("timeline", seen, "puts the questionnaire before a phase it asks about")
+    top.unique("timeline", seen, "phase")
+    asked: dict[tuple[str, str, str], int] = {}
+    for i, phase in enumerate(timeline):
+        for instrument in phase.instruments:
+            for about in (p.name if p else "" for p in _about(phase, phases)):
+                key = (instrument, phase.administration, about)
+                if key in asked:
+                    raise top.fail(f"timeline[{i}].administration", phase.administration, f"timeline[{asked[key]}] "
+                                   f"asks {instrument} in this administration about the same interaction model "
+                                   "already; give each its own administration")
+                asked[key] = i
     return tuple(timeline)
+
+
+def _read_asking(p: _Reader, name: str, reserved: tuple[str, ...], phases: tuple[TaskPhase, ...],
+                 instruments: dict[str, Instrument], before: list[str]) -> dict:
+    """A questionnaire phase's keys: ``instruments`` (ids of instrument files), ``about`` (one of
+    ``[[phases]]`` that comes before it, or ``each`` after all of them; absent: about no interaction model)
+    and ``administration`` (default: the phase's name)."""
+    if name in reserved or not IDENTIFIER.fullmatch(name):
+        raise p.fail("phase", name, f"a questionnaire's phase is a name of its own (letters, digits and _), not one "
+                     f"of {list(reserved)}")
+    asked = p.strings("instruments")
+    if not asked:
+        raise p.fail("instruments", [], "must name one or more instruments (files in instruments/ or shipped)")
+    p.unique("instruments", list(asked), "instrument")
+    for instrument in asked:
+        if instrument not in instruments:
+            raise p.fail("instruments", list(asked), f"no instrument file {instrument}.toml kept with the protocol")
+    names = [ph.name for ph in phases]
+    about = p.text("about", choices=(ABOUT_EACH, *names)) if "about" in p.data else None
+    missing = [n for n in (names if about == ABOUT_EACH else [about] if about else []) if n not in before]
+    if missing:
+        raise p.fail("about", about, f"asks about phase {missing[0]!r} before it has run (put this questionnaire "
+                     "after it in the timeline)")
+    administration = p.text("administration", name)
+    if not IDENTIFIER.fullmatch(administration):
+        raise p.fail("administration", administration, "must be letters, digits and _ (it names rows of tables)")
+    return {"instruments": asked, "about": about, "administration": administration}
+
+
+def _about(phase: Phase, phases: tuple[TaskPhase, ...]) -> tuple[TaskPhase | None, ...]:
+    """What a questionnaire phase asks about (``Protocol.about``, before the protocol exists)."""
+    if phase.about == ABOUT_EACH:
+        return phases
+    return tuple(p for p in phases if p.name == phase.about) or (None,)
 
 
 def _read_display(top: _Reader) -> Viewpoint:
@@ -912,8 +985,8 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     task = _read_task(top)
     phases = _read_phases(top)
     training = _read_training(top, groups, sources, files, meshes)
-    questionnaire = _read_questionnaire(top)
-    timeline = _read_timeline(top, groups, phases, training, questionnaire)
+    instruments = _read_instruments(top, resolved, files)
+    timeline = _read_timeline(top, groups, phases, training, instruments)
     logging = top.table("logging", {})
     frame_batch = logging.integer("frame_batch", 64, maximum=MAX_FRAME_BATCH)
     logging.done()
@@ -922,13 +995,14 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     top.raw("object_files", None)
     top.raw("mesh_files", None)
     top.raw("population_files", None)
+    top.raw("instrument_files", None)
     top.raw("sources", None)
     top.done()
     protocol = Protocol(name=name, title=title, where=top.where, seed=seed, duration_minutes=duration,
                         gravity=gravity, table_height=table_height, scene_options=options,
                         filter_window=filter_window, jump_distance=jump_distance, total_participants=total, balance=balance, age_range=age_range,
                         groups=groups, objects=objects, order=order, task=task, training=training, phases=phases,
-                        questionnaire=questionnaire, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
+                        instruments=instruments, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
                         resolved=resolved, dataset=dataset)
     _check_timeline_fits(top, protocol)
     _check_objects(top, protocol)

@@ -93,15 +93,21 @@ CREATE TABLE events (
     data TEXT NOT NULL
 );
 CREATE INDEX events_by_session ON events(session_id, run_id);
+-- answers: one row per item answered, committed as it is given. interaction is '' for a questionnaire about
+-- no interaction model; value is a number on the item's scale or the choice made (a NASA-TLX pair's subscale);
+-- response_time_s runs from showing the item to the answer that counted (NULL for the rating model).
 CREATE TABLE answers (
     session_id INTEGER NOT NULL REFERENCES sessions(id),
+    instrument TEXT NOT NULL,
+    administration TEXT NOT NULL,
     interaction TEXT NOT NULL,
     item TEXT NOT NULL,
-    rating INTEGER NOT NULL,
+    value NOT NULL CHECK (typeof(value) IN ('integer', 'real', 'text')),
     source TEXT NOT NULL CHECK (source IN ('participant', 'model')),
+    response_time_s REAL CHECK (response_time_s IS NULL OR response_time_s >= 0),
     t REAL NOT NULL,
     wall TEXT NOT NULL,
-    PRIMARY KEY (session_id, interaction, item)
+    PRIMARY KEY (session_id, instrument, administration, interaction, item)
 );
 CREATE TABLE frames (
     run_id INTEGER NOT NULL REFERENCES task_runs(id),

@@ -37,7 +37,7 @@ from microg.task import COMPLETED, Moment, TaskRules, play
 from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
-from .questionnaire import Rater
+from .questionnaire import Rater, questions
 from .store import Event, PlannedTask, Store, derived_seed
 
 
@@ -287,8 +287,8 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
                 continue
             if phase.name not in started_phases:
                 log.emit("phase_start", {"phase": phase.name})
-            if phase.name == "questionnaire":
-                _questionnaire(store, session_id, rater, clock, protocol)
+            if phase.instruments:
+                _questionnaire(store, session_id, rater, clock, protocol, phase)
             elif protocol.runs_tasks(phase):
                 for task, plan, seed in planned_runs(protocol, session, participant, tasks, phase):
                     if task.index not in finished:
@@ -338,17 +338,19 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
     return result
 
 
-def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol) -> None:
-    questionnaire = protocol.questionnaire
+def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol,
+                   phase: Phase) -> None:
+    """Ask a questionnaire phase's items that are not answered yet (a resumed session carries on at the
+    first unanswered one), each committed as it is given, then confirmed to the rater."""
     if rater is None:
         store.log(session_id, [Event(clock.now(), "questionnaire_skipped", {"reason": "no rater for this session"})])
         return
     answered = store.answers(session_id)
-    for phase in protocol.phases:
-        for item in questionnaire.items:
-            if (phase.interaction, item.name) not in answered:
-                rating = rater.rate(item, phase, questionnaire)
-                store.save_answer(session_id, phase.interaction, item.name, rating, rater.source, clock.now())
+    for question in questions(protocol, phase):
+        if question.key not in answered:
+            answer = rater.answer(question)
+            store.save_answer(session_id, question.key, answer.value, rater.source, clock.now(), answer.response_time_s)
+            rater.saved(question)
 
 
 def resume_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, operator: Operator | None = None,

@@ -210,8 +210,9 @@ def session_content(db: sqlite3.Connection, session_id: int) -> str:
                    "frames, started_wall, ended_wall FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,)))
     add(db.execute("""SELECT r.task_index, r.run, e.t, e.wall, e.kind, e.data FROM events e
                       LEFT JOIN task_runs r ON r.id = e.run_id WHERE e.session_id = ? ORDER BY e.id""", (session_id,)))
-    add(db.execute("SELECT interaction, item, rating, source, t, wall FROM answers WHERE session_id = ? "
-                   "ORDER BY interaction, item", (session_id,)))
+    add(db.execute("SELECT instrument, administration, interaction, item, value, source, response_time_s, t, wall "
+                   "FROM answers WHERE session_id = ? ORDER BY instrument, administration, interaction, item",
+                   (session_id,)))
     for task_index, run, first, count, t_first, t_last, blob in db.execute("""
             SELECT r.task_index, r.run, f.first, f.count, f.t_first, f.t_last, f.data FROM frames f
             JOIN task_runs r ON r.id = f.run_id WHERE r.session_id = ? ORDER BY r.id, f.first""", (session_id,)):
@@ -378,10 +379,12 @@ def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id
         event_id = db.execute("INSERT INTO events (session_id, run_id, t, wall, kind, data) VALUES (?, ?, ?, ?, ?, ?)",
                               (new, run_ids.get(e["run_id"]), e["t"], e["wall"], e["kind"], e["data"])).lastrowid
         ledger.seal(db, "event", event_id)
-    for a in source.execute("SELECT * FROM answers WHERE session_id = ?", (session_id,)):
-        db.execute("INSERT INTO answers VALUES (?, ?, ?, ?, ?, ?, ?)",
-                   (new, a["interaction"], a["item"], a["rating"], a["source"], a["t"], a["wall"]))
-        ledger.seal(db, "answer", new, a["interaction"], a["item"])
+    for a in source.execute("SELECT * FROM answers WHERE session_id = ? ORDER BY rowid", (session_id,)):
+        key = (a["instrument"], a["administration"], a["interaction"], a["item"])
+        db.execute("INSERT INTO answers (session_id, instrument, administration, interaction, item, value, source, "
+                   "response_time_s, t, wall) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                   (new, *key, a["value"], a["source"], a["response_time_s"], a["t"], a["wall"]))
+        ledger.seal(db, "answer", new, *key)
     for r in runs:
         if r["status"] != "running":
             db.execute("UPDATE task_runs SET status = ?, reason = ?, ended_at = ?, time_s = ?, attempts = ?, "

@@ -52,8 +52,13 @@ from .assignment import Enrolled, Participant, ParticipantError, assign_group, a
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 6
-"""5: the checksums and the ledger; 6: stations (``microg.study.stations``)."""
+SCHEMA_VERSION = 7
+SCHEMA_CHANGES = {
+    5: "every committed fact is in the ledger's hash chain",
+    6: "sessions keep the station that ran them (microg.study.stations)",
+    7: "each answer names its instrument and administration and keeps its response time (issue 22)",
+}
+"""What each schema version changed, for the message that refuses an older study."""
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
 RUN_STATUSES = FINAL_RUN + ("running", "interrupted")
 OUTCOMES = ("completed", "timeout")
@@ -502,9 +507,11 @@ class Store:
         rows = self.db.execute(query + " ORDER BY id", (session_id, run_id) if run_id else (session_id,))
         return [Event(r["t"], r["kind"], json.loads(r["data"])) for r in rows]
 
-    def answers(self, session_id: int) -> dict[tuple[str, str], int]:
-        rows = self.db.execute("SELECT interaction, item, rating FROM answers WHERE session_id = ?", (session_id,))
-        return {(r["interaction"], r["item"]): r["rating"] for r in rows}
+    def answers(self, session_id: int) -> dict[tuple[str, str, str, str], float | int | str]:
+        """The session's answers in the order given: (instrument, administration, interaction, item) -> value."""
+        rows = self.db.execute("SELECT instrument, administration, interaction, item, value FROM answers "
+                               "WHERE session_id = ? ORDER BY rowid", (session_id,))
+        return {(r["instrument"], r["administration"], r["interaction"], r["item"]): r["value"] for r in rows}
 
     def last_time(self, session_id: int) -> float:
         """The latest session-clock time logged, so a resumed clock carries on from there."""
@@ -592,13 +599,18 @@ class Store:
                          "(found on resume)")
         return open_runs
 
-    def save_answer(self, session_id: int, interaction: str, item: str, rating: int, source: str, t: float) -> None:
+    def save_answer(self, session_id: int, key: tuple[str, str, str, str], value: float | int | str, source: str,
+                    t: float, response_time_s: float | None = None) -> None:
+        """Commit one answer, ``key`` = (instrument, administration, interaction, item), with its event."""
+        instrument, administration, interaction, item = key
         with self.transaction() as db:
-            db.execute("INSERT INTO answers VALUES (?, ?, ?, ?, ?, ?, ?)",
-                       (session_id, interaction, item, rating, source, t, utc_now()))
-            ledger.seal(db, "answer", session_id, interaction, item)
+            db.execute("INSERT INTO answers (session_id, instrument, administration, interaction, item, value, source, "
+                       "response_time_s, t, wall) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                       (session_id, *key, value, source, response_time_s, t, utc_now()))
+            ledger.seal(db, "answer", session_id, *key)
             self._insert_events(db, session_id, None, [Event(t, "answer", {
-                "interaction": interaction, "item": item, "rating": rating, "source": source})])
+                "instrument": instrument, "administration": administration, "interaction": interaction, "item": item,
+                "value": value, "source": source, "response_time_s": response_time_s})])
 
     def _end_session(self, db: sqlite3.Connection, session_id: int, status: str, t: float, reason: str | None,
                      counts: dict[str, int] | None = None) -> None:
@@ -724,8 +736,11 @@ def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged:
             raise StoreError(f"{path}: a SQLite database but not a microg study (it has no study table)")
         row = connection.execute("SELECT schema_version FROM study").fetchone()
         if row is None or row[0] != SCHEMA_VERSION:
+            since = [f"version {v}: {what}" for v, what in SCHEMA_CHANGES.items()
+                     if row is not None and isinstance(row[0], int) and row[0] < v]
             raise StoreError(f"{path}: schema version {None if row is None else row[0]}, this microg "
-                             f"{__version__} reads {SCHEMA_VERSION}")
+                             f"{__version__} reads {SCHEMA_VERSION}" + (f" (since then, {'; '.join(since)}); read "
+                             "the study with the microg that wrote it" if since else ""))
         problems = check_integrity(connection, study_dir)
         if problems and not accept_damaged:
             raise DamagedStudyError(

@@ -48,8 +48,8 @@ from urllib.parse import parse_qs, urlsplit
 import numpy as np
 
 from microg.skeleton import SIDES, side_slots
-from microg.study.protocol import Item, Phase, Protocol, Questionnaire, TaskPhase, Viewpoint
-from microg.study.questionnaire import RatingError, parse_rating
+from microg.study.protocol import Phase, Protocol, Viewpoint
+from microg.study.questionnaire import Answer, Question, RatingError, parse_answer
 from microg.study.store import PlannedTask
 from microg.task import Moment
 
@@ -89,7 +89,9 @@ class ParticipantDisplay:
         self._context: dict[str, str] = {"workspace": self._workspace()}
         """The latest message of each kind a late page needs: workspace, scene, timeline, question."""
         self._events: queue.SimpleQueue[tuple[str, dict]] = queue.SimpleQueue()
-        self._answers: queue.Queue[str] = queue.Queue()
+        self._answers: queue.Queue[tuple[str, float | None]] = queue.Queue()
+        self._asked = 0
+        """The number of the question shown (the page answers it by this number)."""
         self.drawn: collections.deque[dict] = collections.deque(maxlen=DRAWN_KEPT)
         """What pages reported drawing, the last ``DRAWN_KEPT`` frames: frame index, when its physics
         was ready, when it was drawn (ms), the render scale and the drawing buffer's size (px)."""
@@ -223,15 +225,28 @@ class ParticipantDisplay:
         self._frame_version += 1
         self._notify()
 
-    def ask(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> None:
-        """Show one questionnaire item (its answers come from ``next_answer``)."""
+    def ask(self, question: Question) -> None:
+        """Show one questionnaire item (its answers come from ``next_answer``): its instrument, the
+        interaction model it is about, its text, and how it is answered: the points of a rating with
+        the anchors that have words, or a choice's choices with how they are shown."""
         self.deliver_events()
-        self._publish("question", {"kind": "question", "item": item.name, "label": phase.label,
-                                   "question": item.question, "low": item.low, "high": item.high,
-                                   "min": questionnaire.scale_min, "max": questionnaire.scale_max})
+        item, instrument = question.item, question.instrument
+        response = item.response
+        self._asked += 1
+        answering = ({"response": "choice", "choices": [[c, instrument.choice_label(c)] for c in item.choices]}
+                     if response.kind == "choice" else
+                     {"response": "rating", "min": response.low, "max": response.high, "step": response.step,
+                      "points": list(response.points), "anchors": [list(a) for a in item.words]})
+        self._publish("question", {"kind": "question", "seq": self._asked, "instrument": instrument.id,
+                                   "title": instrument.title, "instructions": instrument.instructions,
+                                   "administration": question.administration, "interaction": question.interaction,
+                                   "item": item.id,
+                                   "label": question.label, "question": item.text, "number": question.number,
+                                   "count": question.count, **answering})
 
-    def next_answer(self) -> str:
-        """Wait for the page's next answer to the question shown (its text, not yet checked),
+    def next_answer(self) -> tuple[str, float | None]:
+        """Wait for the page's next answer to the question shown: its text (not yet checked) and the
+        seconds the page measured from showing the item to the answer (None when it did not say),
         handing on what the page measures meanwhile."""
         while True:
             self.deliver_events()
@@ -412,8 +427,9 @@ class ParticipantDisplay:
                 ("refresh_ms", "refresh"), ("gpu_ms", "cost"))}
             if level["render_scale"] is not None:
                 self._events.put(("display_quality", {**level, "antialias": message.get("antialias") is True}))
-        elif kind == "answer" and "question" in self._context:
-            self._answers.put(str(message.get("value", "")))
+        elif kind == "answer" and "question" in self._context and message.get("seq") == self._asked:
+            seconds = _number(message.get("rt"))
+            self._answers.put((str(message.get("value", "")), None if seconds is None or seconds < 0 else seconds / 1e3))
         elif kind == "hands" and self.hands is not None:
             self.hands.receive(message, self.clock)
         elif kind == "placement":
@@ -465,16 +481,21 @@ class DisplayRater:
     def __init__(self, display: ParticipantDisplay, on_rejected=None):
         self.display, self.on_rejected = display, on_rejected
 
-    def rate(self, item: Item, phase: TaskPhase, questionnaire: Questionnaire) -> int:
-        self.display.ask(item, phase, questionnaire)
+    def answer(self, question: Question) -> Answer:
+        """The page's answer, with the response time the page measured (from showing the item to the
+        press that counted), else the one measured here."""
+        self.display.ask(question)
+        shown = time.monotonic()
         while True:
-            text = self.display.next_answer()
+            text, seconds = self.display.next_answer()
             try:
-                rating = parse_rating(text, questionnaire.scale_min, questionnaire.scale_max)
+                value = parse_answer(question, text)
             except RatingError as error:
                 self.display.answer_rejected(str(error))
                 if self.on_rejected:
-                    self.on_rejected(item, phase, text, str(error))
+                    self.on_rejected(question, text, str(error))
                 continue
-            self.display.answer_accepted()
-            return rating
+            return Answer(value, time.monotonic() - shown if seconds is None else seconds)
+
+    def saved(self, question: Question) -> None:
+        self.display.answer_accepted()

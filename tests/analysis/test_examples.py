@@ -11,9 +11,10 @@ import pkgutil
 import pytest
 
 import microg.analysis
+import microg.instruments
 import microg.schema
 
-MODULES = [microg.schema] + [
+MODULES = [microg.schema, microg.instruments] + [
     importlib.import_module(f"microg.analysis.{info.name}") for info in pkgutil.iter_modules(microg.analysis.__path__)
 ]
 

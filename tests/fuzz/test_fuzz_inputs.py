@@ -15,7 +15,8 @@ from microg.paths import PROTOCOLS
 from microg.power import design_from_protocol
 from microg.study.assignment import GENDERS, HANDEDNESS, Participant, ParticipantError
 from microg.study.protocol import load_protocol
-from microg.study.questionnaire import RatingError, parse_rating
+from microg.instruments import Instrument, Item, Response
+from microg.study.questionnaire import Question, RatingError, parse_answer
 from microg.study.store import create_study
 
 from tests.waiting import WAIT_S
@@ -46,14 +47,17 @@ def test_any_participant_fields_enrol_or_are_refused_without_a_trace(tmp_path_fa
 
 
 @FUZZ
-@given(st.text(max_size=12), st.integers(-3, 3), st.integers(0, 12))
-def test_any_typed_answer_is_a_rating_on_the_scale_or_a_clear_error(text, low, span):
+@given(st.text(max_size=12), st.integers(-3, 3), st.integers(1, 12), st.sampled_from([1, 0.5, 5]))
+def test_any_typed_answer_is_a_rating_on_the_scale_or_a_clear_error(text, low, span, step):
+    item = Item("i", "How was it?", Response("r", "rating", low, low + span * step, step))
+    asked = Question(Instrument("mine", "Mine", "lab", "", (item,), (), "mine.toml", ""), item, "end", "", "", 1, 1)
     try:
-        rating = parse_rating(text, low, low + span)
+        rating = parse_answer(asked, text)
     except RatingError as error:
-        assert f"from {low} to {low + span}" in str(error)
+        assert f"from {low:g} to {low + span * step:g}" in str(error)
     else:
-        assert low <= rating <= low + span
+        assert low <= rating <= low + span * step
+        assert abs((rating - low) / step - round((rating - low) / step)) < 1e-9
 
 
 TRIALS = ["participant", "group", "interaction", "object", "time_s", "attempts", "completed", "phase"]

@@ -178,14 +178,20 @@ def test_lsl_says_it_opens_ports_and_a_session_of_aborted_tasks_says_so(tmp_path
 
 def test_a_protocol_simulated_participants_cannot_answer_warns_at_init_and_refuses_simulated_sessions(tmp_path):
     mine = tmp_path / "mine.toml"
-    item = '[[questionnaire.items]]\nname = "{}"\nquestion = "How was it?"\nlow = "bad"\nhigh = "good"\n'
-    mine.write_text(f'extends = "{PROTOCOLS / "tiny.toml"}"\nname = "mine"\n' + item.format("naturalness")
-                    + item.format("comfort"))
+    (tmp_path / "instruments").mkdir()
+    (tmp_path / "instruments" / "comfort.toml").write_text(
+        'title = "Comfort"\nsource = "This lab."\n[responses.r]\nmin = 0\nmax = 10\n[[items]]\nid = "comfort"\n'
+        'text = "How was it?"\nresponse = "r"\n[[scales]]\nname = "comfort"\nitems = ["comfort"]\nscore = "mean"\n')
+    mine.write_text(f'extends = "{PROTOCOLS / "tiny.toml"}"\nname = "mine"\n'
+                    + '\n[[timeline]]\nphase = "orientation"\nminutes = 1\n[[timeline]]\nphase = "training"\n'
+                      'minutes = 6\n[[timeline]]\nphase = "stage1"\nminutes = 6\n[[timeline]]\nphase = "stage2"\n'
+                      'minutes = 6\n[[timeline]]\nphase = "end"\ninstruments = ["paper", "comfort"]\n'
+                      'about = "each"\nminutes = 4\n')
     study = str(tmp_path / "study")
     result = CliRunner().invoke(main, ["study", "init", study, "--protocol", str(mine)])
     assert result.exit_code == 0
-    assert (f"warning: {mine}: questionnaire.items[1].name = 'comfort': the rating model of simulated participants "
-            "rates only ['efficiency', 'naturalness']; simulated sessions") in result.output
+    assert (f"warning: {mine}: timeline[4].instruments = ['paper', 'comfort']: comfort: the rating model of "
+            "simulated participants answers only") in result.output
     CliRunner().invoke(main, ["participant", "add", study, "--id", "P01", "--gender", "female", "--age", "24",
                               "--handedness", "right", "--mr-experience", "yes"])
     result = CliRunner().invoke(main, ["session", "run", study, "--participant", "P01", "--input", "simulated"])
@@ -346,8 +352,7 @@ BIG = "1" + "0" * 400
                                                      "within 100 of zero"]),
     ("[task]\nhold_s = 100.0\n", "", ["task.timeout_s = 15.0: the 3 holds of hold_s = 100 s take longer"]),
     ("[task]\nplaces = [" + "[0.0, 0.2, 0.0], " * 101 + "]\n", "", ["task.places: 101 positions; at most 100"]),
-    ("[questionnaire]\nscale_max = 1000000000000000000\n", "", ["questionnaire.scale_max = 1000000000000000000: the "
-                                                                "scale from scale_min = 0 offers"]),
+    ("[questionnaire]\nscale_max = 1000000000000000000\n", "", ["[questionnaire] is now an instrument file"]),
     ("x = " + "[" * 2000 + "]" * 2000 + "\n", "", ["not a protocol file: its tables or arrays are nested too deeply"]),
     ("# " + "x" * (1 << 20) + "\n", "", ["over 1 MiB: not a protocol file"]),
 ])

@@ -282,9 +282,9 @@ def test_a_cut_log_is_found_by_its_head(copy):
 
 
 @pytest.mark.parametrize("statements, problem", [
-    (["DROP TRIGGER answers_no_update", "UPDATE answers SET rating = 10 WHERE item = 'naturalness' AND rating = 7",
-      "answers_no_update"], "the answer of session 1 for impulse_penetration naturalness: changed after it was "
-                            "written"),
+    (["DROP TRIGGER answers_no_update", "UPDATE answers SET value = 10 WHERE item = 'naturalness' AND value = 7",
+      "answers_no_update"], "the answer of session 1 to paper item naturalness (questionnaire, about "
+                            "impulse_penetration): changed after it was written"),
     (["DROP TRIGGER events_no_delete", "DELETE FROM events WHERE kind = 'phase_end'", "events_no_delete"],
      "is gone from the database (deleted, or set back to an earlier state)"),
     (["INSERT INTO ledger (fact, key, digest, link) VALUES ('event', '[9999]', zeroblob(32), zeroblob(32))"],

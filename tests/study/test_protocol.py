@@ -7,8 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from microg.paths import PROTOCOLS
+from microg.paths import INSTRUMENTS, PROTOCOLS
 from microg.study.protocol import ProtocolError, load_protocol
+from microg.study.questionnaire import questions
 
 PAPER = PROTOCOLS / "paper.toml"
 
@@ -32,11 +33,15 @@ def test_the_paper_protocol_states_the_papers_study():
     assert [(s.name, s.interaction) for s in p.phases] == [("stage1", "impulse_penetration"), ("stage2", "soft_hand")]
     assert p.interactions == ("impulse_penetration", "soft_hand")
     assert p.training.groups == ("V",) and p.training.interaction == "impulse_penetration"
-    q = p.questionnaire
-    assert (q.scale_min, q.scale_max) == (0, 10)
-    assert {i.name: (i.question, i.low, i.high) for i in q.items} == PAPER_ITEMS
+    q = p.instruments["paper"]
+    assert {i.response.describe() for i in q.items} == {"0-10"}
+    assert {i.id: (i.text, *(words for _, words in i.words)) for i in q.items} == PAPER_ITEMS
     assert [ph.name for ph in p.timeline] == ["orientation", "instructions", "training", "stage1", "stage2",
                                               "questionnaire"]
+    # (paper) each item asked once about each interaction model, after both phases
+    assert [(a.interaction, a.item.id, a.administration) for a in questions(p, p.timeline[-1])] == [
+        ("impulse_penetration", "naturalness", "questionnaire"), ("impulse_penetration", "efficiency", "questionnaire"),
+        ("soft_hand", "naturalness", "questionnaire"), ("soft_hand", "efficiency", "questionnaire")]
     assert sum(ph.minutes for ph in p.timeline) <= 40 == p.duration_minutes
     assert [ph.name for ph in p.phases_for("B")] == ["orientation", "instructions", "stage1", "stage2",
                                                      "questionnaire"]
@@ -46,7 +51,7 @@ def test_the_microgravity_variant_differs_only_in_gravity_and_support():
     paper, micro = load_protocol(PAPER), load_protocol(PROTOCOLS / "paper-microgravity.toml")
     assert micro.gravity == (0.0, 0.0, 0.0) and micro.table_height is None and paper.table_height == 0.15
     assert micro.task.places == paper.task.places and micro.groups == paper.groups
-    assert micro.questionnaire == paper.questionnaire and micro.sha256 != paper.sha256
+    assert micro.instruments == paper.instruments and micro.sha256 != paper.sha256
 
 
 def test_the_protocol_digest_depends_on_content_not_on_where_the_file_is(tmp_path):
@@ -78,8 +83,12 @@ BAD = [
     ("minutes = 12\n\n[[timeline]]\nphase = \"stage2\"", "minutes = 30\n\n[[timeline]]\nphase = \"stage2\"",
      ["duration_minutes", "40", "58 minutes"]),
     ("timeout_s = 240.0", "timeout_s = 300.0", ["'stage1'", "minutes = 12", "timeout_s = 15 minutes"]),
-    ("scale_max = 10", "scale_max = 0", ["questionnaire.scale_max", "0"]),
-    ('phase = "questionnaire"', 'phase = "debriefing"', ["timeline[5].phase", "'debriefing'"]),
+    ('phase = "stage2"', 'phase = "debriefing"', ["timeline[4].phase", "'debriefing'"]),
+    ('instruments = ["paper"]', 'instruments = ["paper", "ssq2"]',
+     ["timeline[5].instruments = ['paper', 'ssq2']", "no instrument 'ssq2'", "shipped: ['ipq', 'paper'"]),
+    ('about = "each"', 'about = "stage3"', ["timeline[5].about = 'stage3'", "['each', 'stage1', 'stage2']"]),
+    ('phase = "questionnaire"', 'phase = "stage1"', ["timeline[5].phase = 'stage1'", "a name of its own"]),
+    ('instruments = ["paper"]', 'instruments = ["paper", "paper"]', ["instrument 'paper' appears twice"]),
     ("gravity = [0.0, -9.81, 0.0]", "gravity = [0.0, -9.81]", ["scene.gravity", "[0.0, -9.81]", "3 finite numbers"]),
     ('code = "V"', 'code = "V-1"', ["groups[0].code", "'V-1'", "letters and digits"]),
     ("age_range = [18, 30]", "age_range = [30, 18]", ["participants.age_range", "[30, 18]"]),
@@ -89,7 +98,6 @@ BAD = [
      ["phases[1].interaction", "'impulse_penetration'", "phases[0] runs this interaction model already"]),
     ('label = "System 2"', 'label = "System 1"', ["phases", "'System 1'", "appears twice"]),
     ('name = "stage1"', 'name = "stäge1"', ["phases[0].name", "'stäge1'", "ASCII letters and digits"]),
-    ('name = "efficiency"', 'name = "Naturalness"', ["questionnaire.items", "'naturalness'", "appears twice"]),
     ('code = "B"', 'code = "v"', ["groups", "['V', 'v']", "appears twice"]),
     ("table_height = 0.15", "table_height = 0.59",
      ["scene.table_height = 0.59", "cube stands on the table", "outside the workspace"]),
@@ -205,16 +213,101 @@ def test_two_objects_of_a_study_never_share_a_code(tmp_path, name, code, expecte
 
 
 def test_what_only_simulated_participants_need_is_reported_not_refused(tmp_path):
-    path = edited(tmp_path, 'name = "efficiency"', 'name = "comfort"')
-    path.write_text(path.read_text().replace('simulated_profile = "practice"', 'simulated_profile = "expert"', 1))
+    path = edited(tmp_path, 'simulated_profile = "practice"', 'simulated_profile = "expert"')
+    (tmp_path / "instruments").mkdir()  # the study's own version of the paper's items takes the shipped one's place
+    (tmp_path / "instruments" / "paper.toml").write_text(
+        (INSTRUMENTS / "paper.toml").read_text().replace('id = "efficiency"', 'id = "comfort"')
+        .replace('items = ["efficiency"]', 'items = ["comfort"]'))
     protocol = load_protocol(path)  # a study with live participants can use it
+    assert [i.id for i in protocol.instruments["paper"].items] == ["naturalness", "comfort"]
     problems = protocol.simulation_problems()
     assert problems == [
         f"{path}: groups[0].simulated_profile = 'expert': simulated participants play a population file "
         "(FILE.toml) or one of ['practice', 'beginner', 'veteran'] (the default is the group's name)",
-        f"{path}: questionnaire.items[1].name = 'comfort': the rating model of simulated participants rates only "
-        "['efficiency', 'naturalness']"]
+        f"{path}: timeline[5].instruments = ['paper']: paper: the rating model of simulated participants rates only "
+        "['efficiency', 'naturalness'], not ['comfort']"]
     assert load_protocol(PAPER).simulation_problems() == []
+
+
+def test_the_vr_protocol_asks_the_questionnaires_of_vr_research_in_its_timeline():
+    vr, paper = load_protocol(PROTOCOLS / "paper-vr.toml"), load_protocol(PAPER)
+    assert (vr.phases, vr.objects, vr.task, vr.groups) == (paper.phases, paper.objects, paper.task, paper.groups)
+    asked = [(ph.name, ph.instruments, ph.administration, [a.interaction if a else "" for a in vr.about(ph)])
+             for ph in vr.phases_for("V") if ph.instruments]
+    assert asked == [("pre", ("ssq",), "pre", [""]),
+                     ("after_stage1", ("ipq", "tlx"), "after", ["impulse_penetration"]),
+                     ("post", ("ssq",), "post", [""]),
+                     ("after_stage2", ("ipq", "tlx"), "after", ["soft_hand"]),
+                     ("questionnaire", ("paper",), "questionnaire", ["impulse_penetration", "soft_hand"]),
+                     ("end", ("sus",), "end", ["impulse_penetration", "soft_hand"])]
+    names = [ph.name for ph in vr.phases_for("V")]
+    assert names.index("pre") < names.index("training") and names.index("post") == names.index("stage2") + 1
+    assert vr.instruments["paper"] == paper.instruments["paper"]
+    assert sum(ph.minutes for ph in vr.timeline) <= vr.duration_minutes == 60
+    tlx = [q for q in questions(vr, vr.timeline[5]) if q.instrument.id == "tlx"]
+    assert len(tlx) == 21 and {q.label for q in tlx} == {"System 1"}
+
+
+def test_a_study_keeps_its_instruments_whatever_happens_to_the_files_later(tmp_path):
+    """The instrument files' texts are kept with the protocol, as the object files are."""
+    from microg.study.protocol import protocol_from_resolved
+
+    vr = load_protocol(PROTOCOLS / "paper-vr.toml")
+    kept = protocol_from_resolved(vr.resolved, "study.db")
+    assert kept.instruments == vr.instruments and kept.timeline == vr.timeline
+    assert sorted(vr.resolved["instrument_files"]) == ["ipq", "paper", "ssq", "sus", "tlx"]
+
+
+def asking(tmp_path, entries: str, name: str = "mine.toml") -> Path:
+    """The paper's protocol with ``entries`` (TOML timeline tables) added at the end of its timeline."""
+    path = tmp_path / name
+    path.write_text(PAPER.read_text().replace("[logging]", entries + "\n[logging]")
+                    .replace("duration_minutes = 40", "duration_minutes = 50"))
+    return path
+
+
+@pytest.mark.parametrize("entries, expected", [
+    ('[[timeline]]\nphase = "post"\ninstruments = ["paper"]\nabout = "stage2"\nadministration = "questionnaire"\n'
+     'minutes = 0.5\n', ["timeline[6].administration = 'questionnaire'", "timeline[5] asks paper"]),
+    ('[[timeline]]\nphase = "questionnaire"\ninstruments = ["ssq"]\nminutes = 0.5\n',
+     ["timeline = [", "phase 'questionnaire' appears twice"]),
+    ('[[timeline]]\nphase = "post"\ninstruments = []\nminutes = 0.5\n', ["timeline[6].instruments = []"]),
+    ('[[timeline]]\nphase = "post"\ninstruments = ["ssq"]\nadministration = "po st"\nminutes = 0.5\n',
+     ["timeline[6].administration = 'po st'", "letters, digits and _"]),
+    ('[[timeline]]\nphase = "post-1"\ninstruments = ["ssq"]\nminutes = 0.5\n',
+     ["timeline[6].phase = 'post-1'", "letters, digits and _"]),
+])
+def test_a_questionnaire_placed_wrong_in_the_timeline_is_refused(tmp_path, entries, expected):
+    path = asking(tmp_path, entries)
+    assert_refused(path, expected)
+
+
+def test_a_questionnaire_about_a_phase_must_come_after_it(tmp_path):
+    text = PAPER.read_text().replace('[[timeline]]\nphase = "stage1"', '[[timeline]]\nphase = "early"\n'
+                                     'instruments = ["ipq"]\nabout = "stage1"\nminutes = 1\n\n'
+                                     '[[timeline]]\nphase = "stage1"')
+    path = tmp_path / "early.toml"
+    path.write_text(text.replace("minutes = 12", "minutes = 11", 1))
+    assert_refused(path, ["timeline[3].about = 'stage1'", "before it has run"])
+
+
+def test_an_older_protocols_questionnaire_table_is_told_where_it_went(tmp_path):
+    path = tmp_path / "old.toml"
+    path.write_text(PAPER.read_text() + '\n[questionnaire]\nscale_min = 0\nscale_max = 10\n')
+    assert_refused(path, ["[questionnaire] is now an instrument file", "instruments/NAME.toml",
+                          'instruments = ["NAME"], about = "each"'])
+
+
+def test_a_bad_instrument_file_of_the_study_is_named_with_its_key(tmp_path):
+    (tmp_path / "instruments").mkdir()
+    bad = tmp_path / "instruments" / "comfort.toml"
+    bad.write_text('title = "Comfort"\nsource = "lab"\n[responses.r]\nmin = 1\nmax = 7\n'
+                   '[[items]]\nid = "c1"\ntext = "Comfy?"\nresponse = "r"\n'
+                   '[[scales]]\nname = "comfort"\nitems = ["c1", "c9"]\nscore = "mean"\n')
+    path = asking(tmp_path, '[[timeline]]\nphase = "end"\ninstruments = ["comfort"]\nminutes = 0.5\n')
+    with pytest.raises(ProtocolError) as error:
+        load_protocol(path)
+    assert str(error.value).startswith(f"{bad}: scales[0].items = ['c1', 'c9']: names item 'c9'"), str(error.value)
 
 
 def test_each_section_has_its_reader_and_valid_protocols_read_as_before():
@@ -224,7 +317,7 @@ def test_each_section_has_its_reader_and_valid_protocols_read_as_before():
 
     readers = [name for name in dir(module) if name.startswith("_read_") and name not in ("_read_text", "_read_toml")]
     assert {"_read_scene", "_read_participants", "_read_groups", "_read_objects", "_read_task", "_read_phases",
-            "_read_training", "_read_questionnaire", "_read_timeline", "_read_display", "_read_dataset"} <= set(readers)
+            "_read_training", "_read_instruments", "_read_timeline", "_read_display", "_read_dataset"} <= set(readers)
     import inspect
     assert all(len(inspect.getsource(getattr(module, name)).splitlines()) <= 45 for name in readers)
     assert len(inspect.getsource(module._build).splitlines()) <= 45

@@ -53,9 +53,12 @@ def test_a_session_walks_the_timeline_and_each_task_ends_when_the_hand_lets_go(m
     runs = store.db.execute("SELECT id, frames FROM task_runs ORDER BY id").fetchall()
     for (run_id, frames), source in zip(runs, inputs.made):
         assert frames == source.index == len(run_frames(store, run_id))
-    assert store.answers(session.id) == {("impulse_penetration", "naturalness"): 7,
-                                         ("impulse_penetration", "efficiency"): 6,
-                                         ("soft_hand", "naturalness"): 3, ("soft_hand", "efficiency"): 4}
+    assert store.answers(session.id) == {("paper", "questionnaire", "impulse_penetration", "naturalness"): 7,
+                                         ("paper", "questionnaire", "impulse_penetration", "efficiency"): 6,
+                                         ("paper", "questionnaire", "soft_hand", "naturalness"): 3,
+                                         ("paper", "questionnaire", "soft_hand", "efficiency"): 4}
+    times = store.db.execute("SELECT response_time_s FROM answers").fetchall()
+    assert all(row[0] >= 0 for row in times)  # each answer keeps how long it took
 
 
 @pytest.mark.parametrize("simulated, synchronous", [(True, 1), (False, 2)])

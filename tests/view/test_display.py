@@ -50,8 +50,8 @@ def session_with_display(folder, display: ParticipantDisplay, gate: threading.Ev
         with open_study(folder) as store:
             session = store.create_session("P01", "scripted", True, "simulation")
 
-            def rejected(item, phase, text, message):
-                store.log(session.id, [Event(0.0, "answer_rejected", {"item": item.name, "answer": text})])
+            def rejected(question, text, message):
+                store.log(session.id, [Event(0.0, "answer_rejected", {"item": question.item.id, "answer": text})])
 
             run_session(store, session.id, PacedInputs(scripted_inputs(), speed=1.0), clock=SimulationClock(),
                         operator=DisplayOperator(display, Unattended()), rater=DisplayRater(display, rejected),

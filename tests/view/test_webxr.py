@@ -27,7 +27,7 @@ from microg.study.protocol import load_protocol
 from microg.study.session import EventLog, Outputs, WallClock, run_session
 from microg.study.store import Event, create_study, open_study
 from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
-from tests.study.conftest import PROTOCOLS
+from tests.study.conftest import PROTOCOLS, scripted_inputs
 
 from .browser import MISSING
 
@@ -212,7 +212,7 @@ def session_in_background(folder, display: ParticipantDisplay, failures: list) -
                 clock = WallClock()
                 display.on_event = EventLog(store, session.id, clock).emit
 
-                def rejected(item, phase, text, message):
+                def rejected(question, text, message):
                     store.log(session.id, [Event(clock.now(), "answer_rejected", {"answer": text})])
 
                 try:
@@ -317,6 +317,80 @@ def test_a_headset_hand_places_the_workspace_carries_the_cube_through_the_places
     assert list(row["status"]) == ["completed"] and len(answers) == 4
     with open_study(folder) as store:
         assert len(run_frames(store, cube.id)) == len(frames)
+
+
+class NoTasks:
+    """The researcher skips every task: the session is its questionnaire."""
+
+    def present(self, phase) -> None:
+        pass
+
+    def ready(self, task) -> bool:
+        return False
+
+    def finished(self, task, status, time_s) -> None:
+        pass
+
+
+def press_path(hand: EmulatedHand, button: dict, answered: int) -> list[dict]:
+    """The index fingertip to just in front of the button, onto its face until the answer is
+    accepted, and back in front of it (the next poke starts from there)."""
+    tip = hand.local(0.0)[0][9]
+    centre, normal = np.asarray(button["centre"]), np.asarray(button["normal"])
+    place = lambda point: point - tip  # the hand unrotated: its fingertip at ``point``
+    return [key(place(centre + 0.04 * normal), Rotation.identity(), 0.0, 15),
+            key(place(centre - 0.004 * normal), Rotation.identity(), 0.0, 8, f"microg.answered > {answered}"),
+            key(place(centre + 0.04 * normal), Rotation.identity(), 0.0, 6)]
+
+
+@needs_headset
+@pytest.mark.slow
+def test_in_the_headset_the_ssq_is_answered_by_poking_buttons_that_carry_its_words(tmp_path):
+    protocol_file = tmp_path / "ssq.toml"
+    protocol_file.write_text(f'extends = "{(PROTOCOLS / "tiny.toml").resolve()}"\nname = "ssq"\n\n'
+                             '[[timeline]]\nphase = "pre"\ninstruments = ["ssq"]\nminutes = 2\n\n'
+                             '[[timeline]]\nphase = "training"\nminutes = 6\n\n[[timeline]]\nphase = "stage1"\n'
+                             'minutes = 12\n\n[[timeline]]\nphase = "stage2"\nminutes = 12\n')
+    protocol = load_protocol(protocol_file)
+    folder = tmp_path / "study"
+    with create_study(folder, protocol, seed=1) as store:
+        store.add_participant(Participant("P01", "female", 24, "right", True))
+    values = [k % 4 for k in range(16)]
+    failures: list[BaseException] = []
+    with ParticipantDisplay(protocol) as display, bench.chromium(WINDOW) as driver:
+        def run():
+            try:
+                with open_study(folder) as store:
+                    session = store.create_session("P01", "scripted", True, "wall")
+                    run_session(store, session.id, scripted_inputs(), clock=WallClock(),
+                                operator=DisplayOperator(display, NoTasks()), rater=DisplayRater(display),
+                                outputs=Outputs(sinks=(display,)))
+            except BaseException as error:  # the test reports it
+                failures.append(error)
+
+        bench.emulate_headset(driver)
+        driver.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": OPEN_HAND})
+        driver.get(display.url)
+        session = threading.Thread(target=run, daemon=True)
+        session.start()
+        bench.enter_and_place(driver, (0.05, 1.0, -0.45))
+        hand = EmulatedHand(driver.execute_script(POSE_DATA))
+        words = wait(driver, "return !document.getElementById('question').hidden && window.microg.xr.button(0) "
+                             "&& window.microg.xr.answers()")
+        assert words == [[0, "None"], [1, "Slight"], [2, "Moderate"], [3, "Severe"]]  # each button its words
+        for answered, value in enumerate(values):
+            button = wait(driver, f"return !document.getElementById('question').hidden "
+                                  f"&& window.microg.answered === {answered} && window.microg.xr.button({value})")
+            play(driver, press_path(hand, button, answered))
+        session.join(WORK_S)
+        assert not session.is_alive() and not failures, failures
+        pressed = driver.execute_script("return window.microg.xr.pressed")
+
+    assert pressed == values
+    with open_study(folder) as store:
+        answers = store.answers(store.session_of("P01").id)
+    assert list(answers) == [("ssq", "pre", "", f"ssq{k:02d}") for k in range(1, 17)]
+    assert list(answers.values()) == values
 
 
 @needs_headset

@@ -4,7 +4,7 @@
 // newest and draws it on the next animation frame, so it never falls behind. It measures how long
 // its drawing takes and chooses the render resolution and antialiasing so that a frame fits the
 // display's refresh interval (quality.js), raising them again when there is headroom. Timeline
-// messages (instructions, "get ready", the completion cue, the questionnaire) change the text
+// messages (instructions, "get ready", the completion cue, the questionnaire's items) change the text
 // over the scene. The page syncs its clock to the session's and, with ?latency=1 in its
 // address, reports when it drew each frame and at what level; ?quality=full holds the best level
 // whatever it costs (a benchmark's reference run). window.microg exposes what was drawn, for tests
@@ -52,8 +52,9 @@ const microg = {
   /** While true, new frames are received but not drawn (a test holds the picture still). */
   hold: false,
   scene: null,
-  /** Answers the session accepted so far. */
+  /** Answers the session accepted (committed) so far, and every question shown, in order. */
   answered: 0,
+  questions: [],
   camera,
   /** The WebGL renderer: a new one on a new canvas whenever antialiasing turns on or off. */
   renderer: null,
@@ -162,54 +163,127 @@ function showHud(frame) {
 
 // ---------------------------------------------------------------- the questionnaire
 
+// One item at a time: the instrument and the interaction model it is about above the item's text; a
+// rating of up to MAX_BUTTONS points as a row of buttons (each with its anchor when every point has
+// one, else the anchors under the row), a longer one (NASA-TLX's 21 steps, a 0-100 visual analogue
+// scale) as a slider and a Confirm button, a choice (NASA-TLX's pairs) as a button per choice. Keys:
+// type the number and press Enter (for a choice, its number); on the slider, the arrows and Enter.
+// Each answer goes with the question's number and the time since it was shown (ms).
+const MAX_BUTTONS = 11;
 let typed = "";
+let shownAt = 0;
+
+function described(m) {
+  return [m.label, m.title, m.count > 1 ? `${m.number} of ${m.count}` : ""].filter(Boolean).join(" · ");
+}
+
+function button(value, text, anchor) {
+  const element = document.createElement("button");
+  element.type = "button";
+  element.dataset.value = String(value);
+  element.setAttribute("role", "radio");
+  element.append(text);
+  if (anchor) {
+    const words = document.createElement("span");
+    words.className = "anchor";
+    words.textContent = anchor;
+    element.append(words);
+    element.classList.add("anchored");
+  }
+  element.addEventListener("click", () => answer(String(value)));
+  return element;
+}
+
+/** The anchors under the scale, each at its point's share of the way from one end to the other. */
+function showAnchors(m) {
+  const row = document.getElementById("anchors");
+  row.replaceChildren();
+  for (const [point, text] of m.anchors) {
+    const share = (point - m.min) / (m.max - m.min);
+    const span = document.createElement("span");
+    span.textContent = `${point}: ${text}`;
+    if (share === 1) {
+      span.className = "end";
+    } else {
+      span.style.left = `${100 * share}%`;
+      if (share === 0) span.className = "start";
+    }
+    row.append(span);
+  }
+}
 
 function ask(m) {
   message.hidden = true;
   hud.hidden = true;
   question.hidden = false;
   typed = "";
-  document.getElementById("question-label").textContent = m.label;
+  shownAt = performance.now();
+  microg.question = m;
+  microg.questions.push(m);
+  document.getElementById("question-label").textContent = described(m);
+  document.getElementById("question-instructions").textContent = m.instructions || "";
   document.getElementById("question-text").textContent = m.question;
-  document.getElementById("question-low").textContent = `${m.min}: ${m.low}`;
-  document.getElementById("question-high").textContent = `${m.max}: ${m.high}`;
   const note = document.getElementById("question-note");
-  note.textContent = "Click a number, or type it and press Enter.";
   note.classList.remove("rejected");
   const scale = document.getElementById("scale");
+  const slider = document.getElementById("slider");
   scale.replaceChildren();
-  for (let value = m.min; value <= m.max; value++) {
-    const button = document.createElement("button");
-    button.type = "button";
-    button.textContent = String(value);
-    button.dataset.value = String(value);
-    button.setAttribute("role", "radio");
-    button.addEventListener("click", () => answer(String(value)));
-    scale.append(button);
+  document.getElementById("anchors").replaceChildren();
+  slider.hidden = true;
+  if (m.response === "choice") {
+    m.choices.forEach(([value, text], k) => {
+      const element = button(value, `${k + 1}: ${text}`);
+      element.classList.add("choice");
+      scale.append(element);
+    });
+    note.textContent = "Click one, or type its number and press Enter.";
+  } else if (m.points.length <= MAX_BUTTONS) {
+    const words = new Map(m.anchors.map(([point, text]) => [point, text]));
+    const every = m.points.every((point) => words.has(point));
+    for (const point of m.points) scale.append(button(point, String(point), every ? words.get(point) : ""));
+    if (!every) showAnchors(m);
+    note.textContent = "Click a number, or type it and press Enter.";
+  } else {
+    const input = document.getElementById("slider-input");
+    Object.assign(input, { min: m.min, max: m.max, step: m.step });
+    input.value = m.points[Math.floor(m.points.length / 2)];
+    document.getElementById("slider-value").textContent = input.value;
+    slider.hidden = false;
+    showAnchors(m);
+    input.focus();
+    note.textContent = "Move the slider (or the arrow keys), then Confirm (or Enter).";
   }
-  microg.question = m;
 }
 
 function answer(value) {
-  microg.send({ type: "answer", value });
+  if (!microg.question) return;
+  microg.send({ type: "answer", seq: microg.question.seq, value, rt: performance.now() - shownAt });
 }
 microg.answer = answer;
+
+document.getElementById("slider-input").addEventListener("input", (event) => {
+  document.getElementById("slider-value").textContent = event.target.value;
+});
+document.getElementById("slider-confirm").addEventListener("click", () => {
+  answer(document.getElementById("slider-input").value);
+});
 
 document.addEventListener("keydown", (event) => {
   if (question.hidden) return;
   if (/^[0-9]$/.test(event.key)) {
-    typed = (typed + event.key).slice(-2);
+    typed = (typed + event.key).slice(-3);
   } else if (event.key === "Backspace") {
     typed = typed.slice(0, -1);
-  } else if (event.key === "Enter" && typed) {
-    answer(typed);
+  } else if (event.key === "Enter") {
+    if (typed) answer(typed);
+    else if (!document.getElementById("slider").hidden) answer(document.getElementById("slider-input").value);
     typed = "";
   } else {
     return;
   }
   event.preventDefault();
-  for (const button of document.querySelectorAll("#scale button")) {
-    button.classList.toggle("chosen", button.dataset.value === typed);
+  for (const element of document.querySelectorAll("#scale button")) {
+    element.classList.toggle("chosen", element.dataset.value === typed);
   }
 });
 question.addEventListener("submit", (event) => event.preventDefault());

@@ -7,8 +7,12 @@
 // to the session, the workspace (workspace.js) is drawn through it, and every XR frame the 25
 // joints of each tracked hand are read, taken into the workspace frame and streamed to the
 // session (microg.hands.webxr). The timeline and the questionnaire are drawn in 3D: a board
-// behind the workspace and a panel of answer buttons within reach, pressed by poking them with
-// a fingertip or by pointing at them and pinching.
+// behind the workspace and a panel within reach with the item (its instrument, the interaction
+// model it is about, its text and anchors) and its answer buttons, pressed by poking them with a
+// fingertip or by pointing at them and pinching: a button per point of a rating (each with its
+// anchor when every one of up to 6 points has one, else the anchors on a line of the panel; rows of
+// 11 for a longer scale, and steps of a twentieth of its span for one of more than 21 points, as a
+// 0-100 visual analogue scale), a wide one per choice.
 import * as THREE from "three";
 
 const JOINTS = [
@@ -22,12 +26,11 @@ const FINGERS = [5, 10, 15, 20];
 const SESSION_INIT = { requiredFeatures: ["hand-tracking"], optionalFeatures: ["local-floor"] };
 const UP = new THREE.Vector3(0, 1, 0);
 const BOARD = { width: 0.5, height: 0.25, clear: 0.05, behind: 0.25 };
-const PANEL = { width: 0.62, height: 0.3, above: 0.25, ahead: 0.05, tilt: -0.45 };
-const BUTTON = { size: 0.042, gap: 0.008, depth: 0.012, row: -0.08 };
+const PANEL = { width: 0.62, height: 0.36, above: 0.25, ahead: 0.05, tilt: -0.45 };
+const BUTTON = { size: 0.042, gap: 0.008, depth: 0.012, row: -0.09, wide: 0.24, worded: 0.078, perRow: 11, most: 21,
+                 mostWorded: 6 };
 const TEXT = "#f4f4f4", DIM = "#c9ccd2", GOLD = "#ffd700", RED = "#ff8080";
 const PX_PER_M = 2048;
-/** The question panel's note sits just under the row of buttons (px from the panel's top). */
-const NOTE_AT = Math.round((PANEL.height / 2 - BUTTON.row + BUTTON.size) * PX_PER_M);
 const RAY_LENGTH = 1.0;
 
 /** Offer the headset mode if this browser has WebXR (see the module comment). */
@@ -101,22 +104,50 @@ function wrap(g, text, width) {
   return lines;
 }
 
-function label(text, size = 0.042) {
+/** A button `width` x BUTTON.size m with `text` on its face (and `words` under it, smaller). */
+function label(text, width = BUTTON.size, words = "") {
   const canvas = document.createElement("canvas");
-  canvas.width = canvas.height = 128;
+  canvas.height = 128;
+  canvas.width = Math.round(128 * width / BUTTON.size);
   const g = canvas.getContext("2d");
   g.fillStyle = "#2a2f38";
-  g.fillRect(0, 0, 128, 128);
+  g.fillRect(0, 0, canvas.width, 128);
   g.fillStyle = TEXT;
-  g.font = "600 64px system-ui, sans-serif";
   g.textAlign = "center";
   g.textBaseline = "middle";
-  g.fillText(text, 64, 68);
+  g.font = `600 ${words ? 52 : 64}px system-ui, sans-serif`;
+  g.fillText(text, canvas.width / 2, words ? 48 : 68, canvas.width - 8);
+  if (words) {
+    g.font = "600 30px system-ui, sans-serif";
+    g.fillText(words, canvas.width / 2, 100, canvas.width - 10);
+  }
   const texture = new THREE.CanvasTexture(canvas);
   texture.colorSpace = THREE.SRGBColorSpace;
   const face = new THREE.MeshBasicMaterial({ map: texture });
   const side = new THREE.MeshBasicMaterial({ color: 0x8a8f99 });
-  return new THREE.Mesh(new THREE.BoxGeometry(size, size, BUTTON.depth), [side, side, side, side, face, side]);
+  const mesh = new THREE.Mesh(new THREE.BoxGeometry(width, BUTTON.size, BUTTON.depth), [side, side, side, side, face, side]);
+  mesh.userData.half = [width / 2, BUTTON.size / 2];
+  return mesh;
+}
+
+/** What a question's buttons answer: a choice's choices, or a rating's points (for more than
+ *  BUTTON.most points, every k-th, so that there are at most that many), with their words. */
+function answersOf(question) {
+  if (question.response === "choice") {
+    return question.choices.map(([value, text], k) => ({ value, text: `${k + 1}: ${text}`, wide: true }));
+  }
+  const words = new Map(question.anchors.map(([point, text]) => [point, text]));
+  const every = question.points.length <= BUTTON.mostWorded && question.points.every((point) => words.has(point));
+  const step = Math.ceil((question.points.length - 1) / (BUTTON.most - 1));
+  const last = question.points.length - 1;
+  return question.points.filter((_, k) => k % step === 0 || k === last)
+    .map((point) => ({ value: point, text: String(point), words: every ? words.get(point) : "" }));
+}
+
+/** The anchors as one line of the panel, when the buttons do not carry them. */
+function anchorLine(question) {
+  if (question.response === "choice" || answersOf(question).some((a) => a.words)) return "";
+  return question.anchors.map(([point, text]) => `${point}: ${text}`).join("   \u00b7   ");
 }
 
 function text(id) {
@@ -170,8 +201,11 @@ class Headset {
     this.pokedBy = new Map();
     this.rays = new Map();
     this.raycaster = new THREE.Raycaster();
-    /** What tests and the researcher can read: mode, step, anchor, hands sent. */
-    this.state = { mode: null, step: "off", space: null, anchor: null, sent: 0, pressed: [], button: (value) => this.buttonAt(value) };
+    /** What tests and the researcher can read: mode, step, anchor, hands sent, answers pressed, the
+     *  buttons of the question shown (value and words) and where each is. */
+    this.state = { mode: null, step: "off", space: null, anchor: null, sent: 0, pressed: [],
+                   button: (value) => this.buttonAt(value),
+                   answers: () => this.buttons.map((b) => [b.userData.value, b.userData.words]) };
     this.build();
   }
 
@@ -369,22 +403,30 @@ class Headset {
     this.state.sent += 1;
   }
 
-  /** The questionnaire's buttons for the question shown (rebuilt when the scale changes). */
+  /** The questionnaire's buttons for the question shown (rebuilt when what they answer changes), in
+   *  rows of BUTTON.perRow around BUTTON.row; the note goes under the lowest row. */
   buttonsFor(question) {
-    const key = `${question.min}..${question.max}`;
+    const answers = answersOf(question);
+    const key = JSON.stringify(answers);
     if (this.buttonsKey === key) return;
     this.buttonsKey = key;
     for (const button of this.buttons) this.panelGroup.remove(button);
-    const count = question.max - question.min + 1;
-    const pitch = BUTTON.size + BUTTON.gap;
+    const width = answers[0].wide ? BUTTON.wide : answers[0].words ? BUTTON.worded : BUTTON.size;
+    const perRow = answers[0].wide ? 2 : BUTTON.perRow;
+    const rows = Math.ceil(answers.length / perRow);
+    const pitch = { x: width + BUTTON.gap, y: BUTTON.size + BUTTON.gap };
     this.buttons = [];
-    for (let k = 0; k < count; k++) {
-      const button = label(String(question.min + k), BUTTON.size);
-      button.position.set((k - (count - 1) / 2) * pitch, BUTTON.row, BUTTON.depth / 2 + 0.002);
-      button.userData.value = question.min + k;
+    answers.forEach(({ value, text, words }, k) => {
+      const row = Math.floor(k / perRow), inRow = Math.min(perRow, answers.length - row * perRow);
+      const button = label(text, width, words);
+      button.position.set((k % perRow - (inRow - 1) / 2) * pitch.x, BUTTON.row + ((rows - 1) / 2 - row) * pitch.y,
+                          BUTTON.depth / 2 + 0.002);
+      Object.assign(button.userData, { value, words });
       this.panelGroup.add(button);
       this.buttons.push(button);
-    }
+    });
+    const lowest = BUTTON.row - (rows - 1) / 2 * pitch.y;
+    this.noteAt = Math.round((PANEL.height / 2 - lowest + BUTTON.size) * PX_PER_M);
   }
 
   /** The centre of the front face of the button for `value` and the way it faces, in the XR
@@ -408,7 +450,6 @@ class Headset {
   poke() {
     if (!this.panelGroup.visible) return;
     const local = new THREE.Vector3();
-    const half = BUTTON.size / 2;
     const face = BUTTON.depth + 0.002;
     for (const hand of this.hands.values()) {
       local.copy(hand.points[INDEX_TIP]);
@@ -421,7 +462,8 @@ class Headset {
       }
       this.pokedBy.set(hand.side, "in");
       if (before !== "ready" || local.z < face - BUTTON.depth) continue;
-      const button = this.buttons.find((b) => Math.abs(local.x - b.position.x) <= half && Math.abs(local.y - b.position.y) <= half);
+      const button = this.buttons.find((b) => Math.abs(local.x - b.position.x) <= b.userData.half[0]
+                                              && Math.abs(local.y - b.position.y) <= b.userData.half[1]);
       if (button) this.press(button.userData.value);
     }
   }
@@ -468,12 +510,15 @@ class Headset {
     if (asking) {
       this.buttonsFor(question);
       const note = document.getElementById("question-note");
+      const rejected = note.classList.contains("rejected");
+      const words = anchorLine(question);
       this.panel.show([
-        { text: text("question-label"), size: 40, colour: GOLD, bold: true },
-        { text: text("question-text"), size: 50, bold: true },
-        { text: `${text("question-low")}   ·   ${text("question-high")}`, size: 34, colour: DIM },
-        { text: note.classList.contains("rejected") ? note.textContent : "Touch a number, or point at it and pinch.",
-          size: 34, colour: note.classList.contains("rejected") ? RED : DIM, at: NOTE_AT },
+        { text: text("question-label"), size: 36, colour: GOLD, bold: true },
+        ...(question.instructions ? [{ text: question.instructions, size: 30, colour: DIM }] : []),
+        { text: text("question-text"), size: 48, bold: true },
+        ...(words ? [{ text: words, size: 32, colour: DIM }] : []),
+        { text: rejected ? note.textContent : "Touch an answer, or point at it and pinch.", size: 34,
+          colour: rejected ? RED : DIM, at: this.noteAt },
       ]);
     }
     if (shown("hud")) {
