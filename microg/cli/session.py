@@ -14,7 +14,7 @@ from tqdm import tqdm
 from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
 from microg.study.protocol import FOV_RANGE, Phase
-from microg.study.model_rater import ModelRater
+from microg.study.simulated_rater import SimulatedRater
 from microg.study.questionnaire import TerminalRater
 from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
 from microg.study.protocol import ProtocolError
@@ -89,7 +89,7 @@ def _rater(kind: str, log: EventLog, seed: int, display):
             from microg.view.display import DisplayRater
             return DisplayRater(display, on_rejected=_rejected_logger(log))
         return TerminalRater(on_rejected=_rejected_logger(log))
-    return ModelRater(log.store, log.session_id, seed)
+    return SimulatedRater(log.store, log.session_id, seed)
 
 
 def _point(text: str | None, name: str) -> tuple[float, float, float] | None:

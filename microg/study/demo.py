@@ -29,7 +29,7 @@ from .assignment import paper_sample
 from .export import export_study, read_answers
 from .inputs import open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
-from .model_rater import ModelRater
+from .simulated_rater import SimulatedRater
 from .session import SimulationClock, run_session
 from .store import FINAL_RUN, Store, StoreError, create_study, open_study
 
@@ -67,7 +67,7 @@ def _run_session(session_id: int) -> str:
     store.lock_session(session_id)
     try:
         return run_session(store, session_id, _inputs(store, session.participant_id, session.input),
-                           clock=SimulationClock(), rater=ModelRater(store, session_id, session.seed))
+                           clock=SimulationClock(), rater=SimulatedRater(store, session_id, session.seed))
     finally:
         store.unlock_session(session_id)
 

@@ -6,7 +6,7 @@ each interaction model it names (``Protocol.about``), item by item in the instru
 scale, or one of its choices) and asked again with a message on anything else. ``TerminalRater``
 asks in the terminal; the participant's page asks on the screen or in the headset
 (``microg.view.display.DisplayRater``); simulated participants answer through the rating model
-(``microg.study.model_rater``), and those answers are marked ``source = model``.
+(``microg.study.simulated_rater``), and those answers are marked ``source = model``.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ from microg.analysis.scoring import score_answers
 from microg.instruments import load_instrument
 from microg.participant.ratings import Experience, InstrumentModel, unanswered
 from microg.study.export import export_study, read_answers
-from microg.study.model_rater import ModelRater
+from microg.study.simulated_rater import SimulatedRater
 from microg.study.questionnaire import TerminalRater, questions
 from microg.study.session import SimulationClock, resume_session, run_session
 from microg.study.store import StoreError, open_study
@@ -88,7 +88,7 @@ def test_simulated_participants_answer_every_instrument_through_the_rating_model
     assert store.protocol.simulation_problems() == []
     session = store.create_session("P01", "scripted", True, "simulation")
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
-                rater=ModelRater(store, session.id, session.seed))
+                rater=SimulatedRater(store, session.id, session.seed))
     answers = store.answers(session.id)
     assert list(answers) == asked_in_order(store.protocol, record.group)
     assert {r[0] for r in store.db.execute("SELECT DISTINCT source FROM answers")} == {"model"}

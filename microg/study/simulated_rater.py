@@ -69,7 +69,7 @@ def exposure_minutes(store: Store, session_id: int) -> float:
     return float(row[0]) / 60.0
 
 
-class ModelRater:
+class SimulatedRater:
     """Answers from the log store with the rating model; answers are stored with ``source = model``.
     The paper's items draw from one stream in the order they are asked; every other instrument's
     filling-in is answered whole when its first item is asked."""
