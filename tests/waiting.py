@@ -57,3 +57,17 @@ def ended(process: subprocess.Popen, what: str, timeout: float = WAIT_S) -> int:
         process.kill()
         process.wait()
         raise AssertionError(f"waited {timeout:g} s for {what} to end; killed it") from None
+
+
+def line_reader(stream) -> queue.Queue:
+    """The lines of ``stream`` (a child's stdout) as they come, in a queue a test can wait on with a
+    bound (``next_item``); None once the stream ends."""
+    lines: queue.Queue = queue.Queue()
+
+    def read() -> None:
+        for line in stream:
+            lines.put(line)
+        lines.put(None)
+
+    threading.Thread(target=read, daemon=True).start()
+    return lines

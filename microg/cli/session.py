@@ -351,8 +351,8 @@ def resimulate_command(study_dir: str, participants: tuple[str, ...], every: boo
     if every:
         with open_study(study_dir, readonly=True) as store:
             participants = tuple(p.id for p in store.participants() if store.session_of(p.id) is not None)
-    target = resimulate(study_dir, list(participants), interaction, dict(_setting(s) for s in settings), label,
-                        progress=not quiet)
+    target = resimulate(study_dir, list(participants), interaction=interaction,
+                        settings=dict(_setting(s) for s in settings), label=label, progress=not quiet)
     click.echo(f"re-simulated {len(participants)} session(s) into {target}")
 
 

@@ -105,7 +105,7 @@ def gallery(out: Path, names: str, hands: str, size: str, fps: float, overwrite:
             rows.append(results[interaction].summary())
             done += 1
             say(f"[{done}/{total}] {name}, {interaction}: {_summary_line(results[interaction])}")
-        strip, animation = _draw(results, out, hands, pixels, fps)
+        strip, animation = _draw(results, out, hands=hands, size=pixels, fps=fps)
         say(f"wrote {strip} and {animation}")
     table = out / GALLERY_TABLE
     with table.open("w", newline="") as file:
@@ -131,7 +131,7 @@ def _summary_line(result: DemoRun) -> str:
             f"{summary['deepest_penetration_mm']:.1f} mm")
 
 
-def _draw(results: dict[str, DemoRun], out: Path, hands: str, size: tuple[int, int],
+def _draw(results: dict[str, DemoRun], out: Path, *, hands: str, size: tuple[int, int],
           fps: float) -> tuple[Path, Path]:
     """The demo's strip (a row per model, a column per key moment) and its animation (the models
     side by side), framed by one camera that sees the object and the hand in every run."""
@@ -145,11 +145,13 @@ def _draw(results: dict[str, DemoRun], out: Path, hands: str, size: tuple[int, i
                       for r in results.values()])
     camera = framing_camera(seen, margin=float(np.linalg.norm(spec.half_extents)), aspect=size[0] / size[1])
     moments = {model: [_scene(r, r.index_at(t)) for _, t in demo.moments] for model, r in results.items()}
-    strip = write_comparison_strip(moments, [label for label, _ in demo.moments], layout, camera,
-                                   out / f"{demo.name}.png", hands, size, title=f"{demo.name}: {demo.description}")
+    strip = write_comparison_strip(moments, [label for label, _ in demo.moments], layout=layout, camera=camera,
+                                   out=out / f"{demo.name}.png", hands=hands, size=size,
+                                   title=f"{demo.name}: {demo.description}")
     times = np.arange(0.0, demo.duration + 1e-9, 1.0 / fps)
     frames = {model: [_scene(r, r.index_at(t)) for t in times] for model, r in results.items()}
-    animation = write_comparison_animation(frames, layout, camera, out / f"{demo.name}.gif", hands, size, fps)
+    animation = write_comparison_animation(frames, layout, camera=camera, out=out / f"{demo.name}.gif", hands=hands,
+                                           size=size, fps=fps)
     return strip, animation
 
 
@@ -157,8 +159,9 @@ def _scene(result: DemoRun, i: int):
     """Frame ``i`` of a demo as the view draws it."""
     from microg.view.scene import world_scene
 
-    return world_scene(float(result.t[i]), result.position[i], result.orientation[i], result.joints[i],
-                       result.widths[i], result.rendered[i], result.touching[i], bool(result.grasped[i]))
+    return world_scene(float(result.t[i]), object_position=result.position[i],
+                       object_orientation=result.orientation[i], joints=result.joints[i], widths=result.widths[i],
+                       rendered=result.rendered[i], touching=result.touching[i], held=bool(result.grasped[i]))
 
 
 COMMANDS = [sim]

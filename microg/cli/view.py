@@ -63,7 +63,8 @@ def view(study_dir: str, session: str | None, task_index: int | None, run: int |
     from microg.view.server import serve
 
     try:
-        serve(study_dir, session, port, hands, task_index, seconds[0] if seconds else None, announce=click.echo)
+        serve(study_dir, spec=session, port=port, hands=hands, task_index=task_index,
+              seconds=seconds[0] if seconds else None, announce=click.echo)
     except KeyboardInterrupt:
         click.echo("view stopped")
 

@@ -13,7 +13,8 @@ user set ``NUMBA_CACHE_DIR``, the cache goes to the platform's user cache direct
 (``$XDG_CACHE_HOME`` or ``~/.cache`` on Linux, ``~/Library/Caches`` on macOS, ``%LOCALAPPDATA%``
 on Windows) under ``microg/numba/<stamp>``; if that cannot be written, to the temporary directory.
 The stamp is a hash of the sources of every room with compiled code (``COMPILED``: the physics,
-the hand vocabulary's jump rule, the hand filter and guard, the simulated participant): numba checks a cached function against its
+the hand vocabulary's jump rule, the hand filter and guard, the simulated participant, the task's
+rules and the batched in-silico engine): numba checks a cached function against its
 own file only, not against the kernels it calls in other files, so an upgrade (or an edit) that
 changed a kernel would otherwise run the old compiled step. A new stamp compiles afresh.
 
@@ -54,7 +55,7 @@ def user_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
 
 
-COMPILED = ("hands", "participant", "sim", "skeleton")
+COMPILED = ("hands", "insilico", "participant", "sim", "skeleton", "task")
 """The rooms of ``microg`` that hold compiled kernels (numba), whose sources the stamp covers."""
 
 

@@ -106,7 +106,7 @@ def balanced_latin_square(n: int) -> list[list[int]]:
     return rows + [row[::-1] for row in rows] if n % 2 else rows
 
 
-def assign_order(protocol: Protocol, group: str, enrolled: list[Enrolled], participant_id: str,
+def assign_order(protocol: Protocol, group: str, *, enrolled: list[Enrolled], participant_id: str,
                  seed: int) -> tuple[int | None, tuple[str, ...]]:
     """(Latin-square row or None, object names in order) for a new participant of ``group``.
 

@@ -127,7 +127,7 @@ Protocol: {title}
 """
 
 
-def _motion_sidecar(run: dict, channels: list[dict], samples: int, duration: float, rate, instructions: str,
+def _motion_sidecar(run: dict, channels: list[dict], *, samples: int, duration: float, rate, instructions: str,
                     about) -> dict:
     """A recording's ``*_motion.json``."""
     counts = pd.Series([c["type"] for c in channels]).value_counts()
@@ -208,7 +208,8 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None, runs: list[di
             name = recording_name(run["participant"], run["phase"], run["object"], run["run"])
             folder = out_dir / f"sub-{label(run['participant'])}" / "motion"
             duration = float(values["latency"][-1])
-            sidecar = _motion_sidecar(run, channels, len(values["latency"]), duration, rate, instructions, about)
+            sidecar = _motion_sidecar(run, channels, samples=len(values["latency"]), duration=duration, rate=rate,
+                                      instructions=instructions, about=about)
             events = [e for e in store.events(run["session"], run["run_id"]) if "frame_t" in e.data]
             event_table = pd.DataFrame([{
                 "onset": round(e.data["frame_t"] - t0, 6), "duration": 0.0, "trial_type": e.kind,

@@ -52,7 +52,7 @@ def resimulated_protocol(original: dict, settings: dict, label: str) -> dict:
     return resolved
 
 
-def resimulate(study_dir: str | Path, participants: list[str], interaction: str | None = None,
+def resimulate(study_dir: str | Path, participants: list[str], *, interaction: str | None = None,
                settings: dict | None = None, label: str | None = None, progress: bool = True) -> Path:
     """Re-simulate the sessions of ``participants`` (module docstring); returns the new study's folder."""
     from tqdm import tqdm
@@ -73,11 +73,12 @@ def resimulate(study_dir: str | Path, participants: list[str], interaction: str 
             if store.protocol.sha256 != protocol.sha256:
                 raise StoreError(f"{target} holds a re-simulation with other settings; give another --label")
             for participant_id in participants:
-                _resimulate_session(original, store, participant_id, interaction, progress, tqdm)
+                _resimulate_session(original, store, participant_id, interaction=interaction, progress=progress,
+                                    tqdm=tqdm)
     return target
 
 
-def _resimulate_session(original: Store, store: Store, participant_id: str, interaction: str | None,
+def _resimulate_session(original: Store, store: Store, participant_id: str, *, interaction: str | None,
                         progress: bool, tqdm) -> None:
     record = original.participant(participant_id)
     session = original.session_of(participant_id)

@@ -380,7 +380,8 @@ class Store:
             else:
                 group = assign_group(self.protocol, enrolled, participant.gender,
                                      np.random.default_rng([self.seed, number]))
-                row, order = assign_order(self.protocol, group, enrolled, participant.id, self.seed)
+                row, order = assign_order(self.protocol, group, enrolled=enrolled, participant_id=participant.id,
+                                          seed=self.seed)
             p = participant
             db.execute("INSERT INTO participants (id, number, group_code, gender, age, handedness, mr_experience, "
                        "order_row, object_order, added_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",

@@ -161,7 +161,7 @@ def line_up(store: Store, path: str | Path) -> list[Lineup]:
             continue
         mocap = [s for s in streams if _field(s, "type") == "MoCap" and _field(s, "name") == MOCAP_NAME
                  and _tags(s) == tags]
-        lineups.append(_line_up(store, path, session_id, markers, mocap[0] if mocap else None))
+        lineups.append(_line_up(store, path, session_id=session_id, stream=markers, mocap=mocap[0] if mocap else None))
     if not lineups:
         described = "; ".join(f"participant {t.get('participant')}, session {t.get('session')} (created "
                               f"{t.get('session_created')}) of study '{t.get('study')}'" for t in strangers)
@@ -204,7 +204,7 @@ def _parse(sample: str) -> dict:
     return parsed if isinstance(parsed, dict) else {}
 
 
-def _line_up(store: Store, path: Path, session_id: int, stream: dict, mocap: dict | None) -> Lineup:
+def _line_up(store: Store, path: Path, *, session_id: int, stream: dict, mocap: dict | None) -> Lineup:
     session = store.session(session_id)
     who = f"participant {session.participant_id}, session {session_id}"
     sent = [_parse(sample[0]) for sample in stream["time_series"]]
@@ -228,14 +228,14 @@ def _line_up(store: Store, path: Path, session_id: int, stream: dict, mocap: dic
         "residual_ms": residual[i] * 1e3 if i is not None else np.nan} for k, (m, i) in enumerate(zip(sent, matched))])
     marked = {(events[i]["run_id"], events[i]["kind"]): stamps[k] for k, i in enumerate(matched)
               if i is not None and events[i]["kind"] in ("task_start", "task_end")}
-    tasks = _tasks(store, session_id, keys, fit, marked)
+    tasks = _tasks(store, session_id, keys=keys, fit=fit, marked=marked)
     samples = None
     if mocap is not None:
         samples, tasks["mocap_samples"] = _mocap(mocap, keys, fit, tasks)
     return Lineup(session.participant_id, session_id, session.clock, fit, markers, tasks, samples)
 
 
-def _tasks(store: Store, session_id: int, keys: dict, fit: Fit, marked: dict) -> pd.DataFrame:
+def _tasks(store: Store, session_id: int, *, keys: dict, fit: Fit, marked: dict) -> pd.DataFrame:
     rows = store.db.execute("""
         SELECT r.id AS run_id, r.task_index, t.phase, t.interaction, t.object_code, t.object, r.run, r.status,
                r.started_at, r.ended_at, r.frames

@@ -60,7 +60,8 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
                          f"{track.duration:.2f} s (give 0 to {track.duration:.2f})")
     camera = default_camera(layout, aspect=size[0] / size[1])
     if suffix in ANIMATION_FORMATS:
-        return write_animation(track, layout, camera, out, hands, size, fps, speed, progress)
+        return write_animation(track, layout, camera=camera, out=out, hands=hands, size=size, fps=fps, speed=speed,
+                               progress=progress)
     moments = ([KeyMoment(f"{t:g} s", track.index_at(t)) for t in seconds] if seconds
                else key_moments(track, len(layout.places)))
-    return write_strip(track, layout, camera, moments, out, hands, size, title)
+    return write_strip(track, layout, camera=camera, moments=moments, out=out, hands=hands, size=size, title=title)

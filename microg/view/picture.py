@@ -147,7 +147,7 @@ def _title(track: Track) -> str:
             f"{run.interaction}: {result}, {run.attempts if run.attempts is not None else 0} attempts")
 
 
-def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[KeyMoment], out: Path,
+def write_strip(track: Track, layout: TaskLayout, *, camera: Camera, moments: list[KeyMoment], out: Path,
                 hands: str = "rendered", size: tuple[int, int] = (480, 360), title: bool = True) -> Path:
     """An image strip, one panel per moment, each with its label above and the heads-up display
     (stage, task timer, place timer, attempts) under it."""
@@ -160,10 +160,10 @@ def write_strip(track: Track, layout: TaskLayout, camera: Camera, moments: list[
         images = [renderer.draw(scene, hands) for scene in scenes]
     panels = [Panel(image, f"({letter}) {moment.label}", hud_lines(scene, layout.hold_s, n_places))
               for letter, image, moment, scene in zip(LETTERS, images, moments, scenes)]
-    return _save_panels([panels], [""], out, size, _title(track) if title else None)
+    return _save_panels([panels], [""], out=out, size=size, title=_title(track) if title else None)
 
 
-def write_comparison_strip(runs: Mapping[str, Sequence[FrameScene]], labels: Sequence[str], layout: TaskLayout,
+def write_comparison_strip(runs: Mapping[str, Sequence[FrameScene]], labels: Sequence[str], *, layout: TaskLayout,
                            camera: Camera, out: Path, hands: str = "rendered", size: tuple[int, int] = (320, 240),
                            title: str | None = None) -> Path:
     """Runs of one scene side by side, as the paper's Fig. 7 compares its model with CLAP: a row per
@@ -175,7 +175,7 @@ def write_comparison_strip(runs: Mapping[str, Sequence[FrameScene]], labels: Seq
     with Renderer(layout, camera, size) as renderer:
         rows = [[Panel(renderer.draw(scene, hands), f"({letter}) {label}", world_lines(scene))
                  for letter, label, scene in zip(LETTERS, labels, scenes)] for scenes in runs.values()]
-    return _save_panels(rows, list(runs), out, size, title)
+    return _save_panels(rows, list(runs), out=out, size=size, title=title)
 
 
 def world_lines(scene: FrameScene) -> list[str]:
@@ -199,7 +199,7 @@ def _format(out: Path, formats: tuple[str, ...], what: str) -> Path:
     return out
 
 
-def _save_panels(rows: list[list[Panel]], row_labels: list[str], out: Path, size: tuple[int, int],
+def _save_panels(rows: list[list[Panel]], row_labels: list[str], *, out: Path, size: tuple[int, int],
                  title: str | None) -> Path:
     """Lay the panels out in rows, each framed in grey, and save the figure."""
     from matplotlib.figure import Figure
@@ -229,7 +229,7 @@ def _save_panels(rows: list[list[Panel]], row_labels: list[str], out: Path, size
     return out
 
 
-def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path, hands: str = "rendered",
+def write_animation(track: Track, layout: TaskLayout, *, camera: Camera, out: Path, hands: str = "rendered",
                     size: tuple[int, int] = (480, 360), fps: float = 15.0, speed: float = 1.0,
                     progress: bool = True) -> Path:
     """The run as an animated GIF or WebP at ``speed`` times real time, the heads-up display in a
@@ -251,7 +251,7 @@ def write_animation(track: Track, layout: TaskLayout, camera: Camera, out: Path,
     return _save_animation(pictures, out, fps)
 
 
-def write_comparison_animation(runs: Mapping[str, Sequence[FrameScene]], layout: TaskLayout, camera: Camera,
+def write_comparison_animation(runs: Mapping[str, Sequence[FrameScene]], layout: TaskLayout, *, camera: Camera,
                                out: Path, hands: str = "rendered", size: tuple[int, int] = (320, 240),
                                fps: float = 15.0) -> Path:
     """Runs of one scene side by side in one animation (GIF or WebP): frame i shows scene i of every

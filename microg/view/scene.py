@@ -108,7 +108,7 @@ def both_sides(capsules: list[Capsules]) -> Capsules:
     return Capsules(*(np.concatenate([getattr(c, f) for c in capsules]) for f in ("start", "end", "radius")))
 
 
-def world_scene(t: float, object_position, object_orientation, joints: np.ndarray, widths: np.ndarray,
+def world_scene(t: float, *, object_position, object_orientation, joints: np.ndarray, widths: np.ndarray,
                 rendered: np.ndarray, touching: np.ndarray, held: bool) -> FrameScene:
     """What a world shows that no study logged (a scripted demo): the object, the tracked hand as its
     source delivered it (``joints`` (2, 5, 5, 3) and ``widths`` (2, 5, 4), left first; NaN where

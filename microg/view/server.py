@@ -417,7 +417,7 @@ class View:
         return f"{mode} session {self.session.id} of {self.session.participant_id} ({self.session.status}): {what}"
 
 
-def serve(study_dir: str | Path, spec: str | None = None, port: int = 8080, hands: str = "rendered",
+def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, hands: str = "rendered",
           task_index: int | None = None, seconds: float | None = None, announce=print) -> None:
     """Serve the view of ``study_dir`` until Ctrl-C; ``announce`` gets the address and what is shown."""
     if hands not in HAND_MODES:

@@ -15,7 +15,7 @@ import pytest
 from microg.study.export import trials_table
 from microg.study.session import SimulationClock, resume_session
 from microg.study.store import open_study
-from tests.waiting import ended
+from tests.waiting import ended, line_reader, next_item
 
 from .conftest import scripted_inputs
 
@@ -36,9 +36,9 @@ def test_sigkill_mid_task_loses_no_finished_task_and_at_most_one_frame_batch(mak
     child = subprocess.Popen([sys.executable, "-m", "tests.study.crash_child", str(study_dir)], cwd=ROOT,
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                              env={**os.environ, "PYTHONUNBUFFERED": "1"})
-    made = {}
+    made, lines = {}, line_reader(child.stdout)
     try:
-        for line in child.stdout:
+        while (line := next_item(lines, "the child's next frame", seen=lambda: made)) is not None:
             word, task, n = line.split()
             made[int(task)] = int(n)
             # kill while the child waits to hand over the second task's frame 3.5 batches in

@@ -22,7 +22,7 @@ from microg.study import framelog, store as store_module
 from microg.study.assignment import Participant, ParticipantError
 from microg.study.export import export_study
 from microg.study.store import DamagedStudyError, StoreError, open_study
-from tests.waiting import ended
+from tests.waiting import ended, line_reader, next_item
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -47,7 +47,7 @@ def holder(tmp_path):
         child = subprocess.Popen([sys.executable, "-m", "tests.study.holder", what, str(study_dir)], cwd=ROOT,
                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         children.append(child)
-        assert child.stdout.readline() == "held\n"
+        assert next_item(line_reader(child.stdout), f"the holder of {what} to say it holds it") == "held\n"
         return child
 
     yield start

@@ -139,8 +139,9 @@ def test_the_renderer_draws_a_mesh_object_by_its_surface():
     layout = object_layout(spec, start)
     camera = Camera(eye=start + [0.0, 0.0, 0.4], target=start, fov_deg=40.0)
     nothing = np.full((2, 5, 5, 3), np.nan)
-    scene = world_scene(0.0, start, (1.0, 0.0, 0.0, 0.0), nothing, np.full((2, 5, 4), np.nan),
-                        np.full((40, 3), np.nan), np.zeros(40, dtype=bool), False)
+    scene = world_scene(0.0, object_position=start, object_orientation=(1.0, 0.0, 0.0, 0.0), joints=nothing,
+                        widths=np.full((2, 5, 4), np.nan), rendered=np.full((40, 3), np.nan),
+                        touching=np.zeros(40, dtype=bool), held=False)
     with Renderer(layout, camera, SIZE) as renderer:
         image = renderer.draw(scene)
     mask = colour_mask(image, "object")
