@@ -24,7 +24,7 @@ from .common import SEED, clear_errors
 @click.option("--overwrite", is_flag=True, help="Replace what is in --out.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @clear_errors
-def demo(out: str, participants: int, seed: int, protocol: str, profile: str | None, jobs: int | None,
+def demo(*, out: str, participants: int, seed: int, protocol: str, profile: str | None, jobs: int | None,
          overwrite: bool, quiet: bool) -> None:
     """Run a complete simulated study: enrol participants with the paper's demographics, run every
     session (simulated hands, real session runner and physics, logged to SQLite), answer the

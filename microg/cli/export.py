@@ -30,13 +30,13 @@ from .common import clear_errors, study_dir_argument
                    "and xdf_mocap (the MoCap samples with the session's time), into --out (default: "
                    "STUDY_DIR/export-xdf).")
 @clear_errors
-def export(study_dir: str, out_dir: str | None, formats: tuple[str, ...], frames: bool, bids: bool, overwrite: bool,
+def export(*, study_dir: str, out_dir: str | None, formats: tuple[str, ...], frames: bool, bids: bool, overwrite: bool,
            accept_damaged: bool, quiet: bool, xdf_file: str | None) -> None:
     """Export STUDY_DIR: trials, questionnaire, answers and scores tables (with the study's instrument
     files), frames, Motion-BIDS; or line up an XDF file."""
     if xdf_file is not None:
-        _export_xdf(study_dir, Path(xdf_file), Path(out_dir) if out_dir else Path(study_dir) / "export-xdf", formats,
-                    overwrite)
+        _export_xdf(study_dir, Path(xdf_file), out=Path(out_dir) if out_dir else Path(study_dir) / "export-xdf",
+                    formats=formats, overwrite=overwrite)
         return
     out = Path(out_dir) if out_dir else Path(study_dir) / "export"
     written = export_study(study_dir, out, formats=formats, frames=frames, bids=bids, overwrite=overwrite,
@@ -44,7 +44,7 @@ def export(study_dir: str, out_dir: str | None, formats: tuple[str, ...], frames
     click.echo(f"wrote {len(written)} files into {out}")
 
 
-def _export_xdf(study_dir: str, xdf_file: Path, out: Path, formats: tuple[str, ...], overwrite: bool) -> None:
+def _export_xdf(study_dir: str, xdf_file: Path, *, out: Path, formats: tuple[str, ...], overwrite: bool) -> None:
     from microg.study.xdf import line_up, write_lineups
 
     refuse_links(out)

@@ -121,7 +121,7 @@ def info(recording: Path) -> None:
 @click.option("--side", type=click.Choice(SIDES), help="Hand to measure (default: the one tracked most).")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), help="Save the trade-off plot here (PNG).")
 @click.option("--csv", "csv_path", type=click.Path(dir_okay=False, path_type=Path), help="Save the table as CSV.")
-def filter_report_command(recording: Path, windows: str, side: str | None, plot: Path | None,
+def filter_report_command(*, recording: Path, windows: str, side: str | None, plot: Path | None,
                           csv_path: Path | None) -> None:
     """Measure the window filter's jitter and lag for each window size F on a recording.
 
@@ -169,7 +169,7 @@ def filter_report_command(recording: Path, windows: str, side: str | None, plot:
 @click.option("--port", type=click.IntRange(0, 65535), default=0, show_default=True,
               help="With --input webxr: the page's port (0: a free one; fix it for adb reverse).")
 @page_options
-def record_command(output: Path, input_kind: str, duration: float | None, max_frames: int | None, overwrite: bool,
+def record_command(*, output: Path, input_kind: str, duration: float | None, max_frames: int | None, overwrite: bool,
                    protocol_name: str, host: str, port: int, cert: str | None, key: str | None,
                    qr: str | None) -> None:
     """Record live hands to a recording file: a Leap Motion (needs Ultraleap's SDK, bindings and a
@@ -178,7 +178,7 @@ def record_command(output: Path, input_kind: str, duration: float | None, max_fr
         raise click.ClickException(f"{output}: already exists (use --overwrite to replace it)")
     limits = {"duration": duration, "max_frames": max_frames, "overwrite": overwrite}
     if input_kind == "webxr":
-        _record_webxr(output, protocol_name, host, port, limits, (cert, key, qr))
+        _record_webxr(output, protocol_name=protocol_name, host=host, port=port, limits=limits, page=(cert, key, qr))
         return
     from microg.hands.leap_device import LeapSource, LeapUnavailable
 
@@ -213,7 +213,7 @@ class _Announced:
         self.source.close()
 
 
-def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits: dict,
+def _record_webxr(output: Path, *, protocol_name: str, host: str, port: int, limits: dict,
                   page: tuple[str | None, str | None, str | None]) -> None:
     """``record --input webxr``: serve the participant's page, record the hands it streams; away from
     127.0.0.1 over HTTPS (``page``: --cert, --key, --qr), by default with the certificate microg
@@ -238,7 +238,8 @@ def _record_webxr(output: Path, protocol_name: str, host: str, port: int, limits
         click.echo(f"{kind}: {json.dumps(data)}")
 
     try:
-        with ParticipantDisplay(protocol, host, port, hands=source, on_event=say, certificate=certificate) as display:
+        with ParticipantDisplay(protocol, host=host, port=port, hands=source, on_event=say,
+                                certificate=certificate) as display:
             display.phase(Phase("recording", 0.0, "Your hand movements are being recorded. Move as the researcher "
                                                   "asks you to."))
             announce_page(display, qr)

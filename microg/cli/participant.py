@@ -33,7 +33,7 @@ def _describe(record) -> str:
 @click.option("--mr-experience", type=click.Choice(["yes", "no"]), required=True,
               help="Has the participant used mixed reality before?")
 @clear_errors
-def add(study_dir: str, participant_id: str, gender: str, age: int, handedness: str, mr_experience: str) -> None:
+def add(*, study_dir: str, participant_id: str, gender: str, age: int, handedness: str, mr_experience: str) -> None:
     """Enrol a participant: assigns a group (gender-balanced) and an object order."""
     with open_study(study_dir) as store:
         record = store.add_participant(Participant(participant_id, gender, age, handedness, mr_experience == "yes"))
@@ -131,7 +131,7 @@ def _calibration_errors(command):
 @click.option("--resume", is_flag=True, help="Continue the run beside --out where it stopped (same settings).")
 @clear_errors
 @_calibration_errors
-def calibrate(study_dir: str | None, trials_file: Path | None, targets_file: Path | None, profile: Path,
+def calibrate(*, study_dir: str | None, trials_file: Path | None, targets_file: Path | None, profile: Path,
               protocol: str | None, fit: str | None, held_out: tuple[str, ...], base: Path | None, particles: int,
               generations: int, participants: int | None, check: int, seed: int, scheduler: str | None,
               workers: int | None, resume: bool) -> None:

@@ -113,7 +113,7 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
 @renamed("--system", "--interaction")
 @clear_errors
 @_power_errors
-def power(protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,
+def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,
           effect_sizes: tuple[str, ...], method: str | None, sensitivity: bool, correction: str | None, sims: int,
           sizes: str, out: Path, target: float, alpha: float, scheduler: str | None, workers: int | None, seed: int,
           resume: bool, batch: int, measure: str, interaction: str | None) -> None:

@@ -55,7 +55,7 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
 @renamed("--system", "--interaction")
 @renamed("--system-column", "--interaction-column")
 def report(
-    study: Path | None,
+    *, study: Path | None,
     trials: Path | None,
     likert: Path | None,
     answers_file: Path | None,

@@ -142,7 +142,8 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             except ReplayError as error:
                 raise click.ClickException(str(error)) from None
         if not resume:
-            session_record = store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock)
+            session_record = store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,
+                                                  clock=inputs.clock)
         store.lock_session(session_record.id)
         clock = make_clock(inputs.clock, store.last_time(session_record.id))
         log = EventLog(store, session_record.id, clock)
@@ -216,8 +217,8 @@ def _display(store: Store, options: SessionOptions, kind: str):
         from microg.hands.webxr import WebXRSource
         hands = WebXRSource(store.protocol.tracking_rate)
     certificate = page_certificate(store.dir / FOLDER, options.host, options.cert, options.key)
-    with ParticipantDisplay(store.protocol, options.host, options.port, viewpoint, hands,
-                            certificate=certificate) as display:
+    with ParticipantDisplay(store.protocol, host=options.host, port=options.port, viewpoint=viewpoint,
+                            hands=hands, certificate=certificate) as display:
         yield display
 
 
@@ -336,7 +337,7 @@ def _setting(text: str) -> tuple[str, object]:
 @click.option("--label", default=None, help="Name of the re-simulation (its folder); default from the changes.")
 @click.option("--quiet", is_flag=True, help="No progress bars.")
 @clear_errors
-def resimulate_command(study_dir: str, participants: tuple[str, ...], every: bool, interaction: str | None,
+def resimulate_command(*, study_dir: str, participants: tuple[str, ...], every: bool, interaction: str | None,
                        settings: tuple[str, ...], label: str | None, quiet: bool) -> None:
     """Replay the hand motion a session logged through the physics again, under another interaction
     model or scene settings, into STUDY_DIR/resimulated/LABEL (a study of its own, never mixed with

@@ -33,7 +33,7 @@ def sim() -> None:
 @click.option("--object", "object_name", default=None, help="pinch-carry only: the shipped object to carry "
               "(default cube).")
 @click.option("--every", type=float, default=0.25, show_default=True, help="Print interval (s).")
-def demo(name: str, interaction: str, gravity: float | None, object_name: str | None, every: float) -> None:
+def demo(*, name: str, interaction: str, gravity: float | None, object_name: str | None, every: float) -> None:
     """Run one of the paper's demos (Fig. 8) with a scripted hand and print the object's motion.
 
     NAME is one of: ball-grasp (thumb and three fingers carry a floating ball), cube-grasp (thumb
@@ -81,7 +81,7 @@ def demo(name: str, interaction: str, gravity: float | None, object_name: str | 
               help="Animation frames per second (real time).")
 @click.option("--overwrite", is_flag=True, help="Write into a non-empty --out, replacing the gallery's own files.")
 @click.option("--quiet", is_flag=True, help="No progress lines.")
-def gallery(out: Path, names: str, hands: str, size: str, fps: float, overwrite: bool, quiet: bool) -> None:
+def gallery(*, out: Path, names: str, hands: str, size: str, fps: float, overwrite: bool, quiet: bool) -> None:
     """Run each demo under every interaction model and put the models side by side, as the paper's
     Fig. 7 compares its model with CLAP.
 

@@ -135,7 +135,7 @@ def station(study_dir: str, name: str, out_dir: str, participants: tuple[str, ..
     participants it may run with the groups and object orders assigned here (so the balance holds
     across stations). Run its sessions there as usual; bring them back with microg study merge."""
     with open_study(study_dir) as central:
-        with make_station(central, name, out_dir, participants,
+        with make_station(central, name, out_dir=out_dir, participants=participants,
                           say=lambda text: click.echo(text, err=True)) as made:
             people = [p.id for p in made.participants()]
     click.echo(f"made station {name} in {out_dir}: it may run {', '.join(people)}")

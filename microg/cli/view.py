@@ -34,7 +34,7 @@ from .common import clear_errors, picture_size, renamed, study_dir_argument
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @renamed("--study", "the argument STUDY_DIR (microg view STUDY_DIR)")
 @clear_errors
-def view(study_dir: str, session: str | None, task_index: int | None, run: int | None, hands: str,
+def view(*, study_dir: str, session: str | None, task_index: int | None, run: int | None, hands: str,
          seconds: tuple[float, ...], port: int, out: Path | None, size: str, fps: float, speed: float, title: bool,
          overwrite: bool, quiet: bool) -> None:
     """Watch a running session of STUDY_DIR, or replay a logged one, in the browser (the operator's

@@ -53,7 +53,8 @@ def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *, populati
                                               int(rng.integers(youngest, oldest + 1)), "right", True))
         for record in store.participants():
             inputs = players[record.group]
-            store.create_session(record.participant.id, inputs.spec, inputs.simulated, inputs.clock)
+            store.create_session(record.participant.id, input_spec=inputs.spec, simulated=inputs.simulated,
+                                 clock=inputs.clock)
         play_sessions(store, lambda session: players[store.participant(session.participant_id).group], workers=workers)
         return trials_table(store)
 
@@ -74,7 +75,8 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
         inputs, tasks = inputs_of(session), store.tasks(session.id)
         played = []
         for task, plan, seed in [run for phase in protocol.phases_for(record.group) if protocol.runs_tasks(phase)
-                                 for run in planned_runs(protocol, session, record, tasks, phase)]:
+                                 for run in planned_runs(protocol, session, participant=record, tasks=tasks,
+                                                         phase=phase)]:
             skill = inputs.skill(plan)
             units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
             played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))
@@ -84,7 +86,7 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
         clock = SimulationClock()
         for task, seed, source in played:
             outcome = next(outcomes)
-            run_id = store.begin_run(session.id, task, source, seed, clock.now())
+            run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
             times = outcome.frame_times
             for i in range(1, len(times)):
                 clock.elapse(float(times[i] - times[i - 1]))

@@ -58,7 +58,8 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         walls = []
         for participant in ("P01", "P02"):  # the first compiles (or loads) the kernels; the second is timed
             logged.add_participant(Participant(participant, "female", 24, "right", True))
-            session = logged.create_session(participant, "simulated:practice", True, "simulation")
+            session = logged.create_session(participant, input_spec="simulated:practice", simulated=True,
+                                            clock="simulation")
             walls.append(_seconds(lambda: run_session(logged, session.id, open_inputs("simulated:practice"),
                                                       clock=SimulationClock())))
         timed = logged.db.execute("SELECT SUM(f.count) FROM frames f JOIN task_runs r ON r.id = f.run_id "
@@ -77,14 +78,15 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         note("compressed frame size", sum(map(len, blobs)) / frames, "bytes per frame")
         note("encode (the codec), per frame", 1e6 * _seconds(lambda: [framelog.encode(b) for b in batches]) / frames,
              "us")
-        checksum = _seconds(lambda: [framelog.checksum(1, 0, len(b), 0.0, 1.0, blob)
+        checksum = _seconds(lambda: [framelog.checksum(1, first=0, count=len(b), t_first=0.0, t_last=1.0, blob=blob)
                                      for b, blob in zip(batches, blobs)]) / frames
         note("checksum (SHA-256 of the batch), per frame", 1e6 * checksum, "us")
 
         scratch = create_study(Path(folder) / "scratch", protocol, seed=2)
         scratch.add_participant(Participant("P01", "female", 24, "right", True))
-        plan = scratch.create_session("P01", "bench", True, "simulation")
-        sealed, bare = (scratch.begin_run(plan.id, task, "bench", 0, 0.0) for task in scratch.tasks(plan.id)[:2])
+        plan = scratch.create_session("P01", input_spec="bench", simulated=True, clock="simulation")
+        sealed, bare = (scratch.begin_run(plan.id, task=task, source="bench", seed=0, t=0.0)
+                        for task in scratch.tasks(plan.id)[:2])
         first = 0
         for simulated in (True, False):
             scratch.commit_for(simulated)

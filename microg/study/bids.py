@@ -65,7 +65,7 @@ def recording_name(participant: str, phase: str, obj: str, run: int) -> str:
 def _channels(sides: list[str], obj: str) -> list[dict]:
     rows = [dict(name="latency", component="n/a", type="LATENCY", tracked_point="n/a", units="s", source="t")]
 
-    def add(prefix_point, columns, kind, components, units):
+    def add(prefix_point, columns, *, kind, components, units):
         for column, component in zip(columns, components):
             rows.append(dict(name=column, component=component, type=kind, tracked_point=prefix_point,
                              units=units, source=column))
@@ -73,16 +73,17 @@ def _channels(sides: list[str], obj: str) -> list[dict]:
     for side in sides:
         for d in DIGITS:
             for j in JOINT_NAMES:
-                add(f"{side}_{d}_{j}", [f"{side}_{d}_{j}_{a}" for a in "xyz"], "POS", "xyz", "m")
-        add(f"{side}_palm", [f"{side}_palm_{a}" for a in "xyz"], "POS", "xyz", "m")
-        add(f"{side}_palm", [f"{side}_palm_q{c}" for c in "xyzw"], "ORNT",
-            ["quat_x", "quat_y", "quat_z", "quat_w"], "n/a")
-    add(obj, ["px", "py", "pz"], "POS", "xyz", "m")
-    add(obj, ["qx", "qy", "qz", "qw"], "ORNT", ["quat_x", "quat_y", "quat_z", "quat_w"], "n/a")
+                add(f"{side}_{d}_{j}", [f"{side}_{d}_{j}_{a}" for a in "xyz"], kind="POS", components="xyz", units="m")
+        add(f"{side}_palm", [f"{side}_palm_{a}" for a in "xyz"], kind="POS", components="xyz", units="m")
+        add(f"{side}_palm", [f"{side}_palm_q{c}" for c in "xyzw"], kind="ORNT",
+            components=["quat_x", "quat_y", "quat_z", "quat_w"], units="n/a")
+    add(obj, ["px", "py", "pz"], kind="POS", components="xyz", units="m")
+    add(obj, ["qx", "qy", "qz", "qw"], kind="ORNT", components=["quat_x", "quat_y", "quat_z", "quat_w"], units="n/a")
     for side in sides:
         for d in DIGITS:
             for b in BONES:
-                add(f"rendered_{side}_{d}_{b}", [f"rendered_{side}_{d}_{b}_{a}" for a in "xyz"], "POS", "xyz", "m")
+                add(f"rendered_{side}_{d}_{b}", [f"rendered_{side}_{d}_{b}_{a}" for a in "xyz"], kind="POS",
+                    components="xyz", units="m")
     for row in rows:
         row["reference_frame"] = "n/a" if row["type"] == "LATENCY" else REFERENCE_FRAME
     return rows

@@ -105,7 +105,8 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
         spec = "simulated" if profile is None else f"simulated:{Path(profile).resolve()}"
         for participant_id in ids:
             inputs = _inputs(store, participant_id, spec)
-            sessions.append(store.create_session(participant_id, inputs.spec, inputs.simulated, inputs.clock).id)
+            sessions.append(store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,
+                                                 clock=inputs.clock).id)
         planned = {session_id: len(store.tasks(session_id)) for session_id in sessions}
         total_tasks = sum(planned.values())
         # Longest first: the last session to start is a short one, so the workers finish close together.

@@ -233,7 +233,7 @@ def check_output(out_dir: Path, overwrite: bool) -> None:
                          "is exported elsewhere: give --out a writable folder)")
 
 
-def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str, ...] = ("csv", "parquet"),
+def export_study(study_dir: str | Path, out_dir: str | Path, *, formats: tuple[str, ...] = ("csv", "parquet"),
                  frames: bool = True, frames_csv: bool = False, bids: bool = True, overwrite: bool = False,
                  accept_damaged: bool = False, progress: bool = True, say=print) -> list[Path]:
     """Write the trials, questionnaire, answers and scores tables (``formats``) with the study's
@@ -268,7 +268,8 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
             say(f"note: {partial} holds an earlier export that was cut off before it finished; it is replaced now")
             shutil.rmtree(partial)
         try:
-            written = _write_export(store, partial, formats, frames, frames_csv, bids, progress, damage, say)
+            written = _write_export(store, partial, formats=formats, frames=frames, frames_csv=frames_csv, bids=bids,
+                                    progress=progress, damage=damage, say=say)
         except OSError as error:
             shutil.rmtree(partial, ignore_errors=True)
             full = error.errno == errno.ENOSPC
@@ -286,7 +287,7 @@ def export_study(study_dir: str | Path, out_dir: str | Path, formats: tuple[str,
     return [out_dir / p for p in written]
 
 
-def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
+def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
                   progress: bool, damage: list[tuple[int, str]], say) -> list[Path]:
     """Every file of an export into the new ``folder``, ``export.json`` last; their paths in it.
     The runs with a damaged frame batch (``damage``: run id, what is wrong) have no frames in it;
@@ -318,7 +319,7 @@ def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: 
             "not scored")
     runs = [run for run in run_list(store) if run["run_id"] not in left_out]
     if frames and runs:
-        _write_frames(store, runs, folder, frames_csv, tqdm(total=len(runs), unit="run", desc="frames",
+        _write_frames(store, runs, folder=folder, csv=frames_csv, bar=tqdm(total=len(runs), unit="run", desc="frames",
                                                             disable=not progress))
     if bids:
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
@@ -333,7 +334,7 @@ def _write_export(store: Store, folder: Path, formats: tuple[str, ...], frames: 
     return written + [Path(MANIFEST)]
 
 
-def _write_frames(store: Store, runs: list[dict], folder: Path, csv: bool, bar) -> None:
+def _write_frames(store: Store, runs: list[dict], *, folder: Path, csv: bool, bar) -> None:
     """frames.parquet (and frames.csv), one task run at a time: a study's frames may not fit in
     memory. A run is written in a second thread (Arrow works without the GIL) while the next is read.
     Floats are stored byte-stream split and only names dictionary-encoded: half the time of Parquet's

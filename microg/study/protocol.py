@@ -542,7 +542,7 @@ class _Reader:
             raise self.fail(key, value, "must be true or false")
         return value
 
-    def vector(self, key: str, length: int = 3, default=_MISSING, maximum: float | None = MAX_DISTANCE,
+    def vector(self, key: str, *, length: int = 3, default=_MISSING, maximum: float | None = MAX_DISTANCE,
                unit: str = " (metres, tracker frame: x right, y up, z toward the user)") -> tuple[float, ...]:
         """A list of ``length`` finite numbers, each at most ``maximum`` from zero (positions: within
         ``MAX_DISTANCE`` of the tracker)."""
@@ -657,7 +657,7 @@ def _read_groups(top: _Reader, people: _Reader, total: int, populations: dict) -
     return tuple(groups)
 
 
-def _study_object(reader: _Reader, key: str, name: str, sources: dict, files: dict, meshes: dict) -> StudyObject:
+def _study_object(reader: _Reader, key: str, *, name: str, sources: dict, files: dict, meshes: dict) -> StudyObject:
     """One object from its file's text (and its mesh file's content, base64); errors name the object
     file (or, for a study's stored copy, the database and the file's name)."""
     text = sources.get(name)
@@ -684,7 +684,8 @@ def _read_objects(top: _Reader, sources: dict, files: dict, meshes: dict) -> tup
     table = top.table("objects")
     names = table.strings("names")
     table.unique("names", list(names), "object")
-    objects = tuple(_study_object(table, f"names[{i}]", n, sources, files, meshes) for i, n in enumerate(names))
+    objects = tuple(_study_object(table, f"names[{i}]", name=n, sources=sources, files=files, meshes=meshes) for i,
+                    n in enumerate(names))
     order = table.text("order", choices=ORDER_SCHEMES)
     table.done()
     return objects, order
@@ -702,7 +703,7 @@ def _read_task(top: _Reader) -> TaskRules:
     place_reader = _Reader(t.where, {f"places[{i}]": p for i, p in enumerate(places)}, t.prefix)
     task = TaskRules(
         start=t.vector("start"),
-        start_orientation=t.vector("start_orientation", 4, [1.0, 0.0, 0.0, 0.0], maximum=None),
+        start_orientation=t.vector("start_orientation", length=4, default=[1.0, 0.0, 0.0, 0.0], maximum=None),
         places=tuple(place_reader.vector(f"places[{i}]") for i in range(len(places))),
         place_radius=t.number("place_radius", unit=" (m)", maximum=MAX_DISTANCE),
         hold_s=t.number("hold_s", unit=" (seconds)"),
@@ -762,7 +763,7 @@ def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
     return tuple(phases)
 
 
-def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files: dict,
+def _read_training(top: _Reader, *, groups: tuple[Group, ...], sources: dict, files: dict,
                    meshes: dict) -> Training | None:
     """``[training]``: who trains (the groups marked ``training = true``), with what interaction model and
     objects."""
@@ -779,8 +780,8 @@ def _read_training(top: _Reader, groups: tuple[Group, ...], sources: dict, files
     _renamed(tr, "system", "training.system is now training.interaction (the interaction model training runs)")
     training = Training(groups=training_groups,
                         interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
-                        objects=tuple(_study_object(tr, f"objects[{i}]", n, sources, files, meshes)
-                                      for i, n in enumerate(names)))
+                        objects=tuple(_study_object(tr, f"objects[{i}]", name=n, sources=sources, files=files,
+                                                    meshes=meshes) for i, n in enumerate(names)))
     tr.done()
     flagged = tuple(g.code for g in groups if g.training)
     if set(flagged) != set(training_groups):
@@ -811,7 +812,7 @@ def _read_instruments(top: _Reader, resolved: dict, files: dict) -> dict[str, In
     return instruments
 
 
-def _read_timeline(top: _Reader, groups: tuple[Group, ...], phases: tuple[TaskPhase, ...],
+def _read_timeline(top: _Reader, *, groups: tuple[Group, ...], phases: tuple[TaskPhase, ...],
                    training: Training | None, instruments: dict[str, Instrument]) -> tuple[Phase, ...]:
     """``[[timeline]]``: the phases in order; every one of ``[[phases]]`` and the training exactly once,
     and questionnaires (entries with ``instruments``) where the protocol wants them (``_read_asking``)."""
@@ -825,7 +826,7 @@ def _read_timeline(top: _Reader, groups: tuple[Group, ...], phases: tuple[TaskPh
         for code in phase_groups or ():
             if code not in codes:
                 raise p.fail("groups", list(phase_groups), f"names group {code!r}; groups are {codes}")
-        asking = _read_asking(p, name, PHASES_INFO + required, phases, instruments, [t.name for t in timeline]) \
+        asking = _read_asking(p, name, reserved=PHASES_INFO + required, phases=phases, instruments=instruments, before=[t.name for t in timeline]) \
             if asks else {}
         timeline.append(Phase(name=name, minutes=p.number("minutes", unit=" (minutes)"), text=p.text("text", ""),
                               groups=training.groups if name == "training" else phase_groups, **asking))
@@ -848,7 +849,7 @@ def _read_timeline(top: _Reader, groups: tuple[Group, ...], phases: tuple[TaskPh
     return tuple(timeline)
 
 
-def _read_asking(p: _Reader, name: str, reserved: tuple[str, ...], phases: tuple[TaskPhase, ...],
+def _read_asking(p: _Reader, name: str, *, reserved: tuple[str, ...], phases: tuple[TaskPhase, ...],
                  instruments: dict[str, Instrument], before: list[str]) -> dict:
     """A questionnaire phase's keys: ``instruments`` (ids of instrument files), ``about`` (one of
     ``[[phases]]`` that comes before it, or ``each`` after all of them; absent: about no interaction model)
@@ -984,9 +985,9 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     objects, order = _read_objects(top, sources, files, meshes)
     task = _read_task(top)
     phases = _read_phases(top)
-    training = _read_training(top, groups, sources, files, meshes)
+    training = _read_training(top, groups=groups, sources=sources, files=files, meshes=meshes)
     instruments = _read_instruments(top, resolved, files)
-    timeline = _read_timeline(top, groups, phases, training, instruments)
+    timeline = _read_timeline(top, groups=groups, phases=phases, training=training, instruments=instruments)
     logging = top.table("logging", {})
     frame_batch = logging.integer("frame_batch", 64, maximum=MAX_FRAME_BATCH)
     logging.done()

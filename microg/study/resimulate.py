@@ -91,7 +91,8 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, *, i
     store.add_participant(Participant(person.id, person.gender, person.age, person.handedness,
                                       person.mr_experience), like=record)
     spec = f"{INPUT}:{original.dir.resolve()}#session={session.id}"
-    new = store.create_session(participant_id, spec, session.simulated, "simulation", interaction=interaction)
+    new = store.create_session(participant_id, input_spec=spec, simulated=session.simulated, clock="simulation",
+                               interaction=interaction)
     store.lock_session(new.id)
     clock = SimulationClock()
     store.log(new.id, [Event(0.0, "session_start", {"input": spec, "microg_version": __version__,
@@ -100,13 +101,14 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, *, i
     tasks = store.tasks(new.id)
     for task in tqdm(tasks, unit="task", desc=f"{participant_id} re-simulated", disable=not progress):
         if task.index not in runs:
-            run_id = store.begin_run(new.id, task, "nothing logged to replay", derived_seed(new.seed, task.index),
-                                     clock.now())
+            run_id = store.begin_run(new.id, task=task, source="nothing logged to replay",
+                                     seed=derived_seed(new.seed, task.index), t=clock.now())
             store.end_run(run_id, "skipped", clock.now(), reason="the original run logged no frames")
             continue
         frames = framelog.hand_frames(framelog.read(original.db, runs[task.index].id))
         source = ReplaySource(frames, f"{INPUT}:run {runs[task.index].id}")
-        run_id = store.begin_run(new.id, task, source.description, derived_seed(new.seed, task.index), clock.now())
+        run_id = store.begin_run(new.id, task=task, source=source.description, seed=derived_seed(new.seed, task.index),
+                                 t=clock.now())
         run_task(log=EventLog(store, new.id, clock), run_id=run_id, world=task_world(store.protocol, task),
                  source=source, protocol=store.protocol)
     store.finish_session(new.id, clock.now())

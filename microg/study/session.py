@@ -288,9 +288,10 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
             if phase.name not in started_phases:
                 log.emit("phase_start", {"phase": phase.name})
             if phase.instruments:
-                _questionnaire(store, session_id, rater, clock, protocol, phase)
+                _questionnaire(store, session_id, rater=rater, clock=clock, protocol=protocol, phase=phase)
             elif protocol.runs_tasks(phase):
-                for task, plan, seed in planned_runs(protocol, session, participant, tasks, phase):
+                for task, plan, seed in planned_runs(protocol, session, participant=participant, tasks=tasks,
+                                                     phase=phase):
                     if task.index not in finished:
                         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator,
                                      sinks=outputs.sinks, bar=bar)
@@ -304,7 +305,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     return store.finish_session(session_id, clock.now())
 
 
-def planned_runs(protocol: Protocol, session, participant, tasks: list[PlannedTask],
+def planned_runs(protocol: Protocol, session, *, participant, tasks: list[PlannedTask],
                  phase: Phase) -> list[tuple[PlannedTask, TaskPlan, int]]:
     """The tasks of a task ``phase`` of a session, in the order it runs them, each with what its
     player knows of it (``participant_plan``: the participant's hand and seed, whether no earlier
@@ -322,14 +323,14 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
     store, clock = log.store, log.clock
     protocol = store.protocol
     if not operator.ready(task):
-        run_id = store.begin_run(session.id, task, "skipped by the operator", seed, clock.now())
+        run_id = store.begin_run(session.id, task=task, source="skipped by the operator", seed=seed, t=clock.now())
         log.mark(store.events(session.id, run_id))
         log.mark(store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator"))
         operator.finished(task, "skipped", None)
         return TaskResult("skipped", None, None, 0)
     world = task_world(protocol, task)
     source = inputs.open(plan, seed)
-    run_id = store.begin_run(session.id, task, source.description, seed, clock.now())
+    run_id = store.begin_run(session.id, task=task, source=source.description, seed=seed, t=clock.now())
     log.mark(store.events(session.id, run_id))
     progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")
     result = run_task(log=log, run_id=run_id, world=world, source=source, protocol=protocol,
@@ -338,7 +339,7 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
     return result
 
 
-def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Clock, protocol: Protocol,
+def _questionnaire(store: Store, session_id: int, *, rater: Rater | None, clock: Clock, protocol: Protocol,
                    phase: Phase) -> None:
     """Ask a questionnaire phase's items that are not answered yet (a resumed session carries on at the
     first unanswered one), each committed as it is given, then confirmed to the rater."""
@@ -349,7 +350,8 @@ def _questionnaire(store: Store, session_id: int, rater: Rater | None, clock: Cl
     for question in questions(protocol, phase):
         if question.key not in answered:
             answer = rater.answer(question)
-            store.save_answer(session_id, question.key, answer.value, rater.source, clock.now(), answer.response_time_s)
+            store.save_answer(session_id, key=question.key, value=answer.value, source=rater.source, t=clock.now(),
+                              response_time_s=answer.response_time_s)
             rater.saved(question)
 
 

@@ -101,7 +101,7 @@ def _enrolment(db: sqlite3.Connection, participant_id: str) -> sqlite3.Row | Non
 # ---------------------------------------------------------------- making a station
 
 
-def make_station(central: Store, name: str, out_dir: str | Path, participants: Sequence[str] = (),
+def make_station(central: Store, name: str, *, out_dir: str | Path, participants: Sequence[str] = (),
                  say=print) -> Store:
     """A station's study in the new folder ``out_dir`` (module docstring) that may run
     ``participants`` (default: every active participant with no session in the central study and

@@ -417,7 +417,7 @@ class Store:
                     for run_id in self._open_runs(session.id):
                         self._end_run(db, run_id, "interrupted", t, reason="the process running it had ended "
                                       "during the task (found when the participant was withdrawn)")
-                    self._end_session(db, session.id, "aborted", t, reason=f"participant withdrawn: {reason}")
+                    self._end_session(db, session.id, status="aborted", t=t, reason=f"participant withdrawn: {reason}")
         finally:
             if running and not held:
                 self.unlock_session(session.id)
@@ -445,7 +445,7 @@ class Store:
 
     # ------------------------------------------------------------ sessions
 
-    def create_session(self, participant_id: str, input_spec: str, simulated: bool, clock: str,
+    def create_session(self, participant_id: str, *, input_spec: str, simulated: bool, clock: str,
                        interaction: str | None = None) -> SessionRecord:
         """A new session for an active participant who has none, with its task plan; ``interaction``: every
         task runs this interaction model instead of its phase's (a re-simulation)."""
@@ -536,7 +536,7 @@ class Store:
             with self.transaction(head=run_id is None) as db:
                 self._insert_events(db, session_id, run_id, events)
 
-    def begin_run(self, session_id: int, task: PlannedTask, source: str, seed: int, t: float) -> int:
+    def begin_run(self, session_id: int, *, task: PlannedTask, source: str, seed: int, t: float) -> int:
         """Open a run of ``task`` (the next run number) and log its start."""
         with self.transaction() as db:
             number = db.execute("SELECT COALESCE(MAX(run), 0) + 1 FROM task_runs WHERE session_id = ? AND task_index = ?",
@@ -600,7 +600,7 @@ class Store:
                          "(found on resume)")
         return open_runs
 
-    def save_answer(self, session_id: int, key: tuple[str, str, str, str], value: float | int | str, source: str,
+    def save_answer(self, session_id: int, *, key: tuple[str, str, str, str], value: float | int | str, source: str,
                     t: float, response_time_s: float | None = None) -> None:
         """Commit one answer, ``key`` = (instrument, administration, interaction, item), with its event."""
         instrument, administration, interaction, item = key
@@ -613,7 +613,7 @@ class Store:
                 "instrument": instrument, "administration": administration, "interaction": interaction, "item": item,
                 "value": value, "source": source, "response_time_s": response_time_s})])
 
-    def _end_session(self, db: sqlite3.Connection, session_id: int, status: str, t: float, reason: str | None,
+    def _end_session(self, db: sqlite3.Connection, session_id: int, *, status: str, t: float, reason: str | None,
                      counts: dict[str, int] | None = None) -> None:
         """The end event first: nothing is logged for a session once it has ended (a trigger sees to it)."""
         data = {"status": status, "reason": reason} | ({"tasks": counts} if counts is not None else {})
@@ -643,7 +643,8 @@ class Store:
         reason = None if not unmeasured else "no measure from " + ", ".join(
             f"{n} task(s) {k.replace('_', ' ')}" for k, n in unmeasured.items())
         with self.transaction() as db:
-            self._end_session(db, session_id, status, t, reason, counts={k: n for k, n in counts.items() if n})
+            self._end_session(db, session_id, status=status, t=t, reason=reason,
+                              counts={k: n for k, n in counts.items() if n})
         return status
 
 
@@ -767,7 +768,7 @@ def _squeeze(sql: str) -> str:
     return " ".join(sql.split())
 
 
-def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, full: bool = False,
+def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, *, full: bool = False,
                     heads: Sequence[tuple[ledger.Head, str]] = (), snapshot: bool = True) -> list[str]:
     """What is wrong with a study database, each naming the table, row and value (empty: sound).
 

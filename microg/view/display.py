@@ -72,7 +72,7 @@ def now_ms() -> float:
 class ParticipantDisplay:
     """The page's server (see the module docstring). ``url`` is what the participant opens."""
 
-    def __init__(self, protocol: Protocol, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
+    def __init__(self, protocol: Protocol, *, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
                  hands=None, on_event=None, certificate: Certificate | None = None):
         self.protocol, self.host, self.hands, self.on_event = protocol, host, hands, on_event
         self.viewpoint = protocol.viewpoint if viewpoint is None else viewpoint

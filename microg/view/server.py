@@ -209,7 +209,7 @@ def _refuse_foreign_pages(server) -> None:
 class View:
     """A session's view: the viser server, its controls, and what it shows."""
 
-    def __init__(self, store: Store, session: SessionRecord | None, spec: str | None, port: int,
+    def __init__(self, store: Store, session: SessionRecord | None, spec: str | None, *, port: int,
                  hands: str = "rendered"):
         import viser
 
@@ -427,7 +427,7 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
         for problem in store.problems:
             announce(f"warning: the study is damaged: {problem}")
         session = find_session(store, spec)
-        view = View(store, session, spec, port, hands)
+        view = View(store, session, spec, port=port, hands=hands)
         try:
             if task_index is not None or seconds is not None:
                 view.start_at(task_index, seconds)

@@ -36,7 +36,7 @@ def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F
     info = pylsl.StreamInfo(name, STREAM_TYPE, len(CHANNELS), RATE, "double64", "microg-test-hands-source")
     describe_channels(info)
     outlet = pylsl.StreamOutlet(info)
-    tasks = store.tasks(store.create_session("P01", "lsl", False, "simulation").id)
+    tasks = store.tasks(store.create_session("P01", input_spec="lsl", simulated=False, clock="simulation").id)
     published = []
 
     def publish():

@@ -27,7 +27,7 @@ def study_trials(folder: Path, protocol, seed: int, batched: bool) -> pd.DataFra
         inputs = {record.participant.id: open_inputs("simulated", protocol.group(record.group))
                   for record in store.participants()}
         for pid, source in inputs.items():
-            store.create_session(pid, source.spec, source.simulated, source.clock)
+            store.create_session(pid, input_spec=source.spec, simulated=source.simulated, clock=source.clock)
         if batched:
             play_sessions(store, lambda session: inputs[session.participant_id])
         else:

@@ -29,7 +29,7 @@ class Reporting(ScriptedPinch):
 
 def main(study_dir: str) -> None:
     store = open_study(study_dir)
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.lock_session(session.id)
     made = []
 

@@ -18,7 +18,7 @@ def main(what: str, study_dir: str) -> None:
         store = open_study(study_dir)
         session = store.session_of("P01")
         store.lock_session(session.id)
-        store.begin_run(session.id, store.tasks(session.id)[0], "held by a test", 0, 0.0)
+        store.begin_run(session.id, task=store.tasks(session.id)[0], source="held by a test", seed=0, t=0.0)
     print("held", flush=True)
     sys.stdin.read()
 

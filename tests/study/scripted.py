@@ -102,7 +102,7 @@ def gated_session(folder, gate, waiting=None) -> threading.Thread:
         with open_study(folder) as store:
             every = store.protocol.frame_batch
             inputs = ScriptedInputs(lambda plan, seed: Gated(pinch_keyframes(plan), gate, every, waiting))
-            session = store.create_session("P01", "scripted", simulated=True, clock="simulation")
+            session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
             run_session(store, session.id, inputs, clock=SimulationClock())
 
     thread = threading.Thread(target=run, daemon=True)

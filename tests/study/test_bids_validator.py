@@ -40,7 +40,7 @@ def exported(tmp_path_factory) -> Path:
     with create_study(folder / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1) as store:
         for pid in ("P01", "P02"):
             store.add_participant(Participant(pid, "female", 24, "right", True))
-            session = store.create_session(pid, "scripted", True, "simulation")
+            session = store.create_session(pid, input_spec="scripted", simulated=True, clock="simulation")
             run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
                         rater=answers("7", "6", "3", "4"))
         assert {p.group for p in store.participants()} == {"V", "B"}

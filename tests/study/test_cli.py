@@ -148,7 +148,7 @@ def test_a_recording_with_impossible_hands_is_refused_before_any_session_and_on_
                "finger (at most 0.05 m)" in result.output, result.output
     with open_study(study) as store:
         assert store.session_of("P01") is None
-        session = store.create_session("P01", f"replay:{bad}", False, "simulation")  # a session begun before
+        session = store.create_session("P01", input_spec=f"replay:{bad}", simulated=False, clock="simulation")  # a session begun before
     result = CliRunner().invoke(main, ["session", "resume", study, "--participant", "P01", "--quiet"])
     assert result.exit_code == 1 and "wider than any finger" in result.output and "Traceback" not in result.output
     with open_study(study) as store:

@@ -27,7 +27,7 @@ def study(tmp_path_factory):
     """One study with one finished session, shared by the tests here (they only read it)."""
     store = create_study(tmp_path_factory.mktemp("export") / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1)
     record = store.add_participant(Participant("P01", "female", 24, "right", True))
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     yield store, record
     store.close()

@@ -52,7 +52,7 @@ def finished(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("integrity") / "study"
     with create_study(folder, load_protocol(PROTOCOLS / "tiny.toml"), 1) as store:
         store.add_participant(Participant("P01", "female", 24, "right", True))
-        session = store.create_session("P01", "scripted", True, "simulation")
+        session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
         run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
                     rater=answers("7", "6", "3", "4"))
     return folder

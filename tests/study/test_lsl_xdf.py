@@ -59,7 +59,7 @@ def recorded(tmp_path_factory):
     tmp_path = tmp_path_factory.mktemp("xdf")
     store = create_study(tmp_path / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1)
     store.add_participant(Participant("P01", "female", 24, "right", True))
-    session = store.create_session("P01", "scripted", True, "wall")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="wall")
     tags = session_tags(store, session.id)
     ids = [f"microg-test-{kind}-{uuid.uuid4().hex}" for kind in ("markers", "mocap")]
     clock = WallClock()
@@ -132,7 +132,7 @@ def test_an_xdf_that_does_not_belong_says_why(recorded, make_study, tmp_path):
         line_up(store, not_xdf)
 
     other, _ = make_study("tiny")  # another study: the same participant id and session number
-    other.create_session("P01", "scripted", True, "wall")
+    other.create_session("P01", input_spec="scripted", simulated=True, clock="wall")
     with pytest.raises(XdfError, match=f"{path}: its Markers streams '{MARKERS_NAME}' are of participant P01, "
                                        "session 1 .* no session of the study in"):
         line_up(other, path)
@@ -170,7 +170,7 @@ def test_a_session_resumed_after_a_crash_lines_up_part_by_part(tmp_path):
 
     store = create_study(tmp_path / "study", load_protocol(PROTOCOLS / "tiny.toml"), 1)
     store.add_participant(Participant("P01", "female", 24, "right", True))
-    session = store.create_session("P01", "scripted", True, "wall")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="wall")
     ids = [f"microg-test-markers-{uuid.uuid4().hex}"]
     first = WallClock()
     sent = Sent(MarkerOutlet(session_tags(store, session.id), first, source_id=ids[0]), crash_on="place_lit")

@@ -60,7 +60,7 @@ def typing(values: dict, stop_after: int | None = None):
 def test_every_item_is_asked_where_the_timeline_puts_it_and_a_cut_off_session_resumes_at_the_first_unanswered(
         make_study):
     store, record = make_study("tiny-vr")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     expected = asked_in_order(store.protocol, record.group)
     assert len(expected) == 16 + 2 * (14 + 21) + 4 + 16 + 2 * 10
     first = typing({"ssq08": 2}, stop_after=40)  # in the IPQ after stage 1
@@ -86,7 +86,7 @@ def test_every_item_is_asked_where_the_timeline_puts_it_and_a_cut_off_session_re
 def test_simulated_participants_answer_every_instrument_through_the_rating_model(make_study):
     store, record = make_study("tiny-vr")
     assert store.protocol.simulation_problems() == []
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
                 rater=SimulatedRater(store, session.id, session.seed))
     answers = store.answers(session.id)

@@ -108,7 +108,7 @@ def test_the_mocap_stream_on_lsl_carries_the_logged_poses(make_study):
     from .conftest import scripted_inputs
 
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     outlet = MocapOutlet(store.protocol.tracking_rate, session_tags(store, session.id), name="microg-test-mocap",
                          source_id="microg-test-mocap")
     inlet = pylsl.StreamInlet(pylsl.resolve_byprop("source_id", "microg-test-mocap")[0], max_buflen=600)

@@ -26,10 +26,10 @@ from .scripted import RATE, ScriptedPinch, pinch_keyframes
 
 def one_task(store, task_index=0, rules=None, **script):
     """Run one planned task of P01's session with a scripted pinch; returns (result, run_id, source)."""
-    session = store.session_of("P01") or store.create_session("P01", "scripted", True, "simulation")
+    session = store.session_of("P01") or store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     task = store.tasks(session.id)[task_index]
     source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task), **script))
-    run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
+    run_id = store.begin_run(session.id, task=task, source=source.description, seed=0, t=0.0)
     result = run_task(log=EventLog(store, session.id, SimulationClock()), run_id=run_id,
                       world=task_world(store.protocol, task), source=source, protocol=store.protocol, rules=rules)
     return result, run_id, source
@@ -37,7 +37,7 @@ def one_task(store, task_index=0, rules=None, **script):
 
 def test_a_session_walks_the_timeline_and_each_task_ends_when_the_hand_lets_go(make_study):
     store, record = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     inputs = scripted_inputs()
     status = run_session(store, session.id, inputs, clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     assert status == "completed" and store.session(session.id).status == "completed"
@@ -66,7 +66,7 @@ def test_only_a_live_session_waits_for_the_disk_at_each_commit(make_study, simul
     """A live session's commits are flushed (FULL = 2); a simulated one's are not (NORMAL = 1): its
     seed makes its frames again."""
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", simulated, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=simulated, clock="simulation")
     assert store.db.execute("PRAGMA synchronous").fetchone()[0] == 2
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock(), rater=answers("7", "6", "3", "4"))
     assert store.db.execute("PRAGMA synchronous").fetchone()[0] == synchronous
@@ -112,7 +112,7 @@ def test_a_task_not_finished_in_time_ends_as_a_timeout(make_study):
 
 def test_a_source_that_ends_early_aborts_the_task(make_study):
     store, _ = make_study("quick")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
 
     class Short(ScriptedPinch):
         def next_frame(self, observation=None):
@@ -170,7 +170,7 @@ class Failing(ScriptedPinch):
 
 def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_again(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     last = len(store.tasks(session.id)) - 1
     calls = []
 
@@ -200,7 +200,7 @@ def test_a_failure_mid_task_interrupts_the_run_and_resume_runs_only_that_task_ag
 
 def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
 
     class SkipFirst(Unattended):
         def ready(self, task):
@@ -214,7 +214,7 @@ def test_a_skipped_task_is_recorded_as_skipped_not_as_zero(make_study):
 
 def test_the_log_never_changes_what_it_holds(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     run_session(store, session.id, scripted_inputs(), clock=SimulationClock())
     attempts = [
         "UPDATE events SET kind = 'x'", "DELETE FROM events", "DELETE FROM frames",
@@ -226,14 +226,14 @@ def test_the_log_never_changes_what_it_holds(make_study):
         with pytest.raises(StoreError, match="refused the change: .*never"):
             store.db.execute(statement)
     with pytest.raises(StoreError, match="never run twice"):
-        store.create_session("P01", "scripted", True, "simulation")
+        store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     with pytest.raises(StoreError, match="never overwritten"):
         create_study(store.dir, store.protocol, 1)
 
 
 def test_one_session_is_run_by_one_process_at_a_time(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.lock_session(session.id)
     with open_study(store.dir) as other:
         with pytest.raises(StoreError, match="another process"):
@@ -250,10 +250,10 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
     inlet = pylsl.StreamInlet(streams[0])
     inlet.open_stream()
     store, _ = make_study("quick")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     task = store.tasks(session.id)[0]
     source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task)))
-    run_id = store.begin_run(session.id, task, source.description, 0, 0.0)
+    run_id = store.begin_run(session.id, task=task, source=source.description, seed=0, t=0.0)
     run_task(log=EventLog(store, session.id, clock, outlet), run_id=run_id, world=task_world(store.protocol, task),
              source=source, protocol=store.protocol)
     outlet.mark(Event(clock.now(), "end_of_test", {}))  # a last marker: everything before it has arrived once it has
@@ -269,7 +269,7 @@ def test_task_and_stage_events_go_out_as_lsl_markers(make_study):
 
 def test_withdrawing_a_participant_ends_their_unfinished_session_as_aborted(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.withdraw("P01", "felt unwell")
     assert store.session(session.id).status == "aborted"
     with pytest.raises(ValueError, match="only a running session"):

@@ -70,7 +70,7 @@ def state(study: Path) -> tuple:
 
 def run_scripted(folder: Path, participant: str) -> None:
     with open_study(folder) as store:
-        session = store.create_session(participant, "scripted", True, "simulation")
+        session = store.create_session(participant, input_spec="scripted", simulated=True, clock="simulation")
         run_session(store, session.id, scripted_inputs(), clock=SimulationClock())
 
 

@@ -103,7 +103,7 @@ def test_a_study_of_an_older_schema_is_refused_naming_both_versions(make_study):
 
 def test_study_status_and_check_never_write_into_the_study(make_study):
     store, _ = make_study("tiny")
-    store.create_session("P01", "scripted", True, "simulation")
+    store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.close()
     database, wal = store.dir / "study.db", store.dir / "study.db-wal"
     before = digest(database)
@@ -132,7 +132,7 @@ def test_a_database_another_program_holds_gives_a_clear_error_and_loses_nothing(
 
 def test_a_full_disk_stops_the_write_whole_and_says_what_to_do(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     pages = store.db.execute("PRAGMA page_count").fetchone()[0]
     store.db.execute(f"PRAGMA max_page_count = {pages}")  # SQLite's own "disk full" at the current size
     logged = store.events(session.id)
@@ -169,7 +169,7 @@ def forge(study_dir: Path, *statements: str) -> None:
 
 def test_a_forged_completed_run_is_found_and_not_exported_unless_accepted(make_study, tmp_path):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.close()
     forge(store.dir, "INSERT INTO task_runs (session_id, task_index, run, status, source, seed, started_at, "
                      f"ended_at, time_s, attempts, frames, started_wall) VALUES ({session.id}, 0, 1, 'completed', "
@@ -223,12 +223,12 @@ def test_dropped_triggers_and_a_changed_protocol_are_found_on_open(make_study, s
 
 def test_study_check_reports_a_sound_study_and_a_forged_frame_batch(make_study):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
-    run_id = store.begin_run(session.id, store.tasks(session.id)[0], "test", 0, 0.0)
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
+    run_id = store.begin_run(session.id, task=store.tasks(session.id)[0], source="test", seed=0, t=0.0)
     store.close()
     result = cli("study", "check", store.dir)
     assert result.exit_code == 0 and "sound (1 task runs, 0 frames" in result.output
-    forged = framelog.checksum(run_id, 0, 3, 0.0, 0.1, b"\x00\xff\x00")  # sound by its checksum, not by the ledger
+    forged = framelog.checksum(run_id, first=0, count=3, t_first=0.0, t_last=0.1, blob=b"\x00\xff\x00")  # sound by its checksum, not by the ledger
     forge(store.dir, f"INSERT INTO frames VALUES ({run_id}, 0, 3, 0.0, 0.1, x'{forged.hex()}', x'00ff00')")
     result = cli("study", "check", store.dir)
     batch = f"frames of participant P01's session {session.id}, task 0 (stage1, cube), run 1 (task run {run_id}), " \
@@ -240,7 +240,7 @@ def test_study_check_reports_a_sound_study_and_a_forged_frame_batch(make_study):
 
 def test_withdraw_refuses_while_another_process_runs_the_session(make_study, holder):
     store, _ = make_study("tiny")
-    session = store.create_session("P01", "scripted", True, "simulation")
+    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.close()
     child = holder("session", store.dir)
     result = cli("participant", "withdraw", store.dir, "--participant", "P01", "--reason", "felt unwell")
@@ -259,7 +259,7 @@ def test_withdraw_refuses_while_another_process_runs_the_session(make_study, hol
         with pytest.raises(StoreError, match="nothing is logged after its end"):
             again.log(session.id, [store_module.Event(1.0, "late", {})])
         with pytest.raises(StoreError, match="no task runs after its end"):
-            again.begin_run(session.id, again.tasks(session.id)[1], "late", 0, 1.0)
+            again.begin_run(session.id, task=again.tasks(session.id)[1], source="late", seed=0, t=1.0)
         with pytest.raises(StoreError, match="no frames are logged after its end"):
             again.add_frames(run.id, 0, np.zeros(1, dtype=framelog.FRAME))
 

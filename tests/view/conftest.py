@@ -38,7 +38,7 @@ def run_scripted(folder: Path, pace: float = 0.0) -> None:
 
         inputs.make = paced
     with open_study(folder) as store:
-        session = store.create_session("P01", "scripted", simulated=True, clock="simulation")
+        session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
         run_session(store, session.id, inputs, clock=SimulationClock())
 
 

@@ -18,7 +18,7 @@ from tests.study.conftest import scripted_inputs
 
 def main(study_dir: str, mode: str, port: int) -> None:
     store = open_study(study_dir)
-    session = store.session_of("P01") or store.create_session("P01", "scripted", True, "simulation")
+    session = store.session_of("P01") or store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
     store.lock_session(session.id)
     clock = SimulationClock(store.last_time(session.id))
     with ParticipantDisplay(store.protocol, port=port) as display:

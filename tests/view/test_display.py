@@ -48,7 +48,7 @@ def session_with_display(folder, display: ParticipantDisplay, gate: threading.Ev
     waits for ``gate`` to be open."""
     def run():
         with open_study(folder) as store:
-            session = store.create_session("P01", "scripted", True, "simulation")
+            session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
 
             def rejected(question, text, message):
                 store.log(session.id, [Event(0.0, "answer_rejected", {"item": question.item.id, "answer": text})])

@@ -156,7 +156,7 @@ def test_replay_plays_pauses_seeks_and_changes_speed_and_hands_from_the_browser(
         return re.search(r"(\w+) · ([\d.]+) s", page_text(driver)).groups()
 
     with open_readonly(logged_study) as store:
-        view = View(store, find_session(store, "P01"), "P01", free_port())
+        view = View(store, find_session(store, "P01"), "P01", port=free_port())
         view.start_at(0, 0.0)
         ticking = Ticking(view)
         going = ticking.thread.is_alive
@@ -215,7 +215,7 @@ def test_a_seek_from_the_page_reaches_the_view_whatever_the_ticks_do_meanwhile(l
         page.send(msgspec.msgpack.encode(message.as_serializable_dict()))
 
     with open_readonly(logged_study) as store:
-        view = View(store, find_session(store, "P01"), "P01", free_port())
+        view = View(store, find_session(store, "P01"), "P01", port=free_port())
         view.start_at(0, 0.0)
         callbacks, release = view.server._thread_executor, threading.Event()
         try:
@@ -245,7 +245,7 @@ def test_a_seek_from_the_page_reaches_the_view_whatever_the_ticks_do_meanwhile(l
 
 def test_the_view_is_served_on_this_machine_only(logged_study):
     with open_readonly(logged_study) as store:
-        view = View(store, find_session(store, "P01"), "P01", free_port())
+        view = View(store, find_session(store, "P01"), "P01", port=free_port())
         try:
             assert view.server.get_host() == "127.0.0.1"
             with urllib.request.urlopen(view.url) as page:
@@ -263,7 +263,7 @@ def test_a_live_view_waits_for_the_session_follows_it_and_moves_on_to_its_next_t
     folder = new_study(tmp_path / "study")
     gate = threading.Semaphore(0)
     with open_readonly(folder) as store:
-        view = View(store, None, None, free_port())
+        view = View(store, None, None, port=free_port())
         try:
             view.tick(0.0)
             assert "waiting for a session to start" in view.hud.content
@@ -307,7 +307,7 @@ def test_the_view_refuses_a_websocket_from_another_page_and_serves_its_own(logge
     from websockets.sync.client import connect
 
     with open_readonly(logged_study) as store:
-        view = View(store, find_session(store, "P01"), "P01", free_port())
+        view = View(store, find_session(store, "P01"), "P01", port=free_port())
         try:
             port = view.server.get_port()
             protocol = [f"viser-v{viser.__version__}"]

@@ -208,7 +208,7 @@ def session_in_background(folder, display: ParticipantDisplay, failures: list) -
         try:
             with open_study(folder) as store:
                 inputs = open_inputs("webxr", webxr=display.hands)
-                session = store.create_session("P01", inputs.spec, inputs.simulated, inputs.clock)
+                session = store.create_session("P01", input_spec=inputs.spec, simulated=inputs.simulated, clock=inputs.clock)
                 clock = WallClock()
                 display.on_event = EventLog(store, session.id, clock).emit
 
@@ -361,7 +361,7 @@ def test_in_the_headset_the_ssq_is_answered_by_poking_buttons_that_carry_its_wor
         def run():
             try:
                 with open_study(folder) as store:
-                    session = store.create_session("P01", "scripted", True, "wall")
+                    session = store.create_session("P01", input_spec="scripted", simulated=True, clock="wall")
                     run_session(store, session.id, scripted_inputs(), clock=WallClock(),
                                 operator=DisplayOperator(display, NoTasks()), rater=DisplayRater(display),
                                 outputs=Outputs(sinks=(display,)))
