@@ -42,7 +42,7 @@ from microg.participant.population import NAMES, SPEC, Population, Spread, defau
 from microg.study.protocol import Protocol
 
 from .sampler import EvaluationCache, OrderedDaskSampler, pickled_call
-from .studies import simulate_trials
+from .studies import protocol_through, simulate_trials
 from .targets import Target, TargetError, simulated_values
 
 RECORD, HISTORY, EVALUATIONS = "calibration.json", "calibration.db", "calibration-evaluations.db"
@@ -287,8 +287,8 @@ def calibrate(request: CalibrationRequest, profile: str | Path, client, *, resum
     profile = Path(profile)
     folder = profile.parent
     _claim(folder, profile, request.record(profile.name), resume)
-    model = StudyModel(request.protocol, request.participants, request.population, request.free, request.targets,
-                       simulate)  # fmt: skip
+    needed = protocol_through(request.protocol, [t.statistic for t in request.targets])  # fitted and held out
+    model = StudyModel(needed, request.participants, request.population, request.free, request.targets, simulate)
     prior = pyabc.Distribution(**{_pyabc_name(f): pyabc.RV("uniform", f.prior[0], f.prior[1] - f.prior[0])
                                   for f in request.free})  # fmt: skip
     cache = EvaluationCache(folder / EVALUATIONS)

@@ -17,7 +17,7 @@ A targets file (``microg participant calibrate --targets FILE.toml``)::
     [[targets]]                 # an effect: beginners make about twice the attempts of veterans
     measure = "attempts"
     group = "B"
-    versus = { group = "V" }    # a ratio of means: this selection over that one
+    versus = { group = "V" }    # a ratio of means: this selection over the same with these keys changed
     ratio = 2.0
     se = 0.25                   # a ratio's standard error is on the log scale (0.25: about 25 %)
     held_out = true             # reported in the predictive check, not fitted
@@ -228,7 +228,9 @@ def _entry_targets(entry: dict, at: str, known: dict, n_per_group: int, groups: 
         extra = sorted(set(entry["versus"]) - set(WHERE))
         if extra:
             raise TargetError(f"{at}.versus.{extra[0]}: unknown key (known: {', '.join(WHERE)})")
-        versus = _selection(entry["versus"], f"{at}.versus", known)
+        changed = dict(_selection(entry["versus"], f"{at}.versus", known))  # the selection with these keys changed
+        versus = tuple((column, changed.get(column, value)) for column, value in where) \
+            + tuple(pair for pair in changed.items() if pair[0] not in dict(where))
     elif "versus" in entry:
         raise TargetError(f"{at}.versus: only a ratio, above or below compares with another selection")
     if "se" in entry and len(given) > 1:

@@ -140,9 +140,9 @@ def insert(db: sqlite3.Connection, run_id: int, first: int, frames: np.ndarray) 
     with its checksum; False when there was nothing to add."""
     if not len(frames):
         return False
-    row = (run_id, first, len(frames), float(frames["t"][0]), float(frames["t"][-1]), encode(frames))
-    db.execute(f"INSERT INTO {TABLE} (run_id, first, count, t_first, t_last, checksum, data) "
-               "VALUES (?, ?, ?, ?, ?, ?, ?)", row[:5] + (checksum(*row),) + row[5:])
+    n, t_first, t_last, blob = len(frames), float(frames["t"][0]), float(frames["t"][-1]), encode(frames)
+    digest = checksum(run_id, first=first, count=n, t_first=t_first, t_last=t_last, blob=blob)
+    db.execute(f"INSERT INTO {TABLE} ({ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)", (run_id, first, n, t_first, t_last, digest, blob))
     return True
 
 

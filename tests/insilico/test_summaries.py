@@ -94,3 +94,18 @@ def test_a_pilot_too_small_to_fit_is_refused_naming_the_group():
     lonely = trials[~trials["participant"].isin(["P5"])]
     with pytest.raises(TargetError, match=r"pilot.csv: group = 'V': 1 participant; .*at least two per group"):
         data_targets(lonely, "pilot.csv", seed=1)
+
+
+def test_a_ratio_compares_the_same_selection_with_the_keys_of_versus_changed():
+    """``group = "B", interaction = M, versus = { group = "V" }`` is B against V, both with M: the
+    paper's beginners against its veterans with its model, not against every task the veterans did."""
+    from microg.insilico.targets import targets_from_dict
+    from microg.paths import protocol_file
+    from microg.study.protocol import load_protocol
+
+    entry = {"measure": "time_s", "group": "B", "interaction": "impulse_penetration", "versus": {"group": "V"},
+             "above": 1.0, "se": 0.1}
+    parsed = targets_from_dict({"n_per_group": 15, "targets": [entry]}, load_protocol(protocol_file("paper")), "t.toml")
+    statistic = parsed.targets[0].statistic
+    assert statistic.where == (("group", "B"), ("interaction", "impulse_penetration"))
+    assert statistic.versus == (("group", "V"), ("interaction", "impulse_penetration"))
