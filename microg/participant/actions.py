@@ -230,13 +230,16 @@ def _follow(p, s, grasps, seen, approach):
     """Re-aim the current movement's end at the grasp pose of the object as seen now (a drifting,
     turning object): the end's quaternion kept on the side of the last one, so the hand turns on
     continuously. A target that moved by ``REPLAN_DISTANCE`` or more since the last frame (an
-    object put back at its start) is reached by a new movement from where the hand is."""
+    object put back at its start), or that turned more than half a turn from where the movement
+    began (a tumbling object: the arc to its quaternion would be ill-defined and swing the hand
+    round in one frame), is reached by a new movement from where the hand is."""
     target = np.empty(1, STATE)[0]
     _grasp_pose(p, s, grasps, s.closure, seen, approach, target.end)
     if _dot4(target.end.orientation, s.end.orientation) < 0.0:
         for i in range(4):
             target.end.orientation[i] = -target.end.orientation[i]
-    replan = _distance(target.end.position, s.end.position) >= REPLAN_DISTANCE
+    replan = _distance(target.end.position, s.end.position) >= REPLAN_DISTANCE \
+        or _dot4(target.end.orientation, s.start.orientation) < 0.0
     _copy_pose(target.end, s.end)
     if replan:
         _begin_movement(s, seen.t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
