@@ -272,14 +272,15 @@ def _table(rows: list[dict], t_name: str, clock: dict) -> pd.DataFrame:
     session had its physics result, when the page received it, how long drawing took, when it was
     drawn; the level it drew at (render scale, drawing buffer width and height in pixels,
     antialiasing) and the GPU time it last measured for a frame (NaN where the browser has no
-    timer); the parts of the latency: held (a phase's added latency: from ready to due), transport (to
-    the page), waiting for the display's next refresh, drawing; and how well the page's clock was synced (the spread of its offset, the
-    quickest ping round trip), which bounds the error of anything measured across the two clocks."""
-    table = pd.DataFrame(rows, columns=["i", "t", "ready", "due", "received", "render", "drawn", "scale", "width",
-                                        "height", "antialias", "gpu"]).rename(columns={
-        "i": "frame", "t": t_name, "ready": "ready_ms", "due": "due_ms", "received": "received_ms", "render": "draw_ms",
-        "drawn": "drawn_ms", "scale": "render_scale", "width": "render_width", "height": "render_height",
-        "gpu": "gpu_ms"})
+    timer); the parts of the latency: held (a phase's added latency: from ready to due), transport
+    (to the page), waiting for the display's next refresh, drawing; and how well the page's clock
+    was synced (the spread of its offset, the quickest ping round trip), which bounds the error of
+    anything measured across the two clocks."""
+    table = pd.DataFrame(rows, columns=["i", "t", "ready", "due", "received", "render", "drawn", "scale",
+                                        "width", "height", "antialias", "gpu"]).rename(columns={
+        "i": "frame", "t": t_name, "ready": "ready_ms", "due": "due_ms", "received": "received_ms",
+        "render": "draw_ms", "drawn": "drawn_ms", "scale": "render_scale", "width": "render_width",
+        "height": "render_height", "gpu": "gpu_ms"})
     table["gpu_ms"] = table["gpu_ms"].astype(float)
     table["due_ms"] = table["due_ms"].astype(float).fillna(table["ready_ms"])
     table["held_ms"] = table["due_ms"] - table["ready_ms"]
@@ -387,7 +388,7 @@ def summary(table: pd.DataFrame, latency: str, **columns) -> dict:
             "load_average": round(table["load_average"].iloc[0], 2)}
 
 
-def refresh_ms(table: pd.DataFrame) -> float:
+def _refresh(table: pd.DataFrame) -> float:
     """The display's refresh interval as the page ran: the median interval between the frames it drew."""
     return float(np.median(np.diff(np.sort(table["drawn_ms"].to_numpy())))) if len(table) > 1 else math.nan
 
@@ -422,8 +423,8 @@ def run(out: Path, quick: bool = False, size: tuple[int, int] = (1280, 800), loa
             screen.insert(2, "added_latency_ms", added)
             runs.append(screen)
             rows.append(summary(screen, "latency_ms", when=when, run="screen", quality=quality, load=load,
-                                size=f"{size[0]}x{size[1]}", quick=quick, target_p95_ms=TARGET_P95_MS.get(load),
-                                added_latency_ms=added))
+                                size=f"{size[0]}x{size[1]}", quick=quick,
+                                target_p95_ms=None if added else TARGET_P95_MS.get(load), added_latency_ms=added))
             stats = percentiles(screen["latency_ms"])
             parts = {name: percentiles(screen[f"{name}_ms"])["p50"] for name in ("held", "transport", "wait", "draw")}
             scales = screen["render_scale"].value_counts(normalize=True).sort_index(ascending=False)
@@ -470,7 +471,7 @@ def _added_part(delayed: pd.DataFrame, reference: pd.DataFrame, row: dict, say) 
     its summary ``row`` and said."""
     setting = delayed["added_latency_ms"].iloc[0]
     added = percentiles(delayed["latency_ms"])["p50"] - percentiles(reference["latency_ms"])["p50"]
-    refresh = refresh_ms(delayed)
+    refresh = _refresh(delayed)
     row.update(added_p50_ms=round(added, 2), refresh_ms=round(refresh, 2),
                within_refresh=bool(abs(added - setting) <= refresh))
     say(f"  added part of the latency at p50: {added:.1f} ms against the {reference['quality'].iloc[0]} run "

@@ -136,8 +136,9 @@ def store_bench(out: Path, quick: bool) -> None:
 def display_bench(out: Path, quick: bool, size: str, load: int, added_latency: float) -> None:
     """The participant view's latency in headless Chromium: a 110 Hz simulated session's physics result
     to the drawn frame, once with the page adapting what it draws and once held at full resolution
-    (display_latency.csv; with --added-latency a third run whose phases add it), and under WebXR emulation a hand pose read in the page to that pose drawn
-    with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
+    (display_latency.csv; with --added-latency a third run whose phases add it), and under WebXR
+    emulation a hand pose read in the page to that pose drawn with its physics applied
+    (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
     from microg.bench.display import run
 
     try:

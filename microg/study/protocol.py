@@ -751,7 +751,8 @@ def _renamed(reader: _Reader, old: str, message: str) -> None:
 
 def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
     """``[[phases]]``: each phase's name, the interaction model it runs, how the participant
-    hears it named and the display latency it adds; a study compares different interaction models, so no two phases run the same one."""
+    hears it named and the display latency it adds; a study compares different interaction models,
+    so no two phases run the same one."""
     _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
                             "but `system` is now `interaction`)")
     phases = []

@@ -8,22 +8,22 @@ The display is one of the session's frame sinks: the session thread hands each f
 to ``take`` (never through the database); the
 server thread keeps only the newest frame and sends it to each page as soon as the page can take
 it, so a slow browser skips frames and never falls behind. A phase with ``added_latency_ms`` (a
-factor of the study) has the server hold each of its frames that much after its physics was ready
-before it becomes the newest one; the physics and the log go on undelayed, and the session logs the
-setting once per task (``display_latency``). Everything else the participant sees
-(the instructions, a "get ready" before each task, the completion cue, the questionnaire) goes
-out undelayed, in order and is repeated to a page that connects late. The page draws the newest frame at the
-display's refresh rate (``page/participant.js``), and answers the questionnaire, syncs its clock,
-reports when it drew each frame (``latency``) and, in a headset (``page/xr.js``), anchors the
-workspace where the participant puts it (``placement``) and streams the hand joints it tracks
-(``hands``: ``microg.hands.webxr``).
+factor of the study) has the server hold each of its frames until that much after its physics was
+ready (``due``) before it becomes the newest one; the physics and the log go on undelayed, and the
+session logs the setting once per task (``display_latency``). Everything else the participant
+sees (the instructions, a "get ready" before each task, the completion cue, the questionnaire)
+goes out at once, in order, and is repeated to a page that connects late. The page draws the
+newest frame at the display's refresh rate (``page/participant.js``), and answers the
+questionnaire, syncs its clock, reports when it drew each frame (``latency``) and, in a headset
+(``page/xr.js``), anchors the workspace where the participant puts it (``placement``) and streams
+the hand joints it tracks (``hands``: ``microg.hands.webxr``).
 
 What the page measures and decides (the clock offset, the placement, the level it draws at:
 resolution and antialiasing) goes to ``on_event(kind, data)`` as ``display_clock``,
-``display_placement`` and ``display_quality``, and so does the latency a task's phase adds
-(``display_latency``); it arrives on the server's thread and is
-handed on from the thread that drives the display (the session's, whose store connection it may
-use) at its next call.
+``display_placement`` and ``display_quality``, with the latency a task's phase adds
+(``display_latency``); what the page sends arrives on the server's thread and is handed on from
+the thread that drives the display (the session's, whose store connection it may use) at its
+next call.
 
 Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
 one-time token (printed with the address), and the page and its WebSocket are served over TLS with
