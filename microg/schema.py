@@ -45,6 +45,8 @@ TRIALS = (
     Column("object_name", "string", "the object's name, e.g. cube"),
     Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
            optional=True),
+    Column("added_latency_ms", "float64", "display latency the task's phase adds to the participant's page (ms, "
+           "the protocol's added_latency_ms); 0 for none", optional=True),
     Column("runs", "Int64", "how many times the task was run"),
     Column("withdrawn", "bool", "whether the participant withdrew from the study"),
     Column("session", "Int64", "id of the session in the study's log"),

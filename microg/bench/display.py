@@ -10,7 +10,12 @@ ends are on one clock: ``latency_ms = drawn - ready`` (``display_latency.csv``),
 drew at (render scale, the drawing buffer's size, antialiasing) with its last measured GPU time.
 The same session runs twice: with the page adapting what it draws (``quality = adaptive``), and
 held at its best level, the full resolution (``quality = full``, ``?quality=full``), in that order.
-``load`` CPU-bound processes (a busy loop each) run beside both, started and stopped here.
+With an added latency (``--added-latency MS``) a third run adapts what it draws while its protocol's
+phases add that much display latency (the protocol's ``added_latency_ms``; the paper's otherwise):
+its frames from the first delayed one on, against the first run's, give the latency's added part
+at p50, which should equal the setting within one display refresh (the median interval between
+the frames the page drew). ``load`` CPU-bound processes (a busy loop each) run beside every run,
+started and stopped here.
 
 WebXR: ``microg session run --input webxr`` with the page in Chromium under Meta's WebXR emulation
 runtime (iwer, a development dependency in ``node_modules/iwer``, injected here, never part of the
@@ -41,10 +46,13 @@ import sys
 import tempfile
 import threading
 import time
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from microg.paths import PROTOCOLS
 
 TARGET_P95_MS = {0: 25.0, 2: 40.0}
 """The issue's targets for the screen latency at 110 Hz tracking: with nothing else running, and
@@ -244,11 +252,12 @@ class _Session:
                 self.process.wait()
 
 
-def _collect(driver, session: _Session, seconds: float, rows: list[dict]) -> dict:
+def _collect(driver, session: _Session, seconds: float, rows: list[dict],
+             first: str = "return window.microg.latest") -> dict:
     """Take the page's drawn-frame reports every second for ``seconds`` or until the session ends,
-    from the first frame the page receives on (before it, the physics may be compiling its scene);
-    returns the page's last clock sync."""
-    wait_for(driver, "return window.microg.latest")
+    from the ``first`` frame the page receives on (by default any: before it, the physics may be
+    compiling its scene); returns the page's last clock sync."""
+    wait_for(driver, first)
     driver.execute_script("window.microg.reports.splice(0)")
     end = time.monotonic() + seconds
     while time.monotonic() < end and session.running:
@@ -263,16 +272,19 @@ def _table(rows: list[dict], t_name: str, clock: dict) -> pd.DataFrame:
     session had its physics result, when the page received it, how long drawing took, when it was
     drawn; the level it drew at (render scale, drawing buffer width and height in pixels,
     antialiasing) and the GPU time it last measured for a frame (NaN where the browser has no
-    timer); the parts of the latency: transport (to the page), waiting for the display's next
-    refresh, drawing; and how well the page's clock was synced (the spread of its offset, the
-    quickest ping round trip), which bounds the error of anything measured across the two clocks."""
-    table = pd.DataFrame(rows, columns=["i", "t", "ready", "received", "render", "drawn", "scale", "width",
-                                        "height", "antialias", "gpu"]).rename(columns={
-        "i": "frame", "t": t_name, "ready": "ready_ms", "received": "received_ms", "render": "draw_ms",
-        "drawn": "drawn_ms", "scale": "render_scale", "width": "render_width", "height": "render_height",
-        "gpu": "gpu_ms"})
+    timer); the parts of the latency: held (a phase's added latency: from ready to due), transport
+    (to the page), waiting for the display's next refresh, drawing; and how well the page's clock
+    was synced (the spread of its offset, the quickest ping round trip), which bounds the error of
+    anything measured across the two clocks."""
+    table = pd.DataFrame(rows, columns=["i", "t", "ready", "due", "received", "render", "drawn", "scale",
+                                        "width", "height", "antialias", "gpu"]).rename(columns={
+        "i": "frame", "t": t_name, "ready": "ready_ms", "due": "due_ms", "received": "received_ms",
+        "render": "draw_ms", "drawn": "drawn_ms", "scale": "render_scale", "width": "render_width",
+        "height": "render_height", "gpu": "gpu_ms"})
     table["gpu_ms"] = table["gpu_ms"].astype(float)
-    table["transport_ms"] = table["received_ms"] - table["ready_ms"]
+    table["due_ms"] = table["due_ms"].astype(float).fillna(table["ready_ms"])
+    table["held_ms"] = table["due_ms"] - table["ready_ms"]
+    table["transport_ms"] = table["received_ms"] - table["due_ms"]
     table["wait_ms"] = table["drawn_ms"] - table["draw_ms"] - table["received_ms"]
     table["clock_spread_ms"], table["clock_rtt_ms"] = clock["spread"], clock["rtt"]
     table["load_average"] = os.getloadavg()[0]
@@ -298,15 +310,31 @@ def busy(processes: int):
             spinner.wait()
 
 
-def screen_latency(folder: Path, seconds: float, size: tuple[int, int], quality: str = "adaptive") -> pd.DataFrame:
+def delayed_protocol(folder: Path, added_latency_ms: float) -> Path:
+    """The paper's protocol with each of its phases adding ``added_latency_ms`` of display latency."""
+    paper = PROTOCOLS / "paper.toml"
+    phases = "".join(f"\n[[phases]]\nname = {json.dumps(p['name'])}\ninteraction = {json.dumps(p['interaction'])}"
+                     f"\nlabel = {json.dumps(p['label'])}\nadded_latency_ms = {added_latency_ms!r}\n"
+                     for p in tomllib.loads(paper.read_text())["phases"])
+    path = folder / "paper-delayed.toml"
+    folder.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"extends = {json.dumps(str(paper))}\n{phases}")
+    return path
+
+
+def screen_latency(folder: Path, seconds: float, size: tuple[int, int], quality: str = "adaptive",
+                   added_latency_ms: float = 0.0) -> pd.DataFrame:
     """Drawn frames of a simulated session of the paper's protocol, the page adapting what it draws
-    or held at its best level (``quality``, see the module docstring)."""
-    session = _Session(folder, "paper", "--input", "simulated", "--display", "--questionnaire", "model")
+    or held at its best level (``quality``), its phases adding ``added_latency_ms`` (then from the
+    first delayed frame on; see the module docstring)."""
+    protocol = str(delayed_protocol(folder, added_latency_ms)) if added_latency_ms else "paper"
+    session = _Session(folder, protocol, "--input", "simulated", "--display", "--questionnaire", "model")
     rows: list[dict] = []
+    first = "return window.microg.latest" + (" && window.microg.latest.due" if added_latency_ms else "")
     try:
         with chromium(size) as driver:
             driver.get(f"{session.url}?latency=1{QUALITIES[quality]}")
-            clock = _collect(driver, session, seconds, rows)
+            clock = _collect(driver, session, seconds, rows, first)
     finally:
         session.stop()
     return _table(rows, "frame_t_s", clock)
@@ -360,12 +388,18 @@ def summary(table: pd.DataFrame, latency: str, **columns) -> dict:
             "load_average": round(table["load_average"].iloc[0], 2)}
 
 
+def _refresh(table: pd.DataFrame) -> float:
+    """The display's refresh interval as the page ran: the median interval between the frames it drew."""
+    return float(np.median(np.diff(np.sort(table["drawn_ms"].to_numpy())))) if len(table) > 1 else math.nan
+
+
 def run(out: Path, quick: bool = False, size: tuple[int, int] = (1280, 800), load: int = 0,
-        say=print) -> dict[str, pd.DataFrame]:
-    """Measure both in a ``size`` viewport with ``load`` CPU-bound processes beside them (see the
-    module docstring); write ``display_latency.csv`` (both runs of the screen, column ``quality``)
-    and, where iwer is installed, ``webxr_latency.csv`` into ``out``; print the percentiles, and add
-    a row per run to ``display_summary.csv`` (the runs so far, oldest first)."""
+        say=print, added_latency_ms: float = 0.0) -> dict[str, pd.DataFrame]:
+    """Measure both in a ``size`` viewport with ``load`` CPU-bound processes beside them, and with
+    ``added_latency_ms`` a third run of the screen whose phases add it (see the module docstring);
+    write ``display_latency.csv`` (the runs of the screen, columns ``quality`` and
+    ``added_latency_ms``) and, where iwer is installed, ``webxr_latency.csv`` into ``out``; print the
+    percentiles, and add a row per run to ``display_summary.csv`` (the runs so far, oldest first)."""
     lacking = missing()
     if lacking:
         raise RuntimeError(f"`microg bench display` needs {lacking} (apt-get install chromium chromium-driver; "
@@ -378,24 +412,34 @@ def run(out: Path, quick: bool = False, size: tuple[int, int] = (1280, 800), loa
     rows = []
     with tempfile.TemporaryDirectory(prefix="microg-bench-display-") as scratch:
         runs = []
-        for quality in QUALITIES:
+        settings = [(quality, 0.0) for quality in QUALITIES] + ([("adaptive", added_latency_ms)] if added_latency_ms
+                                                                 else [])
+        for quality, added in settings:
             with busy(load):
-                screen = screen_latency(Path(scratch) / f"screen-{quality}", 30.0 if quick else math.inf, size, quality)
+                screen = screen_latency(Path(scratch) / f"screen-{quality}-{added:g}", 30.0 if quick else math.inf,
+                                        size, quality, added)
             screen.insert(0, "quality", quality)
             screen.insert(1, "load", load)
+            screen.insert(2, "added_latency_ms", added)
             runs.append(screen)
             rows.append(summary(screen, "latency_ms", when=when, run="screen", quality=quality, load=load,
-                                size=f"{size[0]}x{size[1]}", quick=quick, target_p95_ms=TARGET_P95_MS.get(load)))
+                                size=f"{size[0]}x{size[1]}", quick=quick,
+                                target_p95_ms=None if added else TARGET_P95_MS.get(load), added_latency_ms=added))
             stats = percentiles(screen["latency_ms"])
-            parts = {name: percentiles(screen[f"{name}_ms"])["p50"] for name in ("transport", "wait", "draw")}
+            parts = {name: percentiles(screen[f"{name}_ms"])["p50"] for name in ("held", "transport", "wait", "draw")}
             scales = screen["render_scale"].value_counts(normalize=True).sort_index(ascending=False)
             drawn_at = ", ".join(f"{scale:g} {share:.0%}" for scale, share in scales.items() if share >= 0.005)
-            say(f"screen, {quality}, 110 Hz simulated participant, {size[0]}x{size[1]}{beside}: {len(screen)} "
-                f"frames drawn ({_rate(screen):.0f} per s), latency p50 {stats['p50']:.1f} ms, p95 "
-                f"{stats['p95']:.1f} ms, p99 {stats['p99']:.1f} ms{target}; p50 of its parts: transport "
-                f"{parts['transport']:.1f}, waiting for a refresh {parts['wait']:.1f}, drawing {parts['draw']:.1f} ms; "
+            delayed = f", phases adding {added:g} ms" if added else ""
+            held = f"held {parts['held']:.1f}, " if added else ""
+            say(f"screen, {quality}{delayed}, 110 Hz simulated participant, {size[0]}x{size[1]}{beside}: "
+                f"{len(screen)} frames drawn ({_rate(screen):.0f} per s), latency p50 {stats['p50']:.1f} ms, p95 "
+                f"{stats['p95']:.1f} ms, p99 {stats['p99']:.1f} ms{'' if added else target}; p50 of its parts: "
+                f"{held}transport {parts['transport']:.1f}, waiting for a refresh {parts['wait']:.1f}, drawing "
+                f"{parts['draw']:.1f} ms; "
                 f"render scale {drawn_at}; GPU time p50 {screen['gpu_ms'].median():.1f} ms; clock sync spread "
                 f"{screen['clock_spread_ms'].iloc[0]:.1f} ms; load average {screen['load_average'].iloc[0]:.1f}")
+            if added:
+                _added_part(screen, runs[0], rows[-1], say)
         tables["screen"] = pd.concat(runs, ignore_index=True)
         tables["screen"].to_csv(out / "display_latency.csv", index=False)
         say(f"-> {out / 'display_latency.csv'}")
@@ -421,6 +465,24 @@ def run(out: Path, quick: bool = False, size: tuple[int, int] = (1280, 800), loa
     return tables
 
 
+def _added_part(delayed: pd.DataFrame, reference: pd.DataFrame, row: dict, say) -> None:
+    """The added part of the delayed run's latency at p50 (against the reference run's, the same
+    quality in the same invocation), and the display's refresh interval it should be within; into
+    its summary ``row`` and said."""
+    setting = delayed["added_latency_ms"].iloc[0]
+    added = percentiles(delayed["latency_ms"])["p50"] - percentiles(reference["latency_ms"])["p50"]
+    refresh = _refresh(delayed)
+    row.update(added_p50_ms=round(added, 2), refresh_ms=round(refresh, 2),
+               within_refresh=bool(abs(added - setting) <= refresh))
+    say(f"  added part of the latency at p50: {added:.1f} ms against the {reference['quality'].iloc[0]} run "
+        f"without, {abs(added - setting):.1f} ms off the setting of {setting:g} ms: "
+        f"{'within' if row['within_refresh'] else 'NOT within'} one display refresh ({refresh:.1f} ms)")
+
+
 def _record(path: Path, rows: list[dict]) -> None:
-    """Add ``rows`` to the summary at ``path`` (made with its header if it is not there yet)."""
-    pd.DataFrame(rows).to_csv(path, mode="a", header=not path.exists(), index=False)
+    """Add ``rows`` to the summary at ``path`` (made if it is not there yet; a column the earlier
+    runs lack is left empty for them)."""
+    table = pd.DataFrame(rows)
+    if path.exists():
+        table = pd.concat([pd.read_csv(path), table], ignore_index=True)
+    table.to_csv(path, index=False)

@@ -129,11 +129,16 @@ def store_bench(out: Path, quick: bool) -> None:
                    "drawing time grows with it.")
 @click.option("--load", type=click.IntRange(min=0), default=0, show_default=True,
               help="CPU-bound processes to run beside every run (started and stopped by the benchmark).")
-def display_bench(out: Path, quick: bool, size: str, load: int) -> None:
+@click.option("--added-latency", "added_latency", type=click.FloatRange(min=0, max=1000), default=0.0,
+              metavar="MS", help="Also run the screen with the protocol's phases adding MS of display latency "
+                                 "(added_latency_ms) and report the latency's added part at p50 against the "
+                                 "setting and one display refresh.")
+def display_bench(out: Path, quick: bool, size: str, load: int, added_latency: float) -> None:
     """The participant view's latency in headless Chromium: a 110 Hz simulated session's physics result
     to the drawn frame, once with the page adapting what it draws and once held at full resolution
-    (display_latency.csv), and under WebXR emulation a hand pose read in the page to that pose drawn
-    with its physics applied (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
+    (display_latency.csv; with --added-latency a third run whose phases add it), and under WebXR
+    emulation a hand pose read in the page to that pose drawn with its physics applied
+    (webxr_latency.csv). Needs chromium, chromium-driver, selenium."""
     from microg.bench.display import run
 
     try:
@@ -141,7 +146,7 @@ def display_bench(out: Path, quick: bool, size: str, load: int) -> None:
     except ValueError:
         raise click.BadParameter(f"{size!r}: give WIDTHxHEIGHT in pixels, e.g. 1280x800", param_hint="--size") from None
     try:
-        run(out, quick, (width, height), load, say=click.echo)
+        run(out, quick, (width, height), load, say=click.echo, added_latency_ms=added_latency)
     except (RuntimeError, FileNotFoundError) as error:
         raise click.ClickException(str(error)) from None
 

@@ -71,6 +71,7 @@ def trials_table(store: Store) -> pd.DataFrame:
         "age": r["age"], "handedness": r["handedness"], "mr_experience": bool(r["mr_experience"]),
         "phase": r["phase"], "interaction": r["interaction"],
         "interaction_label": labels.get(r["interaction"], r["interaction"]),
+        "added_latency_ms": store.protocol.added_latency_ms(r["phase"]),
         "object": r["object_code"], "object_name": r["object"],
         "order_position": r["order_position"], "completed": r["status"] == "completed",
         "time_s": r["time_s"] if r["status"] == "completed" else None,

@@ -88,6 +88,9 @@ MAX_PLACES = 100
 MAX_AGE = 150
 FOV_RANGE = (10.0, 120.0)
 """Degrees: the vertical field of view a screen may span from the eyes (as ``--fov``)."""
+MAX_ADDED_LATENCY_MS = 1000.0
+"""ms a phase may add to what the participant's page shows: studies of latency and agency vary it
+up to 350 ms (Waltemate et al., VRST 2016); a second is already no real-time view."""
 
 
 class ProtocolError(ValueError):
@@ -141,6 +144,9 @@ class TaskPhase:
     """The interaction model the phase's tasks run (``microg.sim.INTERACTION_MODELS``)."""
     label: str
     """How the interaction model is named to the participant (the questionnaire asks about it by this)."""
+    added_latency_ms: float = 0.0
+    """Display latency the phase adds (ms): the participant's page shows each frame this much later
+    than the physics had it (the physics and the log are not delayed)."""
 
 
 @dataclass(frozen=True)
@@ -270,6 +276,10 @@ class Protocol:
     def phases_for(self, group: str) -> tuple[Phase, ...]:
         """The timeline as a participant of ``group`` goes through it."""
         return tuple(p for p in self.timeline if p.groups is None or group in p.groups)
+
+    def added_latency_ms(self, phase: str) -> float:
+        """The display latency a phase of tasks adds (ms; 0 for the training and any other phase)."""
+        return next((p.added_latency_ms for p in self.phases if p.name == phase), 0.0)
 
     def runs_tasks(self, phase: Phase) -> bool:
         """Whether the timeline phase is one of tasks (the training, or one of ``[[phases]]``)."""
@@ -740,8 +750,9 @@ def _renamed(reader: _Reader, old: str, message: str) -> None:
 
 
 def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
-    """``[[phases]]``: each phase's name, the interaction model it runs and how the participant
-    hears it named; a study compares different interaction models, so no two phases run the same one."""
+    """``[[phases]]``: each phase's name, the interaction model it runs, how the participant
+    hears it named and the display latency it adds; a study compares different interaction models,
+    so no two phases run the same one."""
     _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
                             "but `system` is now `interaction`)")
     phases = []
@@ -750,7 +761,9 @@ def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
                               "runs)")
         interaction = p.text("interaction", choices=tuple(INTERACTION_MODELS))
         phases.append(TaskPhase(name=p.label("name", "it names files in exports"), interaction=interaction,
-                                label=p.text("label")))
+                                label=p.text("label"),
+                                added_latency_ms=p.number("added_latency_ms", 0.0, positive=False, unit=" (ms)",
+                                                          maximum=MAX_ADDED_LATENCY_MS)))
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
     for i, phase in enumerate(phases):

@@ -7,19 +7,23 @@
 The display is one of the session's frame sinks: the session thread hands each frame's outcome
 to ``take`` (never through the database); the
 server thread keeps only the newest frame and sends it to each page as soon as the page can take
-it, so a slow browser skips frames and never falls behind. Everything else the participant sees
-(the instructions, a "get ready" before each task, the completion cue, the questionnaire) goes
-out in order and is repeated to a page that connects late. The page draws the newest frame at the
-display's refresh rate (``page/participant.js``), and answers the questionnaire, syncs its clock,
-reports when it drew each frame (``latency``) and, in a headset (``page/xr.js``), anchors the
-workspace where the participant puts it (``placement``) and streams the hand joints it tracks
-(``hands``: ``microg.hands.webxr``).
+it, so a slow browser skips frames and never falls behind. A phase with ``added_latency_ms`` (a
+factor of the study) has the server hold each of its frames until that much after its physics was
+ready (``due``) before it becomes the newest one; the physics and the log go on undelayed, and the
+session logs the setting once per task (``display_latency``). Everything else the participant
+sees (the instructions, a "get ready" before each task, the completion cue, the questionnaire)
+goes out at once, in order, and is repeated to a page that connects late. The page draws the
+newest frame at the display's refresh rate (``page/participant.js``), and answers the
+questionnaire, syncs its clock, reports when it drew each frame (``latency``) and, in a headset
+(``page/xr.js``), anchors the workspace where the participant puts it (``placement``) and streams
+the hand joints it tracks (``hands``: ``microg.hands.webxr``).
 
 What the page measures and decides (the clock offset, the placement, the level it draws at:
 resolution and antialiasing) goes to ``on_event(kind, data)`` as ``display_clock``,
-``display_placement`` and ``display_quality``; it arrives on the server's thread and is
-handed on from the thread that drives the display (the session's, whose store connection it may
-use) at its next call.
+``display_placement`` and ``display_quality``, with the latency a task's phase adds
+(``display_latency``); what the page sends arrives on the server's thread and is handed on from
+the thread that drives the display (the session's, whose store connection it may use) at its
+next call.
 
 Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
 one-time token (printed with the address), and the page and its WebSocket are served over TLS with
@@ -86,6 +90,10 @@ class ParticipantDisplay:
         self._port = port
         self._frame: str | None = None
         self._frame_version = 0
+        self._added_s = 0.0
+        """The display latency the current task's phase adds (s)."""
+        self._scene_version = 0
+        """Counts the tasks' scenes: a frame held for an earlier scene is never shown."""
         self._context: dict[str, str] = {"workspace": self._workspace()}
         """The latest message of each kind a late page needs: workspace, scene, timeline, question."""
         self._events: queue.SimpleQueue[tuple[str, dict]] = queue.SimpleQueue()
@@ -94,7 +102,8 @@ class ParticipantDisplay:
         """The number of the question shown (the page answers it by this number)."""
         self.drawn: collections.deque[dict] = collections.deque(maxlen=DRAWN_KEPT)
         """What pages reported drawing, the last ``DRAWN_KEPT`` frames: frame index, when its physics
-        was ready, when it was drawn (ms), the render scale and the drawing buffer's size (px)."""
+        was ready, when it was due on the page (a phase's added latency later), when it was drawn (ms),
+        the render scale and the drawing buffer's size (px)."""
         self.clock: dict | None = None
         """The page's clock offset from the session's and its spread (ms), once synced."""
         self.placement: list[float] | None = None
@@ -180,11 +189,16 @@ class ParticipantDisplay:
                        "fov_deg": self.viewpoint.fov_deg},
             "palette": PALETTE})
         self._frame = None
+        self._scene_version += 1
+        self._added_s = self.protocol.added_latency_ms(task.phase) / 1e3
         self._publish("timeline", {"kind": "ready", "task": task.index, "object": task.object,
                                    "label": self._label(task)})
 
     def task_started(self, task: PlannedTask) -> None:
         self.deliver_events()
+        if self._added_s:
+            self._events.put(("display_latency", {"task": task.index, "phase": task.phase,
+                                                  "added_latency_ms": self._added_s * 1e3}))
         self._publish("timeline", {"kind": "task", "task": task.index, "label": self._label(task)})
 
     def task_finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
@@ -194,9 +208,11 @@ class ParticipantDisplay:
 
     def take(self, moment: Moment) -> None:
         """One frame's outcome: the rendered hand with its highlight, the object, the places, the
-        timers; kept as the newest frame and sent to each page as soon as it can take it. With
-        hands from the page, ``read`` is when the page read the newest of them (its own clock)."""
+        timers; kept as the newest frame (after the phase's added latency: ``due``) and sent to each
+        page as soon as it can take it. With hands from the page, ``read`` is when the page read the
+        newest of them (its own clock)."""
         self.deliver_events()
+        ready, held_until = now_ms(), time.monotonic() + self._added_s
         after, state, display = moment.after, moment.state, moment.observation.display
         rendered = after.rendered
         hands = []
@@ -213,7 +229,7 @@ class ParticipantDisplay:
                           "radius": np.round(bones.radius[drawn], 5).tolist(),
                           "touching": moment.observation.touching[side_slots(side)][drawn].tolist()})
         t = moment.frame.timestamp
-        message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": now_ms(),
+        message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": ready,
                    "object": np.round(np.concatenate([after.position, after.orientation]), 6).tolist(),
                    "hands": hands, "stage": display.stage, "place": display.place, "lit": display.lit,
                    "place_timer": round(display.timer_s, 3),
@@ -221,9 +237,15 @@ class ParticipantDisplay:
                    "attempts": state.attempts, "held": state.held}
         if self.hands is not None:
             message["read"] = self.hands.last_read
-        self._frame = json.dumps(message)
+        if self._added_s:
+            message["due"] = ready + self._added_s * 1e3
         self._frame_version += 1
-        self._notify()
+        if self._added_s and self._loop is not None:
+            self._loop.call_soon_threadsafe(self._loop.call_at, held_until, self._show, json.dumps(message),
+                                            self._scene_version)
+        else:
+            self._frame = json.dumps(message)
+            self._notify()
 
     def ask(self, question: Question) -> None:
         """Show one questionnaire item (its answers come from ``next_answer``): its instrument, the
@@ -304,6 +326,13 @@ class ParticipantDisplay:
     def _wake(self) -> None:
         for flag in self._fresh:
             flag.set()
+
+    def _show(self, frame: str, scene: int) -> None:
+        """A held frame becomes the newest when it is due (the loop's clock is ``time.monotonic``),
+        unless the next task's scene is shown by then."""
+        if scene == self._scene_version:
+            self._frame = frame
+            self._wake()
 
     def _serve(self) -> None:
         asyncio.run(self._main())
@@ -418,7 +447,8 @@ class ParticipantDisplay:
                 self._events.put(("display_clock", clock))
         elif kind == "drawn":
             self.drawn.append({"frame": message.get("i"), "t": message.get("t"), "ready_ms": message.get("ready"),
-                               "drawn_ms": message.get("drawn"), "render_scale": _number(message.get("scale")),
+                               "due_ms": message.get("due"), "drawn_ms": message.get("drawn"),
+                               "render_scale": _number(message.get("scale")),
                                "render_width": _number(message.get("width")),
                                "render_height": _number(message.get("height"))})
         elif kind == "quality":

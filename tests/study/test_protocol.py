@@ -105,6 +105,11 @@ BAD = [
      ["task.places[0] = [-0.04, 0.26, 0.0]", "table_height = 0.3", "can never reach this place"]),
     ("tracking_rate = 110.0", 'tracking_rate = "fast"', ["tracking_rate = 'fast'", "positive number"]),
     ("grasp_settle_s = 0.1", "grasp_settle_s = -0.1", ["task.grasp_settle_s", "-0.1", "non-negative"]),
+    ('label = "System 2"', 'label = "System 2"\nadded_latency_ms = -5', ["phases[1].added_latency_ms = -5",
+                                                                       "non-negative number (ms)"]),
+    ('label = "System 2"', 'label = "System 2"\nadded_latency_ms = 1500', ["phases[1].added_latency_ms = 1500",
+                                                                         "at most 1000 (ms)"]),
+    ('label = "System 2"', 'label = "System 2"\nadded_latency_ms = "50ms"', ["phases[1].added_latency_ms = '50ms'"]),
 ]
 
 
@@ -135,6 +140,15 @@ def test_an_older_protocol_is_told_what_its_keys_became(tmp_path, old, new, expe
 def test_a_bad_protocol_is_rejected_naming_file_key_and_value(tmp_path, old, new, expected):
     path = edited(tmp_path, old, new)
     assert_refused(path, expected)
+
+
+def test_a_phase_adds_display_latency_only_where_it_says_so(tmp_path):
+    """Issue 24: ``added_latency_ms`` of a phase, 0 unless given (and for the training)."""
+    paper = load_protocol(PAPER)
+    assert [p.added_latency_ms for p in paper.phases] == [0.0, 0.0]
+    delayed = load_protocol(edited(tmp_path, 'label = "System 2"', 'label = "System 2"\nadded_latency_ms = 50'))
+    assert [delayed.added_latency_ms(name) for name in ("training", "stage1", "stage2")] == [0.0, 0.0, 50.0]
+    assert delayed.sha256 != paper.sha256
 
 
 def test_files_that_extend_each_other_in_a_circle_are_rejected(tmp_path):

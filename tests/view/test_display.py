@@ -16,7 +16,9 @@ from microg.study import framelog
 from microg.study.inputs import PacedInputs
 from microg.study.protocol import load_protocol
 from microg.study.session import Outputs, SimulationClock, Unattended, run_session
-from microg.study.store import Event, open_study
+from microg.study.assignment import Participant
+from microg.study.export import trials_table
+from microg.study.store import Event, create_study, open_study
 from microg.view.display import DisplayOperator, DisplayRater, ParticipantDisplay
 
 from tests.study.conftest import PROTOCOLS, scripted_inputs
@@ -149,6 +151,61 @@ def test_the_participant_sees_the_task_where_the_physics_puts_it_and_answers_on_
         row = frames[np.flatnonzero(frames["t"] == drawn["t"])]
         assert len(row) == 1
         assert np.allclose(row["position"][0], drawn["object"][:3], atol=2e-6)
+
+
+class OnePhase(Unattended):
+    """Runs the tasks of one phase and skips the others (a short session)."""
+
+    def __init__(self, phase: str):
+        self.phase = phase
+
+    def ready(self, task) -> bool:
+        return task.phase == self.phase
+
+
+@needs_browser
+def test_a_phase_with_added_latency_shows_no_frame_before_it_is_due(tmp_path):
+    """Issue 24: the page draws each frame of a phase with ``added_latency_ms`` no earlier than its
+    physics was ready plus that much, by the page's own reports (its clock synced to the session's:
+    within half the quickest ping round trip and the offsets' spread); the session logs the setting."""
+    path = tmp_path / "delayed.toml"
+    path.write_text(f'extends = "{PROTOCOLS / "tiny.toml"}"\nname = "delayed"\n'
+                    '[[phases]]\nname = "stage1"\ninteraction = "impulse_penetration"\nlabel = "System 1"\n'
+                    'added_latency_ms = 150\n'
+                    '[[phases]]\nname = "stage2"\ninteraction = "soft_hand"\nlabel = "System 2"\n')
+    protocol = load_protocol(path)
+    with create_study(tmp_path / "study", protocol, seed=1) as store:
+        store.add_participant(Participant("P01", "female", 24, "right", True))
+    events = []
+    with ParticipantDisplay(protocol, on_event=lambda kind, data: events.append((kind, data))) as display, \
+            chromium(WINDOW) as driver:
+        driver.get(display.url + "?latency=1")
+        wait(driver, "return window.microg.clock")
+
+        def run():
+            with open_study(tmp_path / "study") as store:
+                session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
+                run_session(store, session.id, PacedInputs(scripted_inputs(), speed=2.0), clock=SimulationClock(),
+                            operator=DisplayOperator(display, OnePhase("stage1")), outputs=Outputs(sinks=(display,)))
+
+        session = threading.Thread(target=run, daemon=True)
+        session.start()
+        session.join(WORK_S)
+        assert not session.is_alive(), f"the session did not end within {WORK_S:g} s"
+        clock = display.clock
+    shown = [d for d in display.drawn if d["due_ms"] is not None]
+    assert len(shown) > 10, f"the page drew {len(shown)} frames of the delayed phase: {list(display.drawn)[-3:]}"
+    slack = clock["rtt_ms"] / 2 + clock["spread_ms"]
+    early = [d for d in shown if d["drawn_ms"] < d["due_ms"] - slack]
+    assert not early, (f"{len(early)} of {len(shown)} frames drawn before due (clock slack {slack:.2f} ms), e.g. "
+                       f"{early[0]}")
+    assert [(d["phase"], d["added_latency_ms"]) for kind, d in events if kind == "display_latency"] == [
+        ("stage1", 150.0)]
+    # the trials table carries it: latency can be a factor of the analysis
+    with open_study(tmp_path / "study") as store:
+        trials = trials_table(store)
+    assert {p: set(t["added_latency_ms"]) for p, t in trials.groupby("phase")} == {
+        p: {150.0 if p == "stage1" else 0.0} for p in trials["phase"]}
 
 
 def refused(url: str, origin: str) -> bool:

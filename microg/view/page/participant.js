@@ -1,11 +1,11 @@
 // The participant's page: what the session sends, drawn at the display's refresh rate.
 //
-// Frames arrive over the WebSocket as fast as the physics computes them; the page keeps only the
-// newest and draws it on the next animation frame, so it never falls behind. It measures how long
-// its drawing takes and chooses the render resolution and antialiasing so that a frame fits the
-// display's refresh interval (quality.js), raising them again when there is headroom. Timeline
-// messages (instructions, "get ready", the completion cue, the questionnaire's items) change the text
-// over the scene. The page syncs its clock to the session's and, with ?latency=1 in its
+// Frames arrive over the WebSocket as fast as the physics computes them (a phase's added latency
+// later: the session holds them); the page keeps only the newest and draws it on the next
+// animation frame, so it never falls behind. It measures how long its drawing takes and chooses
+// the render resolution and antialiasing so that a frame fits the display's refresh interval
+// (quality.js), raising them again when there is headroom. Timeline messages (instructions, "get
+// ready", the completion cue, the questionnaire's items) change the text over the scene. The page syncs its clock to the session's and, with ?latency=1 in its
 // address, reports when it drew each frame and at what level; ?quality=full holds the best level
 // whatever it costs (a benchmark's reference run). window.microg exposes what was drawn, for tests
 // and for the headset module (xr.js), which adds the "Enter mixed reality" button where the
@@ -461,9 +461,10 @@ function draw(time, xrFrame) {
     if (measure) {
       const drawn = microg.now();
       const { scale, antialias } = quality.level;
-      const report = { type: "drawn", i: frame.i, t: frame.t, ready: frame.ready, received: frame.received,
-                       render: drawn - start, drawn, scale, antialias, width: renderer.domElement.width,
-                       height: renderer.domElement.height, gpu: presenting ? null : quality.cost };
+      const report = { type: "drawn", i: frame.i, t: frame.t, ready: frame.ready, due: frame.due,
+                       received: frame.received, render: drawn - start, drawn, scale, antialias,
+                       width: renderer.domElement.width, height: renderer.domElement.height,
+                       gpu: presenting ? null : quality.cost };
       // Hands read in this page: from reading them to drawing their physics, on the page's own clock.
       if (frame.read != null) report.trip = performance.timeOrigin + performance.now() - frame.read;
       microg.send(report);
