@@ -89,9 +89,13 @@ def friction_cone(p, s, o, rot, mesh):
 
 
 @kernel
-def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh):
+def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh, under_phalanx):
     """Eqs. 16-18: the spring force of every contact with object o, applied at its god-object
-    phalanx, with the stiffness the implicit velocity update needs."""
+    phalanx, with the stiffness the implicit velocity update needs. ``under_phalanx`` (the
+    penetration-only baseline): past the face's edge where its anchor is held, the spring acts from
+    the point of the face's plane under the phalanx, so an object turning under a still fingertip
+    pays for what it charges the spring (docs/physics.md, "The baselines at coarse steps"); the
+    paper's model keeps Eq. 16's anchor (its impulse phase takes the bounce)."""
     gamma = p.penetration_stiffness
     position = row(s.position, o)
     velocity, angular_velocity = row(s.velocity, o), row(s.angular_velocity, o)
@@ -119,6 +123,8 @@ def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh):
             length = norm(along)
             if length > limit or along != tangential:
                 offset = add(scale(delta, normal), scale(min(1.0, limit / length) if length > 0.0 else 0.0, along))
+                if under_phalanx:
+                    anchor = sub(anchor, sub(tangential, along))
         n_world = mat_vec(rot, normal)
         r = add(mat_vec(rot, anchor), scale(radius, n_world))
         on_object = scale(-gamma, mat_vec(rot, offset))

@@ -186,7 +186,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
                         if cone:
                             friction_cone(p, s, o, rot, mesh)
                         if penetration:
-                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh)
+                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh, not impulse)
                         if soft_hand:
                             soft_hand_forces(p, s, o, rot, friction, wrench, stiffness, damping, h)
                         if gravity:

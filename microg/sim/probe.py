@@ -36,7 +36,7 @@ def _impulses(params, ints, reals, flags, counts, springs):
 
 
 @entry
-def _forces(params, ints, reals, flags, counts, cone, penetration, soft_hand, friction, h):
+def _forces(params, ints, reals, flags, counts, cone, penetration, soft_hand, friction, under_phalanx, h):
     n = ints[OBJECT_COUNT]
     p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
     wrenches = np.zeros((n, 6))
@@ -46,7 +46,7 @@ def _forces(params, ints, reals, flags, counts, cone, penetration, soft_hand, fr
         if cone:
             friction_cone(p, s, o, rot, None)
         if penetration:
-            penetration_forces(p, s, o, rot, friction, wrenches[o], stiffness, h, None)
+            penetration_forces(p, s, o, rot, friction, wrenches[o], stiffness, h, None, under_phalanx)
         if soft_hand:
             soft_hand_forces(p, s, o, rot, friction, wrenches[o], stiffness, damping, h)
     return wrenches
@@ -76,4 +76,4 @@ def contact_forces(model, data) -> np.ndarray:
     effects = model.effects
     return _forces(model.params, model.ints, data.reals, data.flags, data.counts,
                    {"friction", "penetration"} <= effects, "penetration" in effects, "soft_hand" in effects,
-                   "friction" in effects, model.dt)
+                   "friction" in effects, "impulse" not in effects, model.dt)
