@@ -32,25 +32,26 @@ def sized_protocol(protocol: Protocol, n_per_group: int) -> Protocol:
 
 
 def protocol_through(protocol: Protocol, statistics) -> Protocol:
-    """The protocol cut after the last of its ``[[phases]]`` whose tasks one of ``statistics``
-    (``summaries.Statistic``) can select: a simulated participant does not know what comes later,
+    """The protocol cut after the last of its ``[[phases]]`` (in the timeline's order) whose tasks one
+    of ``statistics`` (``summaries.Statistic``) can select: a simulated participant does not know what comes later,
     so the phases before are played exactly as in the whole protocol, and a study that is only
     asked about the paper's model need not play the baseline's phase. Questionnaires are dropped
     (an in-silico study asks none)."""
     selections = [s.where for s in statistics] + [s.versus for s in statistics if s.versus]
-    needed = [i for i, phase in enumerate(protocol.phases)
+    needed = {phase.name for phase in protocol.phases
               if any(all((column != "phase" or value == phase.name)
                          and (column != "interaction" or value == phase.interaction) for column, value in where)
-                     for where in selections)]
-    last = max(needed, default=0)
-    if last == len(protocol.phases) - 1:
+                     for where in selections)}
+    played = [entry.name for entry in protocol.timeline if any(p.name == entry.name for p in protocol.phases)]
+    last = max((i for i, name in enumerate(played) if name in needed), default=0)  # in the order sessions play them
+    dropped = set(played[last + 1:])
+    if not dropped:
         return protocol
-    dropped = {phase.name for phase in protocol.phases[last + 1:]}
     resolved = dict(protocol.resolved)
     resolved["phases"] = [phase for phase in resolved["phases"] if phase["name"] not in dropped]
     resolved["timeline"] = [entry for entry in resolved["timeline"]
                             if entry.get("phase") not in dropped and "instruments" not in entry]
-    return protocol_from_resolved(resolved, f"{protocol.where} (through phase {protocol.phases[last].name})")
+    return protocol_from_resolved(resolved, f"{protocol.where} (through phase {played[last]})")
 
 
 def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *, population: Population | None = None,

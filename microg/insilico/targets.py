@@ -193,6 +193,16 @@ def _selection(entry: dict, at: str, known: dict) -> tuple[tuple[str, str], ...]
     return tuple(where)
 
 
+def _versus(where, changed) -> tuple[tuple[str, str], ...]:
+    """A ratio's denominator: the selection ``where`` with the keys of ``changed`` changed (a phase
+    names its interaction model, so changing one of the two drops the other), in ``WHERE``'s order."""
+    keys = dict(changed)
+    linked = {"phase", "interaction"}
+    kept = {column: value for column, value in where if not (column in linked and linked & keys.keys())}
+    merged = kept | keys
+    return tuple((column, merged[column]) for column in WHERE if column in merged)
+
+
 def _number(entry: dict, key: str, at: str, positive: bool = False) -> float:
     value = entry[key]
     signed = key == "slope"
@@ -228,9 +238,9 @@ def _entry_targets(entry: dict, at: str, known: dict, n_per_group: int, groups: 
         extra = sorted(set(entry["versus"]) - set(WHERE))
         if extra:
             raise TargetError(f"{at}.versus.{extra[0]}: unknown key (known: {', '.join(WHERE)})")
-        changed = dict(_selection(entry["versus"], f"{at}.versus", known))  # the selection with these keys changed
-        versus = tuple((column, changed.get(column, value)) for column, value in where) \
-            + tuple(pair for pair in changed.items() if pair[0] not in dict(where))
+        versus = _versus(where, _selection(entry["versus"], f"{at}.versus", known))
+        if versus == where:
+            raise TargetError(f"{at}.versus = {entry['versus']!r}: compares the selection with itself")
     elif "versus" in entry:
         raise TargetError(f"{at}.versus: only a ratio, above or below compares with another selection")
     if "se" in entry and len(given) > 1:

@@ -172,8 +172,8 @@ def open_inputs(spec: str, group: Group | None = None, webxr: HandSource | None 
             except (ValueError, PopulationError) as error:
                 raise InputError(f"--input {spec!r}: {error}") from None
         if group is None:
-            raise InputError(f"--input {spec!r}: give a profile, as simulated:{PRACTICE}, simulated:veteran, "
-                             f"simulated:beginner or simulated:PROFILE.toml")
+            raise InputError(f"--input {spec!r}: give a profile, as simulated:{PRACTICE}, simulated:literature, "
+                             f"simulated:veteran, simulated:beginner or simulated:PROFILE.toml")
         return SimulatedInputs("simulated", group.player)
     if kind in ("leap", "lsl"):
         return LiveInputs(spec, _open_tracking(spec))  # the device answers before any session starts

@@ -43,7 +43,7 @@ from microg.hands.filter import FILTER_WINDOW
 from microg.hands.guard import GuardConfig
 from microg.instruments import IDENTIFIER, Instrument, InstrumentError, instrument_file, read_instrument, \
     shipped_instruments
-from microg.paths import OBJECTS
+from microg.paths import OBJECTS, POPULATIONS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
@@ -254,7 +254,7 @@ class Protocol:
         from microg.participant.skill import PROFILES
 
         problems = []
-        profiles = [PRACTICE] + sorted(PROFILES)
+        profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
         for i, group in enumerate(self.groups):
             if group.player is None:
                 problems.append(f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: "
@@ -374,6 +374,7 @@ def _resolve(path: Path, chain: tuple[Path, ...] = ()) -> tuple[dict, list[dict]
 def simulated_player(profile: str, protocol_dir: Path | None, stored: dict | None = None,
                      where: str = "") -> Population | SkillProfile | None:
     """What ``profile`` names for a simulated participant: the default population (``practice``), a
+    population shipped with microg by its name (``literature``: ``POPULATIONS / NAME.toml``), a
     population file (``FILE.toml``: its text in ``stored`` when the protocol comes from a study's
     database, else read relative to ``protocol_dir``), a fixed skill (``veteran``, ``beginner``), or
     None for any other name. A population file that cannot be used raises PopulationError."""
@@ -384,11 +385,18 @@ def simulated_player(profile: str, protocol_dir: Path | None, stored: dict | Non
         return default_population()
     if profile in PROFILES:
         return PROFILES[profile]
+    if profile in shipped_populations():
+        return read_population(POPULATIONS / f"{profile}.toml")
     if not profile.endswith(".toml"):
         return None
     if stored is not None and profile in stored:
         return population_from_dict(tomllib.loads(stored[profile]), f"{where}: population {profile}")
     return read_population((protocol_dir or Path.cwd()) / profile)
+
+
+def shipped_populations() -> list[str]:
+    """The names of the populations shipped with microg besides the default (``POPULATIONS``)."""
+    return sorted(path.stem for path in POPULATIONS.glob("*.toml") if path.stem != "default")
 
 
 def _object_file(name: str, protocol_dir: Path | None) -> Path | None:

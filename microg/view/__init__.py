@@ -1,6 +1,6 @@
 """The 3D view of a study's sessions (the paper's mixed-reality scene, Figs. 1, 7 and 9).
 
-- ``serve(study_dir, session)`` (``microg view``): a browser view on 127.0.0.1 that follows a
+- ``serve(study_dir, spec=SESSION)`` (``microg view``): a browser view on 127.0.0.1 that follows a
   running session or replays a logged one (``server``), reading the study's database read-only
   while the session writes it (``track``).
 - ``export_task(...)`` (``microg view export``): an image strip of a task's key moments or an

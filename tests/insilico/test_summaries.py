@@ -3,6 +3,8 @@ here by hand from the table's rows, and the targets read from a pilot's trials."
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -109,3 +111,12 @@ def test_a_ratio_compares_the_same_selection_with_the_keys_of_versus_changed():
     statistic = parsed.targets[0].statistic
     assert statistic.where == (("group", "B"), ("interaction", "impulse_penetration"))
     assert statistic.versus == (("group", "V"), ("interaction", "impulse_penetration"))
+    # a phase names its interaction model: changing one drops the other
+    models = dict(entry, group=None, phase="stage1", versus={"interaction": "soft_hand"})
+    models.pop("group"), models.pop("interaction")
+    parsed = targets_from_dict({"n_per_group": 15, "targets": [models]}, load_protocol(protocol_file("paper")), "t.toml")
+    assert parsed.targets[0].statistic.versus == (("interaction", "soft_hand"),)
+    with pytest.raises(TargetError, match=re.escape("t.toml: targets[0].versus = {'group': 'B'}: compares the "
+                                                    "selection with itself")):
+        targets_from_dict({"n_per_group": 15, "targets": [dict(entry, versus={"group": "B"})]},
+                          load_protocol(protocol_file("paper")), "t.toml")

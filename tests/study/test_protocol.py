@@ -237,10 +237,20 @@ def test_what_only_simulated_participants_need_is_reported_not_refused(tmp_path)
     problems = protocol.simulation_problems()
     assert problems == [
         f"{path}: groups[0].simulated_profile = 'expert': simulated participants play a population file "
-        "(FILE.toml) or one of ['practice', 'beginner', 'veteran'] (the default is the group's name)",
+        "(FILE.toml) or one of ['practice', 'literature', 'beginner', 'veteran'] (the default is the group's name)",
         f"{path}: timeline[5].instruments = ['paper']: paper: the rating model of simulated participants rates only "
         "['efficiency', 'naturalness'], not ['comfort']"]
     assert load_protocol(PAPER).simulation_problems() == []
+
+
+def test_a_group_plays_a_population_shipped_with_microg_by_its_name(tmp_path):
+    from microg.paths import POPULATIONS
+    from microg.participant import default_population, read_population
+
+    protocol = load_protocol(edited(tmp_path, 'simulated_profile = "practice"', 'simulated_profile = "literature"'))
+    literature = read_population(POPULATIONS / "literature.toml")
+    assert protocol.groups[0].player.parameters == literature.parameters
+    assert protocol.groups[1].player.parameters == default_population().parameters != literature.parameters
 
 
 def test_the_vr_protocol_asks_the_questionnaires_of_vr_research_in_its_timeline():
