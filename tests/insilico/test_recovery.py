@@ -33,7 +33,7 @@ BASE = POPULATIONS / "literature.toml"
 
 
 @pytest.mark.slow
-@pytest.mark.timeout(1800)  # about 40 whole simulated studies on 2 shared cores
+@pytest.mark.timeout(1800)  # about 60 whole simulated studies on 2 shared cores
 def test_a_calibration_recovers_the_means_of_a_known_population(tmp_path):
     base = read_population(BASE)
     truth = Population(dict(base.parameters) | TRUTH)
@@ -43,7 +43,7 @@ def test_a_calibration_recovers_the_means_of_a_known_population(tmp_path):
     out = tmp_path / "fit" / "profile.toml"
     result = CliRunner().invoke(main, [
         "participant", "calibrate", "--trials", str(trials), "--protocol", str(PROTOCOL), "--out", str(out),
-        "--fit", ",".join(TRUTH), "--base", str(BASE), "--particles", "8", "--generations", "2", "--participants", "2",
+        "--fit", ",".join(TRUTH), "--base", str(BASE), "--particles", "12", "--generations", "2", "--participants", "2",
         "--check", "3", "--seed", "5", "--workers", "2"])  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "posterior (mean and 90 % credible interval):" in result.output and "fitted (" in result.output
