@@ -94,7 +94,11 @@ def still_hand_energy(size, mass, restitution, quaternion, velocity, spin, tips,
     return start, highest, touched
 
 
-@pytest.mark.parametrize("interaction", ["impulse_penetration", "penetration_only", "soft_hand"])
+@pytest.mark.parametrize("interaction", [
+    "impulse_penetration", "soft_hand",
+    # its search meets the open corner (the strict xfail at the end of this file) in some runs
+    pytest.param("penetration_only", marks=pytest.mark.xfail(reason="open (docs/physics.md, the baselines at coarse "
+                                                                    "steps, left open (3))"))])
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     size=st.tuples(*[st.floats(0.01, 0.2)] * 3),
