@@ -4,12 +4,13 @@ A session plays a task frame by frame from Python (``microg.study.session.run_ta
 participant's frame, hand tracking (the guard, the window filter), the physics, the task's rules,
 respawn, and the log. An in-silico study logs no frames, so ``play_tasks`` runs the same steps for
 many tasks together: the tasks of one object and interaction model share one physics model, so
-their worlds are stepped as one batch (``sim`` ``step_worlds``, as ``step_batch``), between two
-compiled calls that do the rest for every task of the batch: ``_track`` (each participant's frame,
-the guard's checks, Eq. 1) and ``_judge`` (what each world shows, the task's rules, respawn).
-Each calls the code a session runs: ``participant.step_participant``, ``filter.window_mean``,
-``stages.judge``, ``respawn.lost``, the physics' ``_snapshot``. A finished task's place in the
-batch is taken by the next task of its kind.
+their worlds are stepped as one batch (``sim`` ``step_worlds``, as ``step_batch``), and one compiled
+loop (``_runner``) plays the batch frame after frame until a task ends: ``_track`` (each
+participant's frame, the guard's checks, Eq. 1), the physics step, and ``_judge`` (what each world
+shows, the task's rules, respawn). Each calls the code a session runs:
+``participant.step_participant``, ``filter.window_mean``, ``stages.judge``, ``respawn.lost``, the
+physics' ``step_worlds``. Python sees the batch once per task's end, where the next task of its kind
+takes the finished one's place.
 
 The tracking guard passes a simulated participant's frames unchanged (its timestamps increase by
 less than ``max_gap``, every joint is known, no point moves ``jump_distance`` in a frame, its
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
@@ -36,7 +38,8 @@ from microg.participant.participant import perceive, start, step_participant
 from microg.participant.plan import TaskPlan
 from microg.participant.skill import SkillProfile
 from microg.sim import make_world
-from microg.sim.observe import _snapshot
+from microg.sim.pipeline import specialise
+from microg.sim.observe import _snapshot, seen_object
 from microg.sim.state import POINTS, layout
 from microg.skeleton import N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
@@ -45,6 +48,8 @@ from microg.task.stages import EVENT, MAX_EVENTS, STAGES, TASK, judge, rules_rec
 
 BATCH = 32
 """Tasks stepped together at most (per object and interaction model)."""
+SHARES_PER_WORKER = 4
+"""Shares of the tasks per worker process (``play_tasks``)."""
 FRAMES_PER_SECOND = 130
 """More frames a second than a simulated participant gives (115 Hz with jitter): sizes each task's
 record of frame times."""
@@ -78,19 +83,17 @@ class Outcome:
 def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers: int = 1) -> list[Outcome]:
     """Play every task of ``units`` (a task's world is the protocol's scene of its object and
     interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
-    number of tasks finished as they finish. With ``workers`` > 1 the kinds of task are shared
-    out between as many processes (each task's outcome depends on its own seed only)."""
-    kinds: dict[tuple[str, str], list[int]] = {}
-    for i, unit in enumerate(units):
-        kinds.setdefault((unit.object_name, unit.interaction), []).append(i)
+    number of tasks finished as they finish. With ``workers`` > 1 the tasks are dealt out in
+    turn into ``SHARES_PER_WORKER`` shares per worker, each with a like share of every kind, which
+    as many processes take as they come free (each task's outcome depends on its own seed only;
+    a task's length is not known before it is played, so shares even out the load)."""
     outcomes: list[Outcome | None] = [None] * len(units)
-    if workers > 1 and len(kinds) > 1:
+    if workers > 1 and len(units) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
-        shares: list[list[int]] = [[] for _ in range(min(workers, len(kinds)))]
-        for indices in sorted(kinds.values(), key=len, reverse=True):  # the most tasks first, to the lightest share
-            min(shares, key=len).extend(indices)
-        with ProcessPoolExecutor(len(shares)) as pool:
+        parts = min(SHARES_PER_WORKER * workers, len(units))
+        shares = [list(range(len(units)))[w::parts] for w in range(parts)]  # a like share of every kind in each
+        with ProcessPoolExecutor(min(workers, parts)) as pool:
             futures = {pool.submit(play_tasks, protocol, [units[i] for i in share]): share for share in shares}
             done = 0
             for future in as_completed(futures):
@@ -100,10 +103,12 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
                 if progress is not None:
                     progress(done)
         return outcomes
+    kinds: dict[tuple[str, str], list[int]] = {}
+    for i, unit in enumerate(units):
+        kinds.setdefault((unit.object_name, unit.interaction), []).append(i)
     done = 0
     for (name, interaction), indices in kinds.items():
-        world = make_world(protocol.scene(name, interaction))
-        for i, outcome in _play_kind(protocol, world, [units[i] for i in indices]):
+        for i, outcome in _play_kind(protocol, protocol.scene(name, interaction), [units[i] for i in indices]):
             outcomes[indices[i]] = outcome
             done += 1
             if progress is not None:
@@ -111,8 +116,9 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     return outcomes
 
 
-def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
-    """The tasks of one world model, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
+def _play_kind(protocol: Protocol, scene, units: list[TaskUnit]):
+    """The tasks of one scene, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
+    world = make_world(scene)
     model, data = world.model, world.data
     size = min(BATCH, len(units))
     places, _ = layout(model.n_objects)
@@ -126,13 +132,11 @@ def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
     for slot in range(size):
         slots[slot] = queue.pop(0)
         batch.load(slot, units[slots[slot]], data)
+    frames_until_an_end = _runner(scene.effects, scene.has_meshes)
+    tracking = (1.0 / protocol.tracking_rate, protocol.guard.jump_distance, protocol.guard.max_gap)
     while any(index >= 0 for index in slots):
-        ended = _track(batch.players, batch.states, batch.seens, batch.streams, batch.grasps, batch.tasks,
-                       batch.observed, batch.position, batch.orientation, batch.touching, batch.grasped, batch.active,
-                       batch.timestamp, batch.present, batch.track, batch.points, batch.widths, batch.samples,
-                       batch.times, batch.count, batch.newest, 1.0 / protocol.tracking_rate, batch.guard,
-                       protocol.guard.jump_distance, protocol.guard.max_gap, batch.frame_times, batch.frames,
-                       batch.refused)
+        ended = frames_until_an_end(model.params, model.ints, batch.arrays(), *tracking, rules, model.n_objects,
+                                    offsets)
         if np.isfinite(batch.refused).any():
             slot = int(np.flatnonzero(np.isfinite(batch.refused))[0])
             unit, value = units[slots[slot]], float(batch.refused[slot])
@@ -142,13 +146,7 @@ def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
                 f"the simulated hand's frame is one the tracking guard would change "
                 + (f"(a point moved {value:.3f} m in one frame)" if value >= 0 else f"(an interval of {-value:g} s)")
                 + "; a session would run it, an in-silico study cannot")
-        model.step_worlds(model.params, model.ints, batch.reals, batch.flags, batch.counts, batch.timestamp,
-                          batch.present, batch.track, batch.points, batch.widths)
-        _judge(batch.reals, batch.flags, batch.counts, model.n_objects, batch.tasks, rules, batch.events,
-               batch.active, batch.observed, batch.position, batch.orientation, batch.touching, batch.grasped,
-               batch.start, offsets)
-        finished = np.flatnonzero((batch.tasks["stage"] >= _COMPLETED) & batch.active | ended)
-        for slot in finished:
+        for slot in np.flatnonzero(ended):
             yield slots[slot], batch.outcome(slot)
             if queue:
                 slots[slot] = queue.pop(0)
@@ -156,6 +154,48 @@ def _play_kind(protocol: Protocol, world, units: list[TaskUnit]):
             else:
                 slots[slot] = -1
                 batch.active[slot] = False
+
+
+_RUNNER = """
+def {name}(params, ints, arrays, period, jump_distance, max_gap, rules, n_objects, offsets):
+    (players, states, seens, streams, grasps, tasks, events, reals, flags, counts, start, timestamp, present,
+     track, points, widths, samples, times, count, newest, guard, observed, position, orientation, touching,
+     grasped, active, refused, frame_times, frames) = arrays
+    while True:
+        ended = _track(players, states, seens, streams, grasps, tasks, observed, position, orientation, touching,
+                       grasped, active, timestamp, present, track, points, widths, samples, times, count, newest,
+                       period, guard, jump_distance, max_gap, frame_times, frames, refused)
+        for b in range(len(active)):
+            if not math.isnan(refused[b]):
+                return ended
+        {step}(params, ints, reals, flags, counts, timestamp, present, track, points, widths)
+        _judge(reals, flags, counts, n_objects, tasks, rules, events, active, observed, position, orientation,
+               touching, grasped, start, offsets)
+        any_ended = False
+        for b in range(len(active)):
+            if active[b] and tasks[b].stage >= _COMPLETED:
+                ended[b] = True
+            any_ended = any_ended or ended[b]
+        if any_ended:
+            return ended
+"""
+
+
+@lru_cache(maxsize=None)
+def _runner(effects: frozenset[str], meshes: bool):
+    """The compiled loop over frames for worlds of these effects: each frame ``_track``, the physics
+    step (``sim.pipeline.specialise(effects, meshes)``), ``_judge``, for every active task of the
+    batch, until one of them ends (completed, out of time, no more frames) or a frame is refused.
+    Returns which tasks ended. One call per task's end, not per frame: a call from Python costs more
+    than a frame of a task. The loop is made from ``_RUNNER`` with the step as a global of its own
+    name (numba's disk cache cannot key a function that closes over a compiled one: it would compile
+    afresh in every process)."""
+    key = "_".join(sorted(effects)) + ("_meshes" if meshes else "")
+    name, step = f"frames_until_an_end_{key}", f"_step_{key}"
+    globals()[step] = specialise(effects, meshes)
+    namespace = {}
+    exec(compile(_RUNNER.format(name=name, step=step), __file__, "exec"), globals(), namespace)
+    return njit(cache=True)(namespace[name])
 
 
 class _Batch:
@@ -186,6 +226,14 @@ class _Batch:
         self.refused = np.full(size, np.nan)
         self.frame_times, self.frames = np.zeros((size, limit)), np.zeros(size, np.int64)
         self.initial = (data.reals.copy(), data.flags.copy(), data.counts.copy())
+
+    def arrays(self) -> tuple:
+        """The batch's arrays in the order ``_runner``'s loop takes them."""
+        return (self.players, self.states, self.seens, self.streams, self.grasps, self.tasks, self.events, self.reals,
+                self.flags, self.counts, self.start, self.timestamp, self.present, self.track, self.points,
+                self.widths, self.samples, self.times, self.count, self.newest, self.guard, self.observed,
+                self.position, self.orientation, self.touching, self.grasped, self.active, self.refused,
+                self.frame_times, self.frames)
 
     def load(self, slot: int, unit: TaskUnit, data) -> None:
         """Put ``unit`` in ``slot``: its participant before its first frame, its world at rest."""
@@ -285,16 +333,15 @@ def _judge(reals, flags, counts, n_objects, tasks, rules, events, active, observ
     for b in range(len(active)):
         if not active[b]:
             continue
-        t, values, touch, held = _snapshot(reals[b], flags[b], counts[b], n_objects, 0)
-        judge(tasks[b], rules, t, held, values[0:3], events[b])
-        if lost(rules, tasks[b].held, values[0:3]):
+        t, held = seen_object(reals[b], flags[b], counts[b], n_objects, 0, position[b], orientation[b], touching[b])
+        judge(tasks[b], rules, t, held, position[b], events[b])
+        if lost(rules, tasks[b].held, position[b]):
             for i in range(3):
                 reals[b, offsets[0] + i] = start[i]
                 reals[b, offsets[2] + i] = 0.0
                 reals[b, offsets[3] + i] = 0.0
             for i in range(4):
                 reals[b, offsets[1] + i] = start[3 + i]
-            t, values, touch, held = _snapshot(reals[b], flags[b], counts[b], n_objects, 0)
-        observed[b] = t
-        position[b], orientation[b] = values[0:3], values[3:7]
-        touching[b], grasped[b] = touch, held
+            t, held = seen_object(reals[b], flags[b], counts[b], n_objects, 0, position[b], orientation[b],
+                                  touching[b])
+        observed[b], grasped[b] = t, held

@@ -65,6 +65,21 @@ def _snapshot(reals, flags, counts, n, index):
     return t, values, s.active[:, index].copy(), _grasped(s.active, s.normal)[index]
 
 
+@entry
+def seen_object(reals, flags, counts, n, index, position, orientation, touching):
+    """What a task's rules and a participant see of object ``index`` (its position, orientation and
+    the phalanges touching it, into the arrays given), and returns the time and whether it is
+    grasped: ``_snapshot``'s numbers without the rendered hand, for a loop that steps many worlds."""
+    s = unpack(reals, flags, counts, n)
+    for i in range(3):
+        position[i] = s.position[index, i]
+    for i in range(4):
+        orientation[i] = s.orientation[index, i]
+    for k in range(touching.shape[0]):
+        touching[k] = s.active[k, index]
+    return (s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]), _grasped(s.active, s.normal)[index]
+
+
 def touching(world: World) -> np.ndarray:
     """(40, N) True where a phalanx slot is in contact with an object (ghosts excluded)."""
     return world.data.active.copy()
