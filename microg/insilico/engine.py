@@ -41,6 +41,7 @@ from microg.sim.state import POINTS, layout
 from microg.skeleton import N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
 from microg.task.respawn import lost
+from microg.task.rules import PICK_AND_PLACE
 from microg.task.stages import EVENT, MAX_EVENTS, STAGES, TASK, judge, rules_record
 
 BATCH = 32
@@ -79,7 +80,13 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     """Play every task of ``units`` (a task's world is the protocol's scene of its object and
     interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
     number of tasks finished as they finish. With ``workers`` > 1 the kinds of task are shared
-    out between as many processes (each task's outcome depends on its own seed only)."""
+    out between as many processes (each task's outcome depends on its own seed only). Only
+    pick-and-place tasks play here (the compiled rules are ``microg.task.stages``'): a task of
+    another kind raises ValueError."""
+    other = next((u.plan.phase for u in units if protocol.kind(u.plan.phase) != PICK_AND_PLACE), None)
+    if other is not None:
+        raise ValueError(f"{protocol.where}: phase {other!r} runs {protocol.kind(other)} tasks: in-silico studies "
+                         f"play only {PICK_AND_PLACE} tasks; run this protocol's sessions with --input simulated")
     kinds: dict[tuple[str, str], list[int]] = {}
     for i, unit in enumerate(units):
         kinds.setdefault((unit.object_name, unit.interaction), []).append(i)

@@ -15,7 +15,8 @@ Rules (times are the observations' clock; omega is the object's angular velocity
 - *Completed* once the object has been at rest ``hold_s``. **Completion time** runs from the task's
   first frame to then; **time to rest** to when that rest began.
 - *Flipped*: the object's spin axis turned more than 90 degrees from ``spin_axis`` in the object's
-  own frame (the intermediate-axis flip), seen while it turned at ``rest_omega`` or faster.
+  own frame (the intermediate-axis flip), seen while it turned freely (nothing touched it) at
+  ``rest_omega`` or faster: a grip that brakes the spin and makes it turn back is no flip.
 - *Attempts* are drops: holds that ended before the task was completed.
 - *Timeout*: a task still unfinished ``timeout_s`` after its first frame ends as not completed
   (the object never came to rest).
@@ -93,7 +94,8 @@ def advance(state: StopSpinState, obs: Observation, rules: TaskRules) -> tuple[S
         state = state._replace(attempts=attempts)
     omega = np.asarray(obs.angular_velocity, dtype=np.float64)
     rate = float(np.linalg.norm(omega))
-    if not state.flipped and rate >= spin.rest_omega:
+    free = not obs.grasped and (obs.touching is None or not np.any(obs.touching))
+    if not state.flipped and free and rate >= spin.rest_omega:
         own = quat_to_matrix(np.asarray(obs.orientation, dtype=np.float64)).T @ omega
         if float(own @ np.asarray(spin.spin_axis)) < 0.0:
             events.append(TaskEvent(t, "flip", {"omega": [float(w) for w in own]}))

@@ -93,6 +93,15 @@ def test_an_object_that_turns_over_flips_and_never_rests():
     assert flip.t == pytest.approx(math.floor(FLIP_S / 2 * RATE + 1e-9) / RATE + 1 / RATE, abs=1e-9)
 
 
+def test_a_grip_that_makes_the_spin_turn_back_is_no_flip():
+    def braked(t):  # the grip overshoots: the spin reverses to -1 rad/s while held
+        omega = SPIN if t < GRIP_AT else -1.0
+        return Observation(t, t >= GRIP_AT, (0.0, 0.2, 0.0), about_y(0.0), angular_velocity=np.array([0.0, omega, 0.0]))
+
+    state, _ = play(braked)
+    assert not state.flipped
+
+
 def test_a_spin_that_keeps_its_axis_has_not_flipped():
     state, _ = play(lambda t: Observation(t, False, (0.0, 0.2, 0.0), about_y(SPIN * t),
                                           angular_velocity=np.array([0.0, SPIN, 0.0])))
