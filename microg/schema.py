@@ -53,6 +53,13 @@ TRIALS = (
     Column("task_index", "Int64", "index of the task within its session"),
     Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
            "in the study itself", optional=True),
+    Column("task_kind", "string", "the task's kind: pick_and_place, catch or stop_spin", optional=True),
+    Column("time_to_catch_s", "float64", "a catch's seconds from its first frame to the grasp that caught the "
+           "object; empty unless a catch was completed", optional=True),
+    Column("time_to_rest_s", "float64", "a stop of a spin's seconds from its first frame to the rest that "
+           "completed it; empty unless a stop of a spin was completed", optional=True),
+    Column("flipped", "boolean", "whether a stop of a spin's object turned over its spin axis (the "
+           "intermediate-axis flip); empty for other kinds and for tasks not finished", optional=True),
 )
 
 QUESTIONNAIRE = (

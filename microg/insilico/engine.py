@@ -9,8 +9,8 @@ loop (``_runner``) plays the batch frame after frame until a task ends: ``_track
 participant's frame, the guard's checks, Eq. 1), the physics step, and ``_judge`` (what each world
 shows, the task's rules, respawn). Each calls the code a session runs:
 ``participant.step_participant``, ``filter.window_mean``, ``stages.judge``, ``respawn.lost``, the
-physics' ``step_worlds``. Python sees the batch once per task's end, where the next task of its kind
-takes the finished one's place.
+physics' ``step_worlds``. Python sees the batch once per task's end, where the next task of its
+scene takes the finished one's place.
 
 The tracking guard passes a simulated participant's frames unchanged (its timestamps increase by
 less than ``max_gap``, every joint is known, no point moves ``jump_distance`` in a frame, its
@@ -44,6 +44,7 @@ from microg.sim.state import POINTS, layout
 from microg.skeleton import N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
 from microg.task.respawn import lost
+from microg.task.rules import PICK_AND_PLACE
 from microg.task.stages import EVENT, MAX_EVENTS, STAGES, TASK, judge, rules_record
 
 BATCH = 32
@@ -84,15 +85,21 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     """Play every task of ``units`` (a task's world is the protocol's scene of its object and
     interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
     number of tasks finished as they finish. With ``workers`` > 1 the tasks are dealt out in
-    turn into ``SHARES_PER_WORKER`` shares per worker, each with a like share of every kind, which
+    turn into ``SHARES_PER_WORKER`` shares per worker, each with a like share of every scene, which
     as many processes take as they come free (each task's outcome depends on its own seed only;
-    a task's length is not known before it is played, so shares even out the load)."""
+    a task's length is not known before it is played, so shares even out the load). Only
+    pick-and-place tasks play here (the compiled rules are ``microg.task.stages``'): a task of
+    another kind raises ValueError."""
+    other = next((u.plan.phase for u in units if protocol.kind(u.plan.phase) != PICK_AND_PLACE), None)
+    if other is not None:
+        raise ValueError(f"{protocol.where}: phase {other!r} runs {protocol.kind(other)} tasks: in-silico studies "
+                         f"play only {PICK_AND_PLACE} tasks; run this protocol's sessions with --input simulated")
     outcomes: list[Outcome | None] = [None] * len(units)
     if workers > 1 and len(units) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
         parts = min(SHARES_PER_WORKER * workers, len(units))
-        shares = [list(range(len(units)))[w::parts] for w in range(parts)]  # a like share of every kind in each
+        shares = [list(range(len(units)))[w::parts] for w in range(parts)]  # a like share of every scene in each
         with ProcessPoolExecutor(min(workers, parts)) as pool:
             futures = {pool.submit(play_tasks, protocol, [units[i] for i in share]): share for share in shares}
             done = 0
@@ -103,12 +110,12 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
                 if progress is not None:
                     progress(done)
         return outcomes
-    kinds: dict[tuple[str, str], list[int]] = {}
+    scenes: dict[tuple[str, str], list[int]] = {}
     for i, unit in enumerate(units):
-        kinds.setdefault((unit.object_name, unit.interaction), []).append(i)
+        scenes.setdefault((unit.object_name, unit.interaction), []).append(i)
     done = 0
-    for (name, interaction), indices in kinds.items():
-        for i, outcome in _play_kind(protocol, protocol.scene(name, interaction), [units[i] for i in indices]):
+    for (name, interaction), indices in scenes.items():
+        for i, outcome in _play_scene(protocol, protocol.scene(name, interaction), [units[i] for i in indices]):
             outcomes[indices[i]] = outcome
             done += 1
             if progress is not None:
@@ -116,7 +123,7 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     return outcomes
 
 
-def _play_kind(protocol: Protocol, scene, units: list[TaskUnit]):
+def _play_scene(protocol: Protocol, scene, units: list[TaskUnit]):
     """The tasks of one scene, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
     world = make_world(scene)
     model, data = world.model, world.data

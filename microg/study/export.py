@@ -1,6 +1,7 @@
 """Tidy tables from the log store: trials, questionnaire answers, scores and frames (CSV, Parquet).
 
-- ``trials``: one row per planned task of every session (its last run decides);
+- ``trials``: one row per planned task of every session (its last run decides), with its task
+  kind and the kind's own measures (``microg.task.kinds.MEASURES``; empty for the other kinds);
 - ``questionnaire``: one row per answer to the paper's kind of 0-10 items (the Likert analysis's);
 - ``answers``: one row per answer to every instrument, in the order they were given;
   the three name the station that ran the session (``station``; empty for one run in the study itself);
@@ -34,6 +35,7 @@ from microg.instruments import Instrument, load_instrument
 from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, \
     TRIAL_DTYPES
 from microg.skeleton import HandFrame
+from microg.task.kinds import MEASURES
 
 from . import framelog, ledger
 from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
@@ -58,7 +60,7 @@ def trials_table(store: Store) -> pd.DataFrame:
                p.status AS participant_status, s.id AS session, s.simulated, s.station, t.task_index, t.phase,
                t.interaction,
                t.object, t.object_code, t.order_position,
-               r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
+               r.id AS run_id, r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
                (SELECT COUNT(*) FROM task_runs c WHERE c.session_id = t.session_id AND c.task_index = t.task_index) AS runs
         FROM tasks t
         JOIN sessions s ON s.id = t.session_id
@@ -66,6 +68,7 @@ def trials_table(store: Store) -> pd.DataFrame:
         LEFT JOIN task_runs r ON r.session_id = t.session_id AND r.task_index = t.task_index
              AND r.run = (SELECT MAX(run) FROM task_runs m WHERE m.session_id = t.session_id AND m.task_index = t.task_index)
         ORDER BY p.number, t.task_index""").fetchall()
+    measured = _measures(store)
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "gender": r["gender"],
         "age": r["age"], "handedness": r["handedness"], "mr_experience": bool(r["mr_experience"]),
@@ -80,9 +83,16 @@ def trials_table(store: Store) -> pd.DataFrame:
         "ended_at": r["ended_at"] if r["status"] in FINAL_RUN else None,
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
-        "station": r["station"],
+        "station": r["station"], "task_kind": store.protocol.kind(r["phase"]),
+        **{name: measured.get(r["run_id"], {}).get(name) for name in MEASURES},
     } for r in rows], columns=TRIAL_COLUMNS)
     return table.astype(TRIAL_DTYPES)
+
+
+def _measures(store: Store) -> dict[int, dict]:
+    """Each finished run's measures of its task kind, by run id (its ``measures`` event)."""
+    rows = store.db.execute("SELECT run_id, data FROM events WHERE kind = 'measures' AND run_id IS NOT NULL")
+    return {r["run_id"]: json.loads(r["data"]) for r in rows}
 
 
 def answers_table(store: Store) -> pd.DataFrame:

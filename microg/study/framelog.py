@@ -30,11 +30,14 @@ import pyarrow as pa
 
 from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
 from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
+from microg.task import catch, stop_spin
 
 from .ledger import run_name
 
-STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL
-"""A frame's ``stage`` is stored as its index here."""
+STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL + (catch.APPROACH, catch.CATCH, stop_spin.SPINNING,
+                                                          stop_spin.RESTING)
+"""A frame's ``stage`` is stored as its index here (the other kinds' stages after the pick-and-place's,
+whose indices stay as they were)."""
 JOINTS = N_DIGITS * (N_BONES + 1)
 FRAME = np.dtype([
     ("t", "<f8"), ("stage", "u1"), ("place", "u1"), ("place_lit", "?"), ("place_timer", "<f4"),

@@ -33,7 +33,7 @@ import json
 import math
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -47,7 +47,7 @@ from microg.paths import OBJECTS, POPULATIONS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
-from microg.task.rules import TaskRules
+from microg.task.rules import CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, StopSpinRules, TaskRules
 
 if TYPE_CHECKING:
     from microg.participant import Population, SkillProfile
@@ -91,6 +91,10 @@ FOV_RANGE = (10.0, 120.0)
 MAX_ADDED_LATENCY_MS = 1000.0
 """ms a phase may add to what the participant's page shows: studies of latency and agency vary it
 up to 350 ms (Waltemate et al., VRST 2016); a second is already no real-time view."""
+MAX_LAUNCH_SPEED = 10.0
+"""m/s: a catch's launch; a tossed tool in a station's cabin moves well under it."""
+MAX_SPIN = 100.0
+"""rad/s: about 16 turns a second, beyond what a tracked hand can follow."""
 
 
 class ProtocolError(ValueError):
@@ -147,6 +151,8 @@ class TaskPhase:
     added_latency_ms: float = 0.0
     """Display latency the phase adds (ms): the participant's page shows each frame this much later
     than the physics had it (the physics and the log are not delayed)."""
+    kind: str = PICK_AND_PLACE
+    """The task kind its tasks are (``microg.task.rules.KINDS``; default: the ``task`` table's ``kind``)."""
 
 
 @dataclass(frozen=True)
@@ -154,6 +160,8 @@ class Training:
     groups: tuple[str, ...]
     interaction: str
     objects: tuple[StudyObject, ...]
+    kind: str = PICK_AND_PLACE
+    """The task kind training runs (default: the ``task`` table's ``kind``)."""
 
 
 @dataclass(frozen=True)
@@ -217,6 +225,8 @@ class Protocol:
     resolved: dict = field(repr=False, compare=False)
     """The merged protocol as plain data, with object file texts: what the study database keeps."""
     dataset: Dataset = Dataset()
+    _rules: dict[str, TaskRules] = field(default_factory=dict, repr=False, compare=False)
+    """``rules`` of each kind but the ``task`` table's, made once."""
 
     def group(self, code: str) -> Group:
         return next(g for g in self.groups if g.code == code)
@@ -238,13 +248,45 @@ class Protocol:
             y = self.table_height + below
         return (x, y, z), self.task.start_orientation
 
-    def scene(self, name: str, interaction: str) -> Scene:
-        """The physics scene of a task with object ``name`` under ``interaction``: the object alone at its
-        start pose (on the table, if there is one), the protocol's gravity and scene options."""
+    def scene(self, name: str, interaction: str, kind: str = PICK_AND_PLACE) -> Scene:
+        """The physics scene of a task of ``kind`` with object ``name`` under ``interaction``: the object
+        alone at its start pose (on the table, if there is one), moving as the kind starts it
+        (``start_motion``), under the protocol's gravity and scene options."""
         position, orientation = self.start_pose(name)
-        placed = PlacedObject(self.object(name).spec, position, orientation)
+        velocity, angular_velocity = self.start_motion(kind)
+        placed = PlacedObject(self.object(name).spec, position, orientation, velocity, angular_velocity)
         table = None if self.table_height is None else TableParameters(height=self.table_height)
         return compose_scene([placed], interaction, self.gravity, table=table, **self.scene_options)
+
+    def start_motion(self, kind: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """The velocity (m/s) and angular velocity (rad/s, tracker frame) a task of ``kind`` starts its
+        object with: a catch's launch and spin; a stop of a spin's ``spin_rate`` about its body axis
+        turned by ``start_orientation``; at rest for a pick-and-place."""
+        if kind == CATCH:
+            catch = self.task.catch
+            return tuple(catch.launch_speed * d for d in catch.direction), catch.spin
+        if kind == STOP_SPIN:
+            spin = self.task.stop_spin
+            axis = quat_to_matrix(np.asarray(self.task.start_orientation, dtype=float)) @ np.asarray(spin.spin_axis)
+            return (0.0, 0.0, 0.0), tuple(float(spin.spin_rate * a) for a in axis)
+        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+
+    def kind(self, phase: str) -> str:
+        """The task kind of a phase of tasks (the training, or one of ``[[phases]]``)."""
+        if phase == "training" and self.training is not None:
+            return self.training.kind
+        return next((p.kind for p in self.phases if p.name == phase), self.task.kind)
+
+    def rules(self, phase: str) -> TaskRules:
+        """The rules a phase's tasks are judged by: the ``task`` table's, of the phase's kind (the
+        same object for every task of a kind, as ``microg.task.stages.rules_of`` keeps one record per
+        ``TaskRules``)."""
+        kind = self.kind(phase)
+        if kind == self.task.kind:
+            return self.task
+        if kind not in self._rules:
+            self._rules[kind] = replace(self.task, kind=kind)
+        return self._rules[kind]
 
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
@@ -710,9 +752,10 @@ def _read_objects(top: _Reader, sources: dict, files: dict, meshes: dict) -> tup
 
 
 def _read_task(top: _Reader) -> TaskRules:
-    """``[task]``: start, places, radii, holds, timeouts, the workspace."""
+    """``[task]``: the default kind, start, places, radii, holds, timeouts, the workspace, and the
+    other kinds' numbers (``[task.catch]``, ``[task.stop_spin]``)."""
     t = top.table("task")
-    t.text("kind", "pick_and_place", ("pick_and_place",))
+    kind = t.text("kind", PICK_AND_PLACE, KINDS)
     places = t.raw("places")
     if not isinstance(places, list) or not places:
         raise t.fail("places", places, "must be a non-empty list of positions [x, y, z] (m)")
@@ -743,8 +786,72 @@ def _read_task(top: _Reader) -> TaskRules:
         key = "start" if i == 0 else f"places[{i - 1}]"
         if not _inside(point, task):
             raise t.fail(key, list(point), "lies outside the workspace (workspace_min .. workspace_max)")
+    task = replace(task, kind=kind, catch=_read_catch(t, task), stop_spin=_read_stop_spin(t, task))
+    if kind != PICK_AND_PLACE:
+        _needs_numbers(t, "kind", kind, task)
     t.done()
     return task
+
+
+def _read_catch(t: _Reader, task: TaskRules) -> CatchRules | None:
+    """``[task.catch]``: the launch (``launch_speed``, and ``direction`` or ``toward``: the point in the
+    participant's hand zone it flies at), its ``spin`` and the ``hold_s`` that makes a catch."""
+    c = t.table("catch", None)
+    if c is None:
+        return None
+    speed = c.number("launch_speed", unit=" (m/s)", maximum=MAX_LAUNCH_SPEED)
+    if ("direction" in c.data) == ("toward" in c.data):
+        raise ProtocolError(f"{c.where}: {c.prefix.rstrip('.')}: give the launch either direction = [x, y, z] or toward = "
+                            "[x, y, z] (a point of the hand zone), not both or neither")
+    if "direction" in c.data:
+        direction = np.asarray(c.vector("direction", maximum=None, unit=" (a direction, tracker frame)"))
+        key = "direction"
+    else:
+        toward = c.vector("toward")
+        if not _inside(toward, task):
+            raise c.fail("toward", list(toward), "lies outside the workspace (task.workspace_min .. workspace_max)")
+        direction, key = np.subtract(toward, task.start), "toward"
+    length = float(np.linalg.norm(direction))
+    if length < 1e-9:
+        raise c.fail(key, c.data[key], "gives no direction (a zero vector, or the task's start itself)")
+    catch = CatchRules(launch_speed=speed, direction=tuple(float(d) for d in direction / length),
+                       spin=c.vector("spin", default=[0.0, 0.0, 0.0], maximum=MAX_SPIN, unit=" (rad/s, tracker frame)"),
+                       hold_s=c.number("hold_s", 1.0, unit=" (seconds)"))
+    if catch.hold_s >= task.timeout_s:
+        raise c.fail("hold_s", catch.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no catch "
+                     "could be completed")
+    c.done()
+    return catch
+
+
+def _read_stop_spin(t: _Reader, task: TaskRules) -> StopSpinRules | None:
+    """``[task.stop_spin]``: the spin (``spin_axis`` in the object's frame, ``spin_rate``) and what
+    counts as stopped (``rest_omega``, ``rest_speed``, ``hold_s``)."""
+    s = t.table("stop_spin", None)
+    if s is None:
+        return None
+    axis = np.asarray(s.vector("spin_axis", maximum=None, unit=" (a direction in the object's frame)"))
+    if float(np.linalg.norm(axis)) < 1e-9:
+        raise s.fail("spin_axis", s.data["spin_axis"], "gives no direction (a zero vector)")
+    spin = StopSpinRules(spin_axis=tuple(float(a) for a in axis / np.linalg.norm(axis)),
+                         spin_rate=s.number("spin_rate", unit=" (rad/s)", maximum=MAX_SPIN),
+                         rest_omega=s.number("rest_omega", unit=" (rad/s)", maximum=MAX_SPIN),
+                         rest_speed=s.number("rest_speed", 0.02, unit=" (m/s)", maximum=MAX_LAUNCH_SPEED),
+                         hold_s=s.number("hold_s", 1.0, unit=" (seconds)"))
+    if spin.rest_omega >= spin.spin_rate:
+        raise s.fail("rest_omega", spin.rest_omega, f"must be below spin_rate = {spin.spin_rate:g} rad/s (else the "
+                     "object starts at rest)")
+    if spin.hold_s >= task.timeout_s:
+        raise s.fail("hold_s", spin.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no stop "
+                     "could be completed")
+    s.done()
+    return spin
+
+
+def _needs_numbers(reader: _Reader, key: str, kind: str, task: TaskRules) -> None:
+    """Refuse a task kind whose numbers the ``task`` table lacks (``[task.catch]``, ``[task.stop_spin]``)."""
+    if getattr(task, kind, True) is None:
+        raise reader.fail(key, kind, f"a {kind} task needs its numbers: add a [task.{kind}] table")
 
 
 def _inside(point, task: TaskRules) -> bool:
@@ -757,10 +864,10 @@ def _renamed(reader: _Reader, old: str, message: str) -> None:
         raise ProtocolError(f"{reader.where}: {message}")
 
 
-def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
+def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
     """``[[phases]]``: each phase's name, the interaction model it runs, how the participant
-    hears it named and the display latency it adds; a study compares different interaction models,
-    so no two phases run the same one."""
+    hears it named, the display latency it adds and its task kind; a study compares different
+    interaction models, so no two phases run the same one."""
     _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
                             "but `system` is now `interaction`)")
     phases = []
@@ -771,7 +878,9 @@ def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
         phases.append(TaskPhase(name=p.label("name", "it names files in exports"), interaction=interaction,
                                 label=p.text("label"),
                                 added_latency_ms=p.number("added_latency_ms", 0.0, positive=False, unit=" (ms)",
-                                                          maximum=MAX_ADDED_LATENCY_MS)))
+                                                          maximum=MAX_ADDED_LATENCY_MS),
+                                kind=p.text("kind", task.kind, KINDS)))
+        _needs_numbers(p, "kind", phases[-1].kind, task)
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
     for i, phase in enumerate(phases):
@@ -784,10 +893,10 @@ def _read_phases(top: _Reader) -> tuple[TaskPhase, ...]:
     return tuple(phases)
 
 
-def _read_training(top: _Reader, *, groups: tuple[Group, ...], sources: dict, files: dict,
+def _read_training(top: _Reader, *, groups: tuple[Group, ...], task: TaskRules, sources: dict, files: dict,
                    meshes: dict) -> Training | None:
-    """``[training]``: who trains (the groups marked ``training = true``), with what interaction model and
-    objects."""
+    """``[training]``: who trains (the groups marked ``training = true``), with what interaction model,
+    objects and task kind."""
     tr = top.table("training", None)
     if tr is None:
         return None
@@ -802,7 +911,9 @@ def _read_training(top: _Reader, *, groups: tuple[Group, ...], sources: dict, fi
     training = Training(groups=training_groups,
                         interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
                         objects=tuple(_study_object(tr, f"objects[{i}]", name=n, sources=sources, files=files,
-                                                    meshes=meshes) for i, n in enumerate(names)))
+                                                    meshes=meshes) for i, n in enumerate(names)),
+                        kind=tr.text("kind", task.kind, KINDS))
+    _needs_numbers(tr, "kind", training.kind, task)
     tr.done()
     flagged = tuple(g.code for g in groups if g.training)
     if set(flagged) != set(training_groups):
@@ -965,13 +1076,13 @@ def _check_worlds(top: _Reader, protocol: Protocol) -> None:
     phase's interaction model with each object), the object waits inside the workspace (on the table, if
     there is one: else every task would end in a respawn loop and time out), and every place can
     hold the object's centre above the table top."""
-    tasks = [(p.interaction, o.name) for p in protocol.phases for o in protocol.objects]
+    tasks = [(p.interaction, o.name, p.kind) for p in protocol.phases for o in protocol.objects]
     if protocol.training:
-        tasks += [(protocol.training.interaction, o.name) for o in protocol.training.objects]
+        tasks += [(protocol.training.interaction, o.name, protocol.training.kind) for o in protocol.training.objects]
     rules = protocol.task
-    for interaction, name in dict.fromkeys(tasks):
+    for interaction, name, kind in dict.fromkeys(tasks):
         try:
-            protocol.scene(name, interaction).validate("scene")
+            protocol.scene(name, interaction, kind).validate("scene")
         except SceneError as error:
             raise ProtocolError(f"{top.where}: {error} (in the world of {interaction} with the {name})") from None
         if protocol.table_height is None:
@@ -1005,8 +1116,8 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     groups = _read_groups(top, people, total, resolved.get("population_files", {}))
     objects, order = _read_objects(top, sources, files, meshes)
     task = _read_task(top)
-    phases = _read_phases(top)
-    training = _read_training(top, groups=groups, sources=sources, files=files, meshes=meshes)
+    phases = _read_phases(top, task)
+    training = _read_training(top, groups=groups, task=task, sources=sources, files=files, meshes=meshes)
     instruments = _read_instruments(top, resolved, files)
     timeline = _read_timeline(top, groups=groups, phases=phases, training=training, instruments=instruments)
     logging = top.table("logging", {})

@@ -110,5 +110,5 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, *, i
         run_id = store.begin_run(new.id, task=task, source=source.description, seed=derived_seed(new.seed, task.index),
                                  t=clock.now())
         run_task(log=EventLog(store, new.id, clock), run_id=run_id, world=task_world(store.protocol, task),
-                 source=source, protocol=store.protocol)
+                 source=source, protocol=store.protocol, rules=store.protocol.rules(task.phase))
     store.finish_session(new.id, clock.now())

@@ -7,8 +7,10 @@ the same call starts a session and resumes it. ``resume_session`` first marks ru
 crash as interrupted (their frames stay), then runs the session on: an interrupted task runs
 again from its start.
 
-Each task gets its own world holding only the task's object at its start pose, under the
-protocol's gravity and the phase's interaction model; with a ``table_height`` the object stands
+Each task gets its own world holding only the task's object at its start pose (moving as the
+phase's task kind starts it: a catch's launch, a stop of a spin's spin), under the protocol's
+gravity and the phase's interaction model, and is judged by its kind's rules; with a
+``table_height`` the object stands
 on a table (the physics' ``table`` effect) and falls back onto it when dropped. One frame goes
 one way (``run_task``), as in the paper's Fig. 2: the task's hand source, the tracking guard and
 the window filter (``microg.hands.tracking``), the physics (``microg.sim.step``), the task's rules
@@ -33,6 +35,7 @@ from microg.hands.tracking import Tracking
 from microg.participant.plan import TaskPlan
 from microg.sim import World, make_world
 from microg.task import COMPLETED, Moment, TaskRules, play
+from microg.task.kinds import KIND
 
 from . import framelog
 from .inputs import Inputs, participant_plan
@@ -176,9 +179,9 @@ class TaskResult:
 
 
 def task_world(protocol: Protocol, task: PlannedTask) -> World:
-    """The task's object alone at its start pose (on the table, if there is one), under the phase's
-    interaction model."""
-    return make_world(protocol.scene(task.object, task.interaction))
+    """The task's object alone at its start pose (on the table, if there is one), moving as the
+    phase's task kind starts it, under the phase's interaction model."""
+    return make_world(protocol.scene(task.object, task.interaction, protocol.kind(task.phase)))
 
 
 class RunLog:
@@ -229,7 +232,9 @@ class TaskProgress:
 def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Protocol,
              rules: TaskRules | None = None, sinks: Sequence[FrameSink] = ()) -> TaskResult:
     """Play one task from ``source`` until it completes, times out or the source ends; log every
-    frame and event, and feed every frame to ``sinks``. ``rules``: the protocol's task unless given.
+    frame and event, and feed every frame to ``sinks``. ``rules``: the protocol's task unless given
+    (a phase's: ``Protocol.rules``). A finished task of a kind with measures of its own logs them
+    as its run's last event but the guard's (``measures``: the kind and each measure).
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
@@ -255,8 +260,10 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
     else:
         result = TaskResult("aborted", None, state.attempts if state else 0, run.logged + len(run.pending))
         reason = f"the hand source ({source.description}) ended before the task did"
+    measured = KIND[rules.kind].measures(state) if state is not None and state.finished else {}
+    ending = [Event(log.clock.now(), "measures", {"kind": rules.kind, **measured})] if measured else []
     run.end(result.status, time_s=result.time_s, attempts=result.attempts, reason=reason,
-            events=[Event(log.clock.now(), "tracking_guard", tracked.counts.as_dict())])
+            events=ending + [Event(log.clock.now(), "tracking_guard", tracked.counts.as_dict())])
     return result
 
 
@@ -334,7 +341,7 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
     log.mark(store.events(session.id, run_id))
     progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")
     result = run_task(log=log, run_id=run_id, world=world, source=source, protocol=protocol,
-                      sinks=(progress, *sinks))
+                      rules=protocol.rules(task.phase), sinks=(progress, *sinks))
     operator.finished(task, result.status, result.time_s)
     return result
 

@@ -1,8 +1,8 @@
 """What one frame of the world shows the task, and the simulated participant who plays it.
 
-The task's rules and a simulated participant look at the same thing: the object's pose, which
-phalanges touch it, whether it is grasped (``microg.sim.grasped``'s rule) and, for the
-participant, what the task displays. Nobody downstream of the physics reads ``world.data``.
+The task's rules and a simulated participant look at the same thing: the object's pose and
+motion, which phalanges touch it, whether it is grasped (``microg.sim.grasped``'s rule) and, for
+the participant, what the task displays. Nobody downstream of the physics reads ``world.data``.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ if TYPE_CHECKING:
 
 UPRIGHT = np.array([1.0, 0.0, 0.0, 0.0])
 UPRIGHT.setflags(write=False)
+STILL = np.zeros(3)
+STILL.setflags(write=False)
 
 
 class Observation(NamedTuple):
@@ -34,6 +36,10 @@ class Observation(NamedTuple):
     """(40,) True for each phalanx slot in contact with the object (``microg.sim.slot``)."""
     display: TaskDisplay | None = None
     """What the task shows (set by whoever runs the task, for a participant to follow)."""
+    velocity: np.ndarray = STILL
+    """The object's centre's velocity (m/s)."""
+    angular_velocity: np.ndarray = STILL
+    """(rad/s, tracker frame): what a stop of a spin judges."""
 
 
 def observe(world: World, index: int = 0, display: TaskDisplay | None = None) -> Observation:
@@ -43,4 +49,5 @@ def observe(world: World, index: int = 0, display: TaskDisplay | None = None) ->
 
 def seen_in(after: Snapshot, display: TaskDisplay | None = None) -> Observation:
     """The observation a world's ``snapshot`` holds."""
-    return Observation(after.t, after.grasped, after.position, after.orientation, after.touching, display)
+    return Observation(after.t, after.grasped, after.position, after.orientation, after.touching, display,
+                       after.velocity, after.angular_velocity)

@@ -5,7 +5,8 @@
 participant's bench, a test. Each frame hand tracking (``microg.hands.tracking``: the hand source,
 the tracking guard, the window filter) looks at the last ``Observation`` (with what the task
 displays) and gives a frame; the physics steps to its smoothed hand (``microg.sim.step``), the
-task's rules (``stages.advance``) judge the outcome and a lost object is put back (``respawn``).
+task's rules (its kind's ``advance``: ``stages``, ``catch``, ``stop_spin``) judge the outcome and a
+lost object is put back (``respawn``).
 """
 
 from __future__ import annotations
@@ -15,10 +16,11 @@ from typing import Iterator, NamedTuple
 from microg.sim import Snapshot, World, snapshot, step
 from microg.skeleton import HandFrame
 
+from .kinds import KIND
 from .observation import Observation, observe, seen_in
 from .respawn import respawn
 from .rules import TaskRules
-from .stages import TaskEvent, TaskState, advance, displayed
+from .stages import TaskEvent, TaskState
 
 
 class Moment(NamedTuple):
@@ -30,6 +32,7 @@ class Moment(NamedTuple):
     after: Snapshot
     """What ``world`` shows of the task's object (``microg.sim.snapshot``)."""
     state: TaskState
+    """The task's state (of its kind: ``microg.task.kinds``)."""
     observation: Observation
     """What the task judged (the world before a respawn), with what it now displays."""
     events: tuple[TaskEvent, ...]
@@ -38,9 +41,13 @@ class Moment(NamedTuple):
 def play(world: World, tracked, rules: TaskRules) -> Iterator[Moment]:
     """Run the task on ``world`` with frames from ``tracked`` (``microg.hands.tracking.Tracking``:
     its ``next_frame`` gets the last observation and gives a ``TrackedFrame``) until the task is
-    finished or the frames end; yields every frame's ``Moment``."""
-    state = TaskState()
-    start = (world.data.position[0].copy(), world.data.orientation[0].copy())
+    finished or the frames end, judged by the rules of ``rules.kind``; yields every frame's ``Moment``."""
+    kind = KIND[rules.kind]
+    advance, displayed = kind.advance, kind.displayed
+    state = kind.state()
+    data = world.data
+    start = (data.position[0].copy(), data.orientation[0].copy(), data.velocity[0].copy(),
+             data.angular_velocity[0].copy())
     seen = observe(world, display=displayed(state, world.time))
     while not state.finished:
         frame = tracked.next_frame(seen)

@@ -1,7 +1,9 @@
 """Putting a lost object back: what the researcher does when the object leaves the workspace.
 
 An object that leaves the workspace (``workspace_min`` .. ``workspace_max``) while not held,
-drifting away in microgravity or falling off the table, goes back to its start pose, at rest.
+drifting away in microgravity or falling off the table, goes back to its start pose moving as the
+task started it: at rest for a pick-and-place, launched again for a catch, spinning again for a
+stop of a spin.
 """
 
 from __future__ import annotations
@@ -32,12 +34,11 @@ def inside_workspace(rules: TaskRules, position) -> bool:
 
 
 def respawn(world: World, rules: TaskRules, state: TaskState, start, position) -> tuple[World, list[TaskEvent]]:
-    """``world`` with object 0 (now at ``position``) back at ``start`` (position, orientation), at
-    rest, if it left the workspace while not held; a new World (the argument is left as it was)."""
+    """``world`` with object 0 (now at ``position``) back at ``start`` (position, orientation,
+    velocity, angular velocity) if it left the workspace while not held; a new World (the argument
+    is left as it was)."""
     if not lost(rules_of(rules), state.held, np.asarray(position, dtype=np.float64)):
         return world, []
     data = world.data.copy()
-    data.position[0], data.orientation[0] = start
-    data.velocity[0] = 0.0
-    data.angular_velocity[0] = 0.0
+    data.position[0], data.orientation[0], data.velocity[0], data.angular_velocity[0] = start
     return World(world.model, data), [TaskEvent(data.frame_time, "respawn", {"position": [float(v) for v in position]})]

@@ -1,13 +1,50 @@
-"""The pick-and-place task's numbers: where the object starts, the places, the holds and limits."""
+"""A task's numbers: where the object starts, the limits every kind shares, and each kind's own.
+
+A task is of one *kind*: ``pick_and_place`` (the paper's, ``microg.task.stages``), ``catch``
+(``microg.task.catch``) or ``stop_spin`` (``microg.task.stop_spin``). Every kind reads the start,
+the timeout, the holding's settle and grace times and the workspace; the places and their holds are
+the pick-and-place's; ``CatchRules`` and ``StopSpinRules`` hold the other kinds' numbers.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+PICK_AND_PLACE, CATCH, STOP_SPIN = "pick_and_place", "catch", "stop_spin"
+KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN)
+"""The task kinds a protocol may choose (``kind = ...``)."""
+
+
+@dataclass(frozen=True)
+class CatchRules:
+    """A catch: the object leaves the task's start at ``launch_speed`` (m/s) along ``direction`` (a
+    unit vector, tracker frame) turning at ``spin`` (rad/s, tracker frame), and is caught once held
+    for ``hold_s`` (s)."""
+
+    launch_speed: float
+    direction: tuple[float, float, float]
+    spin: tuple[float, float, float]
+    hold_s: float
+
+
+@dataclass(frozen=True)
+class StopSpinRules:
+    """A stop of a spin: the object floats at the task's start turning at ``spin_rate`` (rad/s) about
+    ``spin_axis`` (a unit vector in the object's own frame: an intermediate axis makes it flip); it is
+    at rest once it turns slower than ``rest_omega`` (rad/s) while held or moving slower than
+    ``rest_speed`` (m/s), and stopped once at rest for ``hold_s`` (s)."""
+
+    spin_axis: tuple[float, float, float]
+    spin_rate: float
+    rest_omega: float
+    rest_speed: float
+    hold_s: float
+
 
 @dataclass(frozen=True)
 class TaskRules:
-    """The pick-and-place task (``microg.task.stages`` applies them; a protocol's ``task`` table sets them)."""
+    """A task's numbers (a protocol's ``task`` table sets them): the pick-and-place's (``stages``
+    applies them), shared by every kind but the places, and the other kinds' own."""
 
     start: tuple[float, float, float]
     start_orientation: tuple[float, float, float, float]
@@ -19,3 +56,9 @@ class TaskRules:
     drop_grace_s: float
     workspace_min: tuple[float, float, float]
     workspace_max: tuple[float, float, float]
+    kind: str = PICK_AND_PLACE
+    """Which rules judge the task (``KINDS``)."""
+    catch: CatchRules | None = None
+    """The catch's numbers (``task.catch``); None when the protocol has none."""
+    stop_spin: StopSpinRules | None = None
+    """The stop of a spin's numbers (``task.stop_spin``); None when the protocol has none."""

@@ -1,0 +1,46 @@
+"""Holding, as every kind of task but the compiled pick-and-place judges it (``stages``' rule).
+
+The object is held once the physics reports it grasped for ``grasp_settle_s`` without a break; a
+hold ends once it is not grasped for ``drop_grace_s`` without a break (shorter breaks are the
+flicker of contacts). A hold is taken to have begun when the grasp began, and to have ended when
+the grasp went.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+from .rules import TaskRules
+
+EPS = 1e-9
+"""s: times that differ by less are equal (frame times are sums of float intervals)."""
+
+
+class Holding(NamedTuple):
+    held: bool = False
+    grasp_since: float | None = None
+    loose_since: float | None = None
+
+
+class Change(NamedTuple):
+    """What a frame did to the hold: when it began or ended (None: it did not)."""
+
+    began: float | None = None
+    ended: float | None = None
+
+
+def hold(holding: Holding, t: float, grasped: bool, rules: TaskRules) -> tuple[Holding, Change]:
+    """The hold after a frame at ``t`` in which the object was ``grasped`` (or not)."""
+    if grasped:
+        if holding.held:
+            return Holding(True), Change()
+        since = t if holding.grasp_since is None else holding.grasp_since
+        if t - since >= rules.grasp_settle_s - EPS:
+            return Holding(True), Change(began=since)
+        return Holding(False, since), Change()
+    if not holding.held:
+        return Holding(), Change()
+    since = t if holding.loose_since is None else holding.loose_since
+    if t - since >= rules.drop_grace_s - EPS:
+        return Holding(), Change(ended=since)
+    return Holding(True, None, since), Change()

@@ -1,0 +1,77 @@
+"""A session runs each task kind: the catch's launched object caught by a still pinch in its path,
+the spinning object stopped by a pinch, each kind's measures logged and in the trials table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from microg.study import SimulationClock, run_session
+from microg.study.export import trials_table
+from microg.study.inputs import ScriptedInputs
+
+from .scripted import RADIUS, ScriptedPinch, pinch_keyframes
+
+MEET = 0.05
+"""m along the launch from the start where the still pinch waits."""
+
+
+def kind_hands(plan, seed):
+    """The training's pick-and-place pinch; a pinch that waits open in the catch's path and closes as
+    the object arrives; a pinch that closes on the spinning object at its start."""
+    half = float(plan.object.half_extents[0])
+    open_gap, closed = half + RADIUS + 0.02, half + RADIUS - 0.006
+    start = np.asarray(plan.start)
+    if plan.phase == "catching":
+        meet, due = start + [0.0, 0.0, MEET], MEET / 0.2  # the launch: 0.2 m/s along z (protocols/kinds.toml)
+        return ScriptedPinch([(0.0, meet, open_gap), (due - 0.1, meet, open_gap), (due, meet, closed),
+                              (6.0, meet, closed)])
+    if plan.phase == "stopping":
+        return ScriptedPinch([(0.0, start, open_gap + 0.02), (0.3, start, open_gap + 0.02), (0.5, start, closed),
+                              (8.0, start, closed)])
+    return ScriptedPinch(pinch_keyframes(plan))
+
+
+def test_a_session_runs_a_catch_and_a_stop_of_a_spin_and_the_trials_table_has_their_measures(make_study):
+    store, record = make_study("kinds")
+    session = store.create_session(record.id, input_spec="scripted", simulated=True, clock="simulation")
+    run_session(store, session.id, ScriptedInputs(kind_hands), clock=SimulationClock())
+    trials = trials_table(store).set_index("phase")
+    catch, stop = trials.loc["catching"], trials.loc["stopping"]
+    assert catch.task_kind == "catch" and stop.task_kind == "stop_spin"
+    assert catch.status == "completed" and catch.time_to_catch_s > 0 and catch.time_s > catch.time_to_catch_s
+    assert stop.status == "completed" and stop.time_to_rest_s > 0 and stop.time_s > stop.time_to_rest_s
+    assert not stop.flipped  # a cube's axes are alike: it cannot flip
+    assert pd.isna(catch.time_to_rest_s) and pd.isna(stop.time_to_catch_s) and pd.isna(catch.flipped)
+    measures = [e.data for e in store.events(session.id) if e.kind == "measures"]
+    assert measures == [{"kind": "catch", "time_to_catch_s": catch.time_to_catch_s},
+                        {"kind": "stop_spin", "time_to_rest_s": stop.time_to_rest_s, "flipped": False}]
+
+
+def test_in_silico_studies_refuse_a_kind_they_do_not_play():
+    from microg.insilico.engine import TaskUnit, play_tasks
+    from microg.participant.skill import PROFILES
+    from microg.study.inputs import participant_plan
+    from microg.study.protocol import load_protocol
+    from microg.study.store import PlannedTask
+
+    from .conftest import PROTOCOLS
+
+    protocol = load_protocol(PROTOCOLS / "kinds.toml")
+    task = PlannedTask(0, "catching", "impulse_penetration", "cube", "C", 1)
+    unit = TaskUnit(participant_plan(protocol, task), PROFILES["veteran"], 0, 15.0, "impulse_penetration", "cube")
+    with pytest.raises(ValueError, match="phase 'catching' runs catch tasks: in-silico studies play only "
+                                         "pick_and_place tasks"):
+        play_tasks(protocol, [unit])
+
+
+def test_a_pick_and_place_session_logs_no_measures_and_leaves_the_kinds_columns_empty(make_study):
+    store, record = make_study("tiny", gender="male")
+    session = store.create_session(record.id, input_spec="scripted", simulated=True, clock="simulation")
+    run_session(store, session.id, ScriptedInputs(lambda plan, seed: ScriptedPinch(pinch_keyframes(plan))),
+                clock=SimulationClock())
+    trials = trials_table(store)
+    assert set(trials.task_kind) == {"pick_and_place"} and set(trials.status) == {"completed"}
+    assert trials[["time_to_catch_s", "time_to_rest_s", "flipped"]].isna().all().all()
+    assert not [e for e in store.events(session.id) if e.kind == "measures"]
