@@ -93,7 +93,7 @@ def power_bench(out: Path, quick: bool, workers: int) -> None:
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
               show_default=True, help="Folder for insilico.csv.")
 @click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True,
-              help="Processes for both studies (the in-silico study's kinds of task; the demo's sessions).")
+              help="Processes for both studies (the in-silico study's shares of its tasks; the demo's sessions).")
 def insilico_bench(out: Path, quick: bool, workers: int) -> None:
     """A whole simulated study of the paper's protocol in silico (batched, nothing logged) beside the
     same study logged frame by frame (microg demo), in one run: insilico.csv."""

@@ -16,8 +16,14 @@ from microg.paths import PROTOCOLS
 
 STUDIES = 8
 SOURCE = file_source(PROTOCOLS / "targets" / "paper.toml")
-UNDER_FIT = {"attempts.mean[phase=stage1]": "the coarse fit (30 particles x 3 generations) traded the paper's "
-                                             "0.9 attempts for its SD of 0.3: about 0.5 with the fitted means"}
+UNDER_FIT = {
+    "attempts.mean[phase=stage1]": "about 0.5 attempts a task with the fitted means: no fit so far gives both the "
+                                   "paper's 0.9 and its SD of 0.3 between people",
+    "completed.mean[phase=stage1]": "about one task in 25 not done (0.96): the interval of eight studies stops short "
+                                    "of every task done",
+    "time_s.ratio[group=B,phase=stage1]/[group=V,phase=stage1]>1.2": "beginners about 1.16 times slower on average, "
+                                                                    "short of the 1.2 asked",
+}
 """Fitted numbers the shipped default does not yet reach (docs/simulated-participant.md): each must
 fail here, so that a better fit is noticed."""
 
