@@ -14,9 +14,19 @@ a clean run goes through them:
     corrective carries) -> open -> retreat -> watch -> done
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
-open, back off, reach again). Random draws come from the participant's ``decisions`` generator.
-Everything is compiled (numba): a session calls ``participant.next_frame`` once a frame, and an
-in-silico study steps many participants and their worlds in one compiled loop, with the same code.
+open, back off, reach again). The other task kinds (``PLAYER.kind``) take the object and keep it:
+
+    catch:     wait -> intercept -> descend -> close -> squeeze -> keep -> done
+    stop_spin: wait -> reach -> descend -> close -> squeeze -> keep -> done
+
+A catch's ``intercept`` moves the pre-shaped hand into the launched object's path, above the point
+where it will be once the hand is there (zero gravity: x + v t, from the velocity it is seen moving
+at), and waits; as the object arrives it descends onto it, following it (so that it ends moving
+with it), closes and squeezes moving with it, and brakes to a stop in ``BRAKE_S`` (a soft catch).
+A catch's object that moves slower than ``MOVING_SPEED`` is reached for as it lies. Random draws
+come from the participant's ``decisions`` generator. Everything is compiled (numba): a session
+calls ``participant.next_frame`` once a frame, and an in-silico study steps many participants and
+their worlds in one compiled loop, with the same code.
 """
 
 from __future__ import annotations
@@ -27,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
+from microg.task.rules import CATCH, PICK_AND_PLACE, STOP_SPIN
 from .anatomy import REST
 from .grasp import CLOSURES, choose_grasp
 from .motion import minimum_jerk_at, movement_time
@@ -71,17 +82,26 @@ PEAK_ACCELERATION = 5.77
 """Peak acceleration of a minimum-jerk movement over D / T^2."""
 MAX_PLACES = 8
 """The most places a task may have (the paper's has three)."""
+MOVING_SPEED = 0.02
+"""m/s: a catch's object moving at least this fast is intercepted in its path, a slower one reached for."""
+BRAKE_S = 0.3
+"""s: a catching hand, moving with the object it took, slows to a stop in this time (evenly)."""
 
 ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "lift", "carry", "hold", "retry",
-           "open", "retreat", "watch", "done")
+           "open", "retreat", "watch", "done", "intercept", "keep")
 """The participant's actions ("phase" is the study's timeline, "stage" the task's): ``STATE.action``
 is an index into this tuple."""
 (WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
- DONE) = range(len(ACTIONS))
-STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout")
-"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``)."""
-MANIPULATION, RELEASE, FINAL = 0, 2, 3
-"""``SEEN.stage`` codes: manipulation, release; this one and above: the task is over."""
+ DONE, INTERCEPT, KEEP) = range(len(ACTIONS))
+KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN)
+"""The task kinds a participant plays, as ``PLAYER.kind`` gives them (``microg.task.rules.KINDS``)."""
+PLACING, CATCHING = 0, 1
+"""``PLAYER.kind`` codes: the pick-and-place, the catch."""
+STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout", "approach", "catch", "spinning",
+               "resting")
+"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch`` and ``stop_spin``)."""
+MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH = 0, 2, 3, 4, 5
+"""``SEEN.stage`` codes: manipulation, release, the two that end the task, a catch's approach."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
          "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s")
@@ -89,24 +109,27 @@ SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "re
 
 _POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8", (5, 4))]
 PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
-    ("time_limit", "f8"), ("home", "f8", (3,)), ("first_slot", "i8"), ("mirror", "f8"), ("caution", "f8"),
+    ("time_limit", "f8"), ("kind", "i8"), ("toward", "f8", (3,)), ("home", "f8", (3,)), ("first_slot", "i8"),
+    ("mirror", "f8"), ("caution", "f8"),
     ("round_object", "?"), ("half", "f8", (3,)), ("mass", "f8"), ("static_friction", "f8"), ("gravity", "f8", (3,)),
     ("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8"),
     ("release", "f8", (3,)), ("has_release", "?"),
     ("period", "f8"), ("jitter_sd", "f8"), ("p_one_missing", "f8"), ("p_two_missing", "f8"),
     ("noise_tau", "f8"), ("noise_sd", "f8", (16,)), ("tremor_centre", "f8"), ("tremor_base", "f8"),
 ], align=True)
-"""What stays the same through a task: the skill (``SKILL``), the participant's clock limit, where
-the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
+"""What stays the same through a task: the skill (``SKILL``), the participant's clock limit, the
+task's kind (``KIND_CODES``), the direction its grip squeezes most along (``grasp.choose_grasp``),
+where the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
 caution with this object, the object (ball or box, half extents, mass, friction), the gravity, the
-places and the hold, where to let go, the frame timing and the tremor and noise constants."""
+places and the hold (a place's, a catch's or a rest's), where to let go, the frame timing and the
+tremor and noise constants."""
 STATE = np.dtype([
     ("time", "f8"), ("action", "i8"), ("since", "f8"), ("go_at", "f8"),
     ("pose", _POSE), ("start", _POSE), ("end", _POSE), ("begin", "f8"), ("duration", "f8"),
     ("grasp", "i8"), ("hand_in_object", "f8", (3, 3)), ("grasp_orientation", "f8", (4,)), ("aim", "f8", (3,)),
     ("closure", "f8"), ("grip", "f8"), ("place", "i8"), ("attempts", "i8"),
     ("in_hand", "f8", (3,)), ("close_origin", "f8", (3,)), ("released_since", "f8"),
-    ("hold_clock", "f8"), ("clock_rate", "f8"), ("dark_since", "f8"),
+    ("hold_clock", "f8"), ("clock_rate", "f8"), ("dark_since", "f8"), ("catch_at", "f8", (3,)), ("drift", "f8", (3,)),
     ("tremor", "f8", (7,)), ("noise", "f8", (2, 16)),
 ], align=True)
 """The participant at one frame. ``time`` is its own clock (NaN before the first frame); the
@@ -115,15 +138,18 @@ intended hand is ``pose``; the current movement runs from ``start`` to ``end`` f
 ``closure`` how far (m) the pressing phalanges are closed past the faces they touch, ``grip`` the
 closure the squeeze aims for; ``place`` the place it carries to or holds at; ``attempts`` the drops
 it saw (its own count; the task keeps the official one); ``in_hand`` where the object sat in the
-hand when the grip settled (hand frame), ``close_origin`` where it was when closing began;
-``released_since``, ``dark_since``: NaN for none."""
+hand when the grip settled (hand frame), ``close_origin`` where it was when closing began (a
+catching hand's: where it should be, moving on at ``drift``); ``released_since``, ``dark_since``:
+NaN for none; ``catch_at``: where the intercepting hand waits for the object's centre; ``drift``:
+the velocity a catching hand moves on at with the object, and brakes from (zero otherwise)."""
 SEEN = np.dtype([
     ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
-    ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"),
+    ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"), ("velocity", "f8", (3,)),
 ], align=True)
 """One frame as the participant perceives it: its own clock and the time since the last frame,
 the object's pose, its own phalanges touching the object (1: touching), whether the physics reports the object
-grasped with its own thumb and another digit on it, and what the task displays, if anything."""
+grasped with its own thumb and another digit on it, what the task displays, if anything, and the
+object's velocity (zero in silico, which plays only the pick-and-place and never reads it)."""
 
 
 # -- helpers every action shares ------------------------------------------------------------
@@ -181,22 +207,22 @@ def posture_at(grasp, closure, out):
 
 
 @njit(cache=True)
-def _grasp_pose(p, s, grasps, closure, seen, approach, out):
-    """Where the hand grasps the object as seen now (with this attempt's aim error), into ``out``;
-    ``approach``: the pre-grasp pose, backed off along the grasp's approach. A ball has no faces:
-    the hand keeps the world's axes however it has rolled (``choose_grasp``)."""
+def _grasp_pose(p, s, grasps, closure, position, orientation, approach, out):
+    """Where the hand grasps the object at ``position`` and ``orientation`` (with this attempt's aim
+    error), into ``out``; ``approach``: the pre-grasp pose, backed off along the grasp's approach. A
+    ball has no faces: the hand keeps the world's axes however it has rolled (``choose_grasp``)."""
     grasp = grasps[s.grasp]
     if p.round_object:
-        choose_grasp(True, p.half, seen.orientation, s.hand_in_object)
+        choose_grasp(True, p.half, orientation, s.hand_in_object, p.toward)
         s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
-    rotation = quat_to_matrix(seen.orientation) @ s.hand_in_object
+    rotation = quat_to_matrix(orientation) @ s.hand_in_object
     for i in range(3):
-        out.position[i] = seen.position[i] + s.aim[i]
+        out.position[i] = position[i] + s.aim[i]
         for k in range(3):
             out.position[i] -= rotation[i, k] * grasp.object_in_hand[k]
             if approach:
                 out.position[i] += rotation[i, k] * grasp.approach[k]
-    out.orientation[:] = quat_multiply(seen.orientation, s.grasp_orientation)
+    out.orientation[:] = quat_multiply(orientation, s.grasp_orientation)
     posture_at(grasp, closure, out.posture)
 
 
@@ -234,7 +260,7 @@ def _follow(p, s, grasps, seen, approach):
     began (a tumbling object: the arc to its quaternion would be ill-defined and swing the hand
     round in one frame), is reached by a new movement from where the hand is."""
     target = np.empty(1, STATE)[0]
-    _grasp_pose(p, s, grasps, s.closure, seen, approach, target.end)
+    _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, approach, target.end)
     if _dot4(target.end.orientation, s.end.orientation) < 0.0:
         for i in range(4):
             target.end.orientation[i] = -target.end.orientation[i]
@@ -283,10 +309,12 @@ def _squeeze_depth(p, s, seen, draws):
             else:
                 others += 1
     thumb, others = max(thumb, 1), max(others, 1)
-    distance = _distance(p.places[min(s.place, p.n_places - 1)], seen.position)
-    duration = _carry_time(p, distance)
     gravity = math.sqrt(p.gravity[0] ** 2 + p.gravity[1] ** 2 + p.gravity[2] ** 2)
-    load = p.mass * (gravity + PEAK_ACCELERATION * distance / duration ** 2)
+    if p.kind == PLACING:
+        distance = _distance(p.places[min(s.place, p.n_places - 1)], seen.position)
+        load = p.mass * (gravity + PEAK_ACCELERATION * distance / _carry_time(p, distance) ** 2)
+    else:  # kept where it was taken: a catch's brakes it to a stop
+        load = p.mass * (gravity + _length(seen.velocity) / BRAKE_S)
     force = p.grip_safety * load / (2.0 * max(p.static_friction, 0.1))
     stiffness = BELIEVED_STIFFNESS * math.exp(draws.normal(0.0, p.stiffness_belief_sd))
     return max(force * (thumb + others) / (2.0 * stiffness * thumb * others), MIN_SQUEEZE)
@@ -340,7 +368,7 @@ def _begin_reach(p, s, seen, grasps, draws):
     """Plan a grasp of the object as it lies now and reach for its pre-grasp pose (the object out
     of reach, or lying so that the hand cannot grip it: wait for it)."""
     t = seen.t
-    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object)
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
     if _distance(seen.position, p.home) > REACH_RADIUS or not grasps[key].valid:
         _enter(s, WAIT_FOR_OBJECT, t)
         return
@@ -352,9 +380,75 @@ def _begin_reach(p, s, seen, grasps, draws):
     for i in range(3):
         s.aim[i] = draws.normal(0.0, p.aim_sd)
     s.closure = -p.preshape_margin
-    _grasp_pose(p, s, grasps, s.closure, seen, True, s.end)
+    _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, True, s.end)
     _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
     _enter(s, REACH, t)
+
+
+@njit(cache=True)
+def _begin_take(p, s, seen, grasps, draws):
+    """Go for the object: a catch's moving object intercepted in its path, any other reached for."""
+    if p.kind == CATCHING and _length(seen.velocity) >= MOVING_SPEED:
+        _begin_intercept(p, s, seen, grasps, draws)
+    else:
+        s.drift[:] = 0.0
+        _begin_reach(p, s, seen, grasps, draws)
+
+
+@njit(cache=True)
+def _ahead(p, s, seen, grasps, key):
+    """How far ahead (s) the hand intercepts the moving object: where its path (x + v t) passes
+    nearest the hand's start, or later if the hand could not be above it half a descent before it
+    (a few rounds of Fitts' law to the pre-grasp pose there); -1 when that point is out of reach."""
+    v, x = seen.velocity, seen.position
+    speed2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    nearest = max(((p.home[0] - x[0]) * v[0] + (p.home[1] - x[1]) * v[1] + (p.home[2] - x[2]) * v[2]) / speed2, 0.0)
+    grasp = grasps[key]
+    rotation = quat_to_matrix(seen.orientation) @ s.hand_in_object
+    offset = rotation @ (grasp.object_in_hand - grasp.approach)
+    half_descent = _fitts(p, _length(grasp.approach), p.preshape_margin) / 2.0
+    ahead, point = nearest, np.empty(3)
+    for _ in range(3):
+        for i in range(3):
+            point[i] = x[i] + v[i] * ahead - offset[i]
+        ahead = max(nearest, _fitts(p, _distance(point, s.pose.position), p.preshape_margin) + half_descent)
+    for i in range(3):
+        point[i] = x[i] + v[i] * ahead
+    return ahead if _distance(point, p.home) <= REACH_RADIUS else -1.0
+
+
+@njit(cache=True)
+def _begin_intercept(p, s, seen, grasps, draws):
+    """Plan a grasp across the moving object's path and move the pre-shaped hand to its pre-grasp
+    pose where the object will be (``_ahead``; none within reach: wait for it)."""
+    t = seen.t
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
+    ahead = _ahead(p, s, seen, grasps, key) if grasps[key].valid else -1.0
+    if ahead < 0.0:
+        _enter(s, WAIT_FOR_OBJECT, t)
+        return
+    s.grasp = key
+    if p.round_object:
+        s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
+    else:
+        s.grasp_orientation[:] = grasps[key].orientation
+    for i in range(3):
+        s.aim[i] = draws.normal(0.0, p.aim_sd)
+        s.catch_at[i] = seen.position[i] + seen.velocity[i] * ahead
+    s.close_origin[:] = seen.position
+    s.closure = -p.preshape_margin
+    _grasp_pose(p, s, grasps, s.closure, s.catch_at, seen.orientation, True, s.end)
+    _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
+    _enter(s, INTERCEPT, t)
+
+
+@njit(cache=True)
+def _begin_keep(p, s, seen, draws):
+    """Keep the object where it was taken, the grip settled (its own hold clock started); a catching
+    hand brakes from its ``drift``."""
+    _object_in_hand(s, seen, s.in_hand)
+    s.hold_clock, s.clock_rate = 0.0, 1.0 + draws.normal(0.0, p.clock_cv)
+    _enter(s, KEEP, seen.t)
 
 
 @njit(cache=True)
@@ -409,7 +503,7 @@ def _begin_hold(p, s, seen, draws):
 def wait(p, s, seen, grasps, draws):
     """Wait at the start until it is time to reach (a reaction time, plus hesitation)."""
     if seen.t >= s.go_at:
-        _begin_reach(p, s, seen, grasps, draws)
+        _begin_take(p, s, seen, grasps, draws)
 
 
 @njit(cache=True)
@@ -417,8 +511,13 @@ def wait_for_object(p, s, seen, grasps, draws):
     """The object is out of reach (or lies so the hand cannot grip it): wait until that changes (a
     task puts a lost object back)."""
     frame = np.empty((3, 3))
-    reachable = _distance(seen.position, p.home) <= REACH_RADIUS
-    if reachable and grasps[choose_grasp(p.round_object, p.half, seen.orientation, frame)].valid:
+    key = choose_grasp(p.round_object, p.half, seen.orientation, frame, p.toward)
+    if p.kind == CATCHING and _length(seen.velocity) >= MOVING_SPEED:
+        s.hand_in_object[:] = frame
+        reachable = grasps[key].valid and _ahead(p, s, seen, grasps, key) >= 0.0
+    else:
+        reachable = _distance(seen.position, p.home) <= REACH_RADIUS and grasps[key].valid
+    if reachable:
         s.go_at = seen.t + pause(p, draws, 0.0)
         _enter(s, WAIT, seen.t)
 
@@ -429,7 +528,7 @@ def reach(p, s, seen, grasps, draws):
     _follow(p, s, grasps, seen, True)
     if _move(s, seen.t) < 1.0:
         return
-    _grasp_pose(p, s, grasps, s.closure, seen, False, s.end)
+    _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, False, s.end)
     _begin_movement(s, seen.t, _fitts(p, _length(grasps[s.grasp].approach), p.preshape_margin))
     _enter(s, DESCEND, seen.t)
 
@@ -466,6 +565,9 @@ def squeeze(p, s, seen, grasps, draws):
     limit = min(s.grip, CLOSURES[-1])
     _closing(s, grasps, seen, p, limit)
     if _check_drop(p, s, seen, grasps, draws, True) or s.closure < limit or seen.t - s.since < SETTLE_S:
+        return
+    if p.kind != PLACING:
+        _begin_keep(p, s, seen, draws)
         return
     _copy_pose(s.pose, s.end)
     for i in range(3):
@@ -533,9 +635,67 @@ def hold(p, s, seen, grasps, draws):
 
 @njit(cache=True)
 def retry(p, s, seen, grasps, draws):
-    """Open and back off, then reach again for the object where it is now."""
+    """Open and back off, then go for the object again where it is now."""
     if _move(s, seen.t) >= 1.0:
-        _begin_reach(p, s, seen, grasps, draws)
+        _begin_take(p, s, seen, grasps, draws)
+
+
+@njit(cache=True)
+def intercept(p, s, seen, grasps, draws):
+    """Move above the object's path and wait there, pre-shaped; descend onto it once it is due
+    under the hand within half the descent's time (or on a touch), to move on with it at the
+    velocity it then has. An object that slowed down is reached for; one that went by, or was put
+    back, is intercepted afresh (or, out of reach, waited for)."""
+    progress = _move(s, seen.t)
+    v = seen.velocity
+    speed = _length(v)
+    if speed < MOVING_SPEED:
+        _begin_take(p, s, seen, grasps, draws)
+        return
+    along = 0.0
+    for i in range(3):
+        along += (s.catch_at[i] - seen.position[i]) * v[i] / speed
+    descent = _fitts(p, _length(grasps[s.grasp].approach), p.preshape_margin)
+    if seen.touching.any() or (progress >= 1.0 and along <= speed * descent / 2.0):
+        _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, False, s.end)
+        _begin_movement(s, seen.t, descent)
+        s.drift[:] = v
+        s.close_origin[:] = seen.position
+        _enter(s, DESCEND, seen.t)
+    elif along < -LOST_DISTANCE or _distance(seen.position, s.close_origin) >= REPLAN_DISTANCE:
+        _begin_take(p, s, seen, grasps, draws)
+    else:
+        s.close_origin[:] = seen.position
+
+
+@njit(cache=True)
+def _ride(p, s, seen, grasps, draws):
+    """A catching hand moves on at the object's velocity (``drift``) while it closes on it (its pose,
+    and where the object should be: ``close_origin``); an object that is not where it should be
+    (knocked away, put back) is gone for afresh. True when it was."""
+    for i in range(3):
+        s.close_origin[i] += s.drift[i] * seen.dt
+        if s.action != DESCEND:
+            s.pose.position[i] += s.drift[i] * seen.dt
+    if _distance(seen.position, s.close_origin) <= LOST_DISTANCE:
+        return False
+    _begin_retry(p, s, grasps, draws, seen.t, False)
+    return True
+
+
+@njit(cache=True)
+def keep(p, s, seen, grasps, draws):
+    """Keep the object where it was taken, gripped, until the task is over (the display says so,
+    ``follow_display``) or, without a display, for ``hold_s`` plus a margin on its own clock."""
+    brake = max(1.0 - (seen.t - s.since) / BRAKE_S, 0.0)
+    for i in range(3):
+        s.pose.position[i] += s.drift[i] * brake * seen.dt
+    _closing(s, grasps, seen, p, s.grip)
+    if _keep_grip(p, s, seen, grasps, draws) or seen.has_display:
+        return
+    s.hold_clock += seen.dt * s.clock_rate
+    if s.hold_clock >= p.hold_s + p.hold_margin_s:
+        _enter(s, DONE, seen.t)
 
 
 @njit(cache=True)
@@ -574,13 +734,15 @@ def watch(p, s, seen, grasps, draws):
 @njit(cache=True)
 def follow_display(p, s, seen, grasps, draws):
     """React to what the task display shows, before the action does; False if it changes nothing.
-    The task is over: done. The task counts a drop while the hand thinks it holds the object: go
-    back for it (after a reaction time in the action)."""
-    if seen.stage >= FINAL:
+    The task is over: done. The task shows the object not held (a pick-and-place's manipulation, a
+    catch's approach) while the hand thinks it holds it: go back for it (after a reaction time in
+    the action)."""
+    if seen.stage == COMPLETED or seen.stage == TIMEOUT:
         _enter(s, DONE, seen.t)
         return True
-    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD
-    if seen.stage == MANIPULATION and holding and seen.t - s.since > p.reaction_s:
+    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP
+    loose = seen.stage == MANIPULATION or seen.stage == APPROACH
+    if loose and holding and seen.t - s.since > p.reaction_s:
         s.attempts += 1
         _begin_retry(p, s, grasps, draws, seen.t, True)
         return True
@@ -593,6 +755,9 @@ def decide(p, s, seen, grasps, draws):
     if seen.has_display and follow_display(p, s, seen, grasps, draws):
         return
     action = s.action
+    if p.kind == CATCHING and (action == DESCEND or action == CLOSE or action == SQUEEZE) \
+            and _ride(p, s, seen, grasps, draws):
+        return
     if action == WAIT:
         wait(p, s, seen, grasps, draws)
     elif action == WAIT_FOR_OBJECT:
@@ -619,3 +784,7 @@ def decide(p, s, seen, grasps, draws):
         retreat(p, s, seen, grasps, draws)
     elif action == WATCH:
         watch(p, s, seen, grasps, draws)
+    elif action == INTERCEPT:
+        intercept(p, s, seen, grasps, draws)
+    elif action == KEEP:
+        keep(p, s, seen, grasps, draws)

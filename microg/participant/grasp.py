@@ -231,14 +231,15 @@ TOWARD_USER = np.array([0.3, 0.0, 1.0])
 
 
 @njit(cache=True)
-def choose_grasp(round_object, half_extents, orientation, hand_in_object):
+def choose_grasp(round_object, half_extents, orientation, hand_in_object, toward):
     """Which grasp the hand takes of an object lying as ``orientation`` says: its key (0 for a
     ball) and the hand's axes in the object's frame (into ``hand_in_object``, columns).
 
     The hand's y axis follows the object's most vertical body axis (palm down for a side grasp,
     palm up under a clamped plate), its z axis the squeezed axis (side) or the plate's axis that
-    points most toward the user (flat), signed so the fingers point away from the user. A ball has
-    no faces to align with: the hand keeps the world's axes (palm down, fingers ahead)."""
+    points most along ``toward`` (``TOWARD_USER``; a catch's squeezes across the launch's path),
+    signed so the fingers point away from it. A ball has no faces to align with: the hand keeps
+    the world's axes (palm down, fingers ahead)."""
     axes = quat_to_matrix(orientation)
     if round_object:
         for i in range(3):
@@ -257,12 +258,12 @@ def choose_grasp(round_object, half_extents, orientation, hand_in_object):
     for k in range(2):
         a = others[k]
         if flat or half_extents[a] <= narrow + 1e-9:
-            toward = abs(axes[0, a] * TOWARD_USER[0] + axes[1, a] * TOWARD_USER[1] + axes[2, a] * TOWARD_USER[2])
-            if toward > best:
-                slot, best = k, toward
+            along_toward = abs(axes[0, a] * toward[0] + axes[1, a] * toward[1] + axes[2, a] * toward[2])
+            if along_toward > best:
+                slot, best = k, along_toward
     along = others[slot]
     up_sign = 1.0 if axes[1, up_axis] >= 0 else -1.0
-    along_dot = axes[0, along] * TOWARD_USER[0] + axes[1, along] * TOWARD_USER[1] + axes[2, along] * TOWARD_USER[2]
+    along_dot = axes[0, along] * toward[0] + axes[1, along] * toward[1] + axes[2, along] * toward[2]
     along_sign = 1.0 if along_dot >= 0 else -1.0
     return _grasp_frame(up_axis, up_sign, slot, along_sign, flat, hand_in_object)
 
@@ -330,7 +331,8 @@ def plan_grasp(shape: str, half_extents: np.ndarray, orientation: np.ndarray, si
     current orientation (``choose_grasp``); ValueError when the grip would be wider than the hand."""
     half_extents = tuple(float(v) for v in np.asarray(half_extents, dtype=np.float64))
     frame = np.empty((3, 3))
-    key = choose_grasp(shape == "sphere", np.asarray(half_extents), np.asarray(orientation, dtype=np.float64), frame)
+    key = choose_grasp(shape == "sphere", np.asarray(half_extents), np.asarray(orientation, dtype=np.float64), frame,
+                       TOWARD_USER)
     grasp = grasps(shape, half_extents, side)[key]
     if not grasp["valid"]:
         raise ValueError(f"plan_grasp: the {shape} of half extents {half_extents} is wider across the grip than "

@@ -1,4 +1,5 @@
-"""The simulated participant: a closed-loop motor model that plays the pick-and-place task.
+"""The simulated participant: a closed-loop motor model that plays a task (a pick-and-place, a
+catch, a stop of a spin).
 
     participant = SimulatedParticipant(plan, "veteran", seed=7)
     for moment in play(world, Tracking(participant), plan.rules):   # microg.task.play
@@ -42,9 +43,10 @@ from numba.typed import List
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.skeleton import BONES_PER_HAND, SIDES, HandFrame, side_slots
 from microg.task import Observation
-from .actions import ACTIONS, DONE, MAX_PLACES, PLAYER, SEEN, SKILL, STAGE_CODES, STATE, decide, pause
+from microg.task.rules import CATCH, STOP_SPIN, TaskRules
+from .actions import ACTIONS, DONE, KIND_CODES, MAX_PLACES, PLAYER, SEEN, SKILL, STAGE_CODES, STATE, decide, pause
 from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
-from .grasp import grasps
+from .grasp import TOWARD_USER, UP, grasps
 from .noise import (NOISE_SIZE, FrameTiming, TrackingNoiseLevels, advance_noise, advance_tremor, frame_interval,
                     noise_start, tremor_start, tremor_value)
 from .plan import TaskPlan
@@ -85,9 +87,11 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     player["half"] = half
     player["mass"], player["static_friction"] = float(spec.mass), float(spec.material.static_friction)
     player["gravity"] = plan.gravity
-    places = np.asarray(plan.rules.places, dtype=np.float64)
+    rules = plan.rules
+    player["kind"], player["toward"] = KIND_CODES.index(rules.kind), squeezed_toward(rules)
+    places = np.asarray(rules.places, dtype=np.float64)
     player["places"][:len(places)] = places
-    player["n_places"], player["place_radius"], player["hold_s"] = len(places), plan.rules.place_radius, plan.rules.hold_s
+    player["n_places"], player["place_radius"], player["hold_s"] = len(places), rules.place_radius, kind_hold_s(rules)
     player["has_release"] = plan.release_position is not None
     if plan.release_position is not None:
         player["release"] = plan.release_position
@@ -101,6 +105,28 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     state["released_since"], state["dark_since"], state["clock_rate"] = math.nan, math.nan, 1.0
     state["go_at"] = pause(player, streams[1], skill.new_object_pause_s if plan.first_with_object else 0.0)
     return player, state, streams, grasps(spec.shape, tuple(float(v) for v in half), plan.hand)
+
+
+def squeezed_toward(rules: TaskRules) -> np.ndarray:
+    """The direction the grip squeezes most along (``grasp.choose_grasp``): toward the user, or
+    for a catch across the launch's path (its horizontal normal, on the user's side), so that the
+    object flies in between the thumb and the fingers."""
+    if rules.kind != CATCH:
+        return TOWARD_USER
+    across = np.cross(rules.catch.direction, UP)
+    if np.linalg.norm(across) < 1e-6:  # launched straight up or down: any side will do
+        return TOWARD_USER
+    across /= np.linalg.norm(across)
+    return across if across @ TOWARD_USER >= 0 else -across
+
+
+def kind_hold_s(rules: TaskRules) -> float:
+    """The hold the task asks (s): at each place, of a catch, or at rest."""
+    if rules.kind == CATCH:
+        return rules.catch.hold_s
+    if rules.kind == STOP_SPIN:
+        return rules.stop_spin.hold_s
+    return rules.hold_s
 
 
 @njit(cache=True)
@@ -204,6 +230,7 @@ class SimulatedParticipant:
                  np.asarray(o.orientation, dtype=np.float64), touching, bool(o.grasped), display is not None,
                  STAGE_CODES.index(display.stage) if display is not None else 0,
                  display.place if display is not None else 0, bool(display.lit) if display is not None else False)
+        self._seen["velocity"] = o.velocity
         joints, palm, orientation = np.empty((5, 5, 3)), np.empty(3), np.empty(4)
         t = step_participant(self.player, self.state, self._seen, self._streams, self._grasps, joints, palm,
                              orientation)

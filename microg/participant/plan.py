@@ -18,7 +18,8 @@ Point = tuple[float, float, float]
 
 @dataclass(frozen=True)
 class TaskPlan:
-    """The pick-and-place task (paper, section 4.3) for one participant.
+    """One task for one participant, of the kind its ``rules`` say (the paper's pick-and-place,
+    section 4.3; a catch; a stop of a spin).
 
     ``hand_start``: where the hand waits at the start (None: 10 cm above and 12 cm nearer the
     user than the object). ``release_position``: where to carry the object after the last place

@@ -28,7 +28,7 @@ def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right",
                      participant_seed: int = 0, first_with_object: bool = True) -> TaskPlan:
     """The one place that turns a protocol's task into what its player knows of it."""
     start, _ = protocol.start_pose(task.object)
-    return TaskPlan(object=protocol.object(task.object).spec, start=start, rules=protocol.task,
+    return TaskPlan(object=protocol.object(task.object).spec, start=start, rules=protocol.rules(task.phase),
                     gravity=protocol.gravity, hand=hand, tasks_done=task.index, participant=participant,
                     phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object)
 

@@ -9,7 +9,7 @@ import pytest
 
 from microg.study import SimulationClock, run_session
 from microg.study.export import trials_table
-from microg.study.inputs import ScriptedInputs
+from microg.study.inputs import ScriptedInputs, open_inputs
 
 from .scripted import RADIUS, ScriptedPinch, pinch_keyframes
 
@@ -47,6 +47,18 @@ def test_a_session_runs_a_catch_and_a_stop_of_a_spin_and_the_trials_table_has_th
     measures = [e.data for e in store.events(session.id) if e.kind == "measures"]
     assert measures == [{"kind": "catch", "time_to_catch_s": catch.time_to_catch_s},
                         {"kind": "stop_spin", "time_to_rest_s": stop.time_to_rest_s, "flipped": False}]
+
+
+def test_a_simulated_participant_catches_and_stops_a_spin_in_a_session(make_study):
+    """``--input simulated:veteran``: the participant plays each phase's kind (the kinds protocol
+    with a catch it can reach in time, ``kinds-simulated.toml``)."""
+    store, record = make_study("kinds-simulated")
+    session = store.create_session(record.id, input_spec="simulated:veteran", simulated=True, clock="simulation")
+    run_session(store, session.id, open_inputs("simulated:veteran"), clock=SimulationClock())
+    trials = trials_table(store).set_index("phase")
+    catch, stop = trials.loc["catching"], trials.loc["stopping"]
+    assert catch.status == "completed" and 0 < catch.time_to_catch_s < catch.time_s
+    assert stop.status == "completed" and 0 < stop.time_to_rest_s < stop.time_s
 
 
 def test_in_silico_studies_refuse_a_kind_they_do_not_play():
