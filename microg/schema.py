@@ -104,3 +104,10 @@ ANSWER_COLUMNS = tuple(column.name for column in ANSWERS)
 TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
 QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
 ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
+
+KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin": ("time_to_rest_s", "flipped")}
+"""Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
+and ``attempts``: the analysis reads a kind's tasks with them (``microg.task.kinds.MEASURES`` names
+the same columns for the export)."""
+PROPORTIONS = ("flipped",)
+"""Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""

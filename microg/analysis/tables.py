@@ -288,6 +288,7 @@ def check_trials(
     counts: Sequence[str] = ("attempts",),
     completed: str = "completed",
     label: str = "interaction_label",
+    design: bool = True,
 ) -> pd.DataFrame:
     """Check a trials table and return a copy with numeric measures, text labels and boolean flags.
 
@@ -310,6 +311,10 @@ def check_trials(
         count (an unfinished task has no completion time).
     label : str
         Optional column of each interaction model's label for readers; one label per interaction model.
+    design : bool
+        Require the mixed design: two groups or more and two ``within`` levels or more. A table
+        that is only described (a task kind's, whose analysis says what it cannot test) passes
+        with False.
 
     Returns
     -------
@@ -322,7 +327,8 @@ def check_trials(
         Naming the source, column, value and data row (1 = the first row after the header): a
         missing column, no rows, an empty label, a measure that is not a number, not finite, negative
         or absurdly large, a fractional count, a finished task without a measure, a participant in two
-        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels;
+        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels
+        (with ``design``);
         rows that repeat an earlier row in every column (:func:`drop_repeated_rows` drops them first
         where that is wanted), and two different rows of one exported task (same participant,
         ``session`` and ``task_index``).
@@ -371,8 +377,9 @@ def check_trials(
         out[label] = _labels(trials, label, source, subject)
         _check_one_each(out, interaction, label, source)
     _check_one_each(out, subject, group, source)
-    _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
-    _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
+    if design:
+        _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
+        _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
     return out
 
 
