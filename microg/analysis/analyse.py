@@ -61,7 +61,7 @@ from microg.analysis.tables import (
     text_columns,
     withdrawn,
 )
-from microg.schema import KIND_MEASURES, PROPORTIONS
+from microg.schema import KIND_MEASURES, PROPORTIONS, SIGNED
 
 DEFAULT_INTERACTION = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
@@ -273,7 +273,8 @@ def analyse_study(
         design: with one group or one ``within`` level it is described, and ``warnings`` says why
         there is no ANOVA. A measure that is yes or no per task (:data:`microg.schema.PROPORTIONS`,
         True/False in the table) is the proportion of a participant's tasks with yes, of every task
-        with a value, and has no trial model.
+        with a value, and has no trial model. A measure that may be negative
+        (:data:`microg.schema.SIGNED`) is let through the check of negative values.
     kind_column : str
         Column of the task's kind.
 
@@ -302,7 +303,8 @@ def analyse_study(
                                                                                    proportions))
     trials, dropped_rows = _checked(trials, check_trials, TRIAL_TEXT, "trials table", drop_duplicates, keep=keep,
                                     **columns, dv=dv, counts=counts, completed=completed, label=label,
-                                    design=kind in (None, PICK_AND_PLACE))  # fmt: skip
+                                    design=kind in (None, PICK_AND_PLACE),
+                                    signed=tuple(m for m in dv if m in SIGNED))  # fmt: skip
     trials = exclude_phases(trials, excluded_phases, phase)
     if questionnaire is not None:
         questionnaire, dropped_answers = _checked(questionnaire, check_questionnaire, QUESTIONNAIRE_TEXT,

@@ -41,7 +41,7 @@ SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated parti
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
 NO_QUESTIONNAIRE = ("The study asks no questionnaire (its questionnaire table has no rows): the questionnaire's "
                     "sections are left out.")
-KIND_TITLES = {"catch": "Catch", "stop_spin": "Stop of a spin"}
+KIND_TITLES = {"catch": "Catch", "stop_spin": "Stop of a spin", "send": "Send"}
 """How a reader sees a task kind other than the pick-and-place (whose sections read as they always did)."""
 QUESTIONNAIRE_TABLES = {"scores": "scores", "summary": "score_summary", "consistency": "consistency"}
 """The questionnaire section's CSV files (the comparisons and changes go together into score_tests.csv)."""
@@ -368,7 +368,9 @@ def _kind_sections(analysis: StudyAnalysis, sections: dict) -> dict:
 KIND_METHODS = (
     "Task kinds: the tasks of each kind (column task_kind) are analysed apart, by the same methods, with the kind's "
     "own measures besides completion time and attempts (catch: time to catch, to the grasp that caught the object; "
-    "stop of a spin: time to rest, and flipped, whether the object turned over its spin axis). Flipped is a yes or "
+    "stop of a spin: time to rest, and flipped, whether the object turned over its spin axis; send: send error, "
+    "the closest approach of the drift's line to the target's centre, and release speed error, the release speed "
+    "minus the speed that reaches the target in the protocol's arrival time, which may be negative). Flipped is a yes or "
     "no per task: a participant's cell is the proportion of its tasks that flipped, of every task with a value "
     "(completed or not), and it has no trial model. The cell means of every measure per group and object describe "
     "each kind, also where a mixed ANOVA cannot be made (one group or one object); the report then says so."

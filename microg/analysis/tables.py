@@ -289,6 +289,7 @@ def check_trials(
     completed: str = "completed",
     label: str = "interaction_label",
     design: bool = True,
+    signed: Sequence[str] = (),
 ) -> pd.DataFrame:
     """Check a trials table and return a copy with numeric measures, text labels and boolean flags.
 
@@ -315,6 +316,9 @@ def check_trials(
         Require the mixed design: two groups or more and two ``within`` levels or more. A table
         that is only described (a task kind's, whose analysis says what it cannot test) passes
         with False.
+    signed : sequence of str
+        Measures that may be negative (a difference from the right value, as a send's
+        ``release_speed_error``).
 
     Returns
     -------
@@ -365,7 +369,7 @@ def check_trials(
     for column in (subject, group, interaction, within):
         out[column] = _labels(trials, column, source, subject)
     for measure in dv:
-        out[measure] = _measure(trials, measure, source, subject, whole=measure in counts)
+        out[measure] = _measure(trials, measure, source, subject, whole=measure in counts, signed=measure in signed)
     for flag in FLAG_COLUMNS:
         if flag in trials.columns:
             out[flag] = _flags(trials, flag, source, subject)
@@ -652,12 +656,13 @@ def _numbers(table: pd.DataFrame, column: str, source: str, subject: str) -> pd.
     return numbers
 
 
-def _measure(table: pd.DataFrame, column: str, source: str, subject: str, whole: bool) -> pd.Series:
+def _measure(table: pd.DataFrame, column: str, source: str, subject: str, whole: bool, signed: bool) -> pd.Series:
     values = _numbers(table, column, source, subject)
     _require(table.assign(**{column: values}), column, np.isinf(values), source, "is not finite", subject)
     too_large = values.abs() > LARGEST_VALUE
     _require(table, column, too_large, source, f"is larger than {LARGEST_VALUE:g}", subject)
-    _require(table, column, values < 0, source, "is negative", subject)
+    if not signed:
+        _require(table, column, values < 0, source, "is negative", subject)
     if whole:
         fractional = values.notna() & (values != np.round(values))
         _require(table, column, fractional, source, "is not a count (a whole number)", subject)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PICK_AND_PLACE, CATCH, STOP_SPIN, SEND = "pick_and_place", "catch", "stop_spin", "send"
-KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN)
+KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND)
 """The task kinds a protocol may choose (``kind = ...``)."""
 
 

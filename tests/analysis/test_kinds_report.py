@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from markupsafe import escape
 
-from microg.analysis import analyse_study, kinds_present
+from microg.analysis import AnalysisInputError, analyse_study, kinds_present
 from microg.analysis.report import NO_QUESTIONNAIRE, write_report
 from microg.schema import KIND_MEASURES
 from microg.task.kinds import MEASURES
@@ -85,3 +85,19 @@ def test_the_report_has_each_kind_and_says_there_is_no_questionnaire(kinds_trial
         assert (tmp_path / kind / f"anova_{measure}.csv").exists()
         assert measure in set(pd.read_csv(tmp_path / kind / "description.csv")["measure"])
     assert not (tmp_path / "anova_time.csv").exists()  # no pick-and-place task is analysed
+
+
+def test_a_sends_release_speed_error_may_be_negative_and_is_analysed(kinds_trials):
+    rng = np.random.default_rng(5)
+    sends = kinds_trials["task_kind"] == "stop_spin"
+    trials = kinds_trials.assign(
+        task_kind=kinds_trials["task_kind"].where(~sends, "send"),
+        send_error_m=pd.Series(rng.uniform(0.0, 0.05, len(kinds_trials))).where(sends),
+        release_speed_error=pd.Series(rng.normal(-0.02, 0.03, len(kinds_trials))).where(sends),
+    )
+    send = analyse_study(trials, kind="send")
+    assert send.measures == ("time_s", "attempts", "send_error_m", "release_speed_error")
+    assert ("soft_hand", "release_speed_error") in send.analysed()
+    assert (send.table("cells", "soft_hand", "release_speed_error")["value"] < 0).any()
+    with pytest.raises(AnalysisInputError, match="is negative"):
+        analyse_study(trials.assign(time_s=-trials["time_s"]), kind="send")  # other measures stay non-negative
