@@ -370,8 +370,8 @@ KIND_METHODS = (
     "own measures besides completion time and attempts (catch: time to catch, to the grasp that caught the object; "
     "stop of a spin: time to rest, and flipped, whether the object turned over its spin axis; send: send error, "
     "the closest approach of the drift's line to the target's centre, and release speed error, the release speed "
-    "minus the speed that reaches the target in the protocol's arrival time, which may be negative). Flipped is a yes or "
-    "no per task: a participant's cell is the proportion of its tasks that flipped, of every task with a value "
+    "minus the speed that reaches the target in the protocol's arrival time, which may be negative). Flipped is a "
+    "yes or no per task: a participant's cell is the proportion of its tasks that flipped, of every task with a value "
     "(completed or not), and it has no trial model. The cell means of every measure per group and object describe "
     "each kind, also where a mixed ANOVA cannot be made (one group or one object); the report then says so."
 )
