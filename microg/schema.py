@@ -53,13 +53,18 @@ TRIALS = (
     Column("task_index", "Int64", "index of the task within its session"),
     Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
            "in the study itself", optional=True),
-    Column("task_kind", "string", "the task's kind: pick_and_place, catch or stop_spin", optional=True),
+    Column("task_kind", "string", "the task's kind: pick_and_place, catch, stop_spin or send", optional=True),
     Column("time_to_catch_s", "float64", "a catch's seconds from its first frame to the grasp that caught the "
            "object; empty unless a catch was completed", optional=True),
     Column("time_to_rest_s", "float64", "a stop of a spin's seconds from its first frame to the rest that "
            "completed it; empty unless a stop of a spin was completed", optional=True),
     Column("flipped", "boolean", "whether a stop of a spin's object turned over its spin axis (the "
            "intermediate-axis flip); empty for other kinds and for tasks not finished", optional=True),
+    Column("send_error_m", "float64", "a send's closest approach to the target's centre of the drift's straight "
+           "line (m; the last send's, for a task that ended without an arrival); empty for other kinds and before a "
+           "first send", optional=True),
+    Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
+           "arrival_s (m/s; negative: too slow); empty for other kinds and before a first send", optional=True),
 )
 
 QUESTIONNAIRE = (
@@ -104,3 +109,13 @@ ANSWER_COLUMNS = tuple(column.name for column in ANSWERS)
 TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
 QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
 ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
+
+KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin": ("time_to_rest_s", "flipped"),
+                 "send": ("send_error_m", "release_speed_error")}
+"""Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
+and ``attempts``: the analysis reads a kind's tasks with them (``microg.task.kinds.MEASURES`` names
+the same columns for the export)."""
+PROPORTIONS = ("flipped",)
+"""Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""
+SIGNED = ("release_speed_error",)
+"""Measures that may be negative (a difference from the right value)."""

@@ -3,7 +3,7 @@ simulation. Like pingouin, every function takes a tidy DataFrame and the names o
 returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack, ARTool,
 lme4 and lmerTest)."""
 
-from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_interactions
+from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_interactions, kinds_present
 from microg.analysis.anova import (
     ANOVA_COLUMNS,
     mixed_anova,
@@ -70,6 +70,7 @@ __all__ = [
     "count_model",
     "incomplete_cases",
     "internal_consistency",
+    "kinds_present",
     "likert_summary",
     "likert_tests",
     "missing_items",

@@ -61,6 +61,7 @@ from microg.analysis.tables import (
     text_columns,
     withdrawn,
 )
+from microg.schema import KIND_MEASURES, PROPORTIONS, SIGNED
 
 DEFAULT_INTERACTION = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
@@ -72,6 +73,9 @@ ALPHA = 0.05
 """Significance level of every test the report words as significant or not (Box's M: .001)."""
 MIN_PAIRS = 3
 KEYS = ("interaction", "measure")
+KIND_COLUMN = "task_kind"
+"""The export's column of a task's kind; a table without it holds pick-and-place tasks only."""
+PICK_AND_PLACE = "pick_and_place"
 
 
 @dataclass(frozen=True)
@@ -89,6 +93,11 @@ class StudyAnalysis:
     ``trial_models``: every finished task of every interaction model, :func:`trial_model`) has the
     interaction "" (all of them). The questionnaire's ART (``likert_art``, ``likert_art_contrasts``)
     has one row set per item, in the column ``item``.
+
+    ``kind`` is the task kind analysed (None: every task, as a pick-and-place study); its
+    ``description`` holds the cell means of every interaction model and measure per group and
+    ``within`` level, whether or not an ANOVA could be made; ``proportions`` are the measures
+    that are yes or no per task (a cell's value is a proportion).
     """
 
     interaction: str
@@ -129,6 +138,9 @@ class StudyAnalysis:
     warnings: tuple[str, ...]
     practice: str | None = None
     interaction_column: str = "interaction"
+    kind: str | None = None
+    proportions: tuple[str, ...] = ()
+    description: pd.DataFrame | None = None
 
     def table(self, name: str, interaction: str, measure: str) -> pd.DataFrame:
         """The rows of table ``name`` (e.g. "anova") for one interaction and measure, without the keys."""
@@ -217,6 +229,8 @@ def analyse_study(
     alpha: float = ALPHA,
     drop_duplicates: bool = False,
     practice: str = PRACTICE,
+    kind: str | None = None,
+    kind_column: str = KIND_COLUMN,
 ) -> StudyAnalysis:
     """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per interaction
     model and measure; a linear mixed model of every task per measure; interaction model vs
@@ -252,6 +266,17 @@ def analyse_study(
     practice : str
         Column of a task's place in the participant's session (the export's ``task_index``): the
         trial model's practice term and random slope, when the table has it.
+    kind : str, optional
+        Analyse only the tasks of this kind (column ``kind_column``; a table without it holds
+        pick-and-place tasks), with the kind's own measures after ``dv``
+        (:data:`microg.schema.KIND_MEASURES`). A kind other than pick_and_place needs no mixed
+        design: with one group or one ``within`` level it is described, and ``warnings`` says why
+        there is no ANOVA. A measure that is yes or no per task (:data:`microg.schema.PROPORTIONS`,
+        True/False in the table) is the proportion of a participant's tasks with yes, of every task
+        with a value, and has no trial model. A measure that may be negative
+        (:data:`microg.schema.SIGNED`) is let through the check of negative values.
+    kind_column : str
+        Column of the task's kind.
 
     Returns
     -------
@@ -272,8 +297,14 @@ def analyse_study(
     2  Group:Time  2.728  0.070
     """
     columns = {"subject": subject, "group": group, "within": within, "interaction": interaction_column}
-    trials, dropped_rows = _checked(trials, check_trials, TRIAL_TEXT, "trials table", drop_duplicates, **columns,
-                                    dv=dv, counts=counts, completed=completed, label=label)  # fmt: skip
+    dv = (*dv, *KIND_MEASURES.get(kind, ())) if kind else tuple(dv)
+    proportions = tuple(m for m in dv if m in PROPORTIONS)
+    keep = None if kind is None and not proportions else (lambda table: _of_kind(table, kind, kind_column,
+                                                                                   proportions))
+    trials, dropped_rows = _checked(trials, check_trials, TRIAL_TEXT, "trials table", drop_duplicates, keep=keep,
+                                    **columns, dv=dv, counts=counts, completed=completed, label=label,
+                                    design=kind in (None, PICK_AND_PLACE),
+                                    signed=tuple(m for m in dv if m in SIGNED))  # fmt: skip
     trials = exclude_phases(trials, excluded_phases, phase)
     if questionnaire is not None:
         questionnaire, dropped_answers = _checked(questionnaire, check_questionnaire, QUESTIONNAIRE_TEXT,
@@ -291,7 +322,7 @@ def analyse_study(
     conditions = _conditions(interactions, interaction, baseline, [trials, questionnaire], interaction_column, label)
     names = dict(zip(conditions["interaction"], conditions["label"]))
     design = _Design(subject, group, within, interaction_column, tuple(dv), tuple(counts), completed, ss_type, alpha,
-                     names)
+                     names, proportions)
 
     per_interaction = _per_interaction(trials, interactions, design)
     pairs = _versus_baseline(trials, interaction, baseline, design)
@@ -335,7 +366,66 @@ def analyse_study(
         **{name: models.tables[name] for name in TRIAL_TABLES},
         practice=practised,
         interaction_column=interaction_column,
+        kind=kind,
+        proportions=proportions,
+        description=_description(trials, interactions, design),
     )
+
+
+def kinds_present(trials: pd.DataFrame, excluded_phases: Sequence[str] = EXCLUDED_PHASES, phase: str = "phase",
+                  kind_column: str = KIND_COLUMN) -> tuple[str, ...]:
+    """The task kinds of a trials table's analysed tasks, pick_and_place first, then in order of appearance.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        One row per task; without ``kind_column`` every task is a pick-and-place.
+    excluded_phases, phase : sequence of str, str
+        Tasks of these phases (column ``phase``) are not analysed, so their kinds do not count.
+    kind_column : str
+        Column of the task's kind.
+
+    Returns
+    -------
+    tuple of str
+        The kinds; pick_and_place alone for a table without ``kind_column``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import kinds_present
+    >>> trials = pd.DataFrame({"phase": ["training", "stage1", "stage2"],
+    ...                        "task_kind": ["pick_and_place", "stop_spin", "catch"]})
+    >>> kinds_present(trials)
+    ('stop_spin', 'catch')
+    """
+    if kind_column not in trials.columns:
+        return (PICK_AND_PLACE,)
+    kinds = list(dict.fromkeys(exclude_phases(trials, excluded_phases, phase)[kind_column].dropna()))
+    return tuple(sorted(kinds, key=lambda kind: kind != PICK_AND_PLACE))
+
+
+def _of_kind(table: pd.DataFrame, kind: str | None, kind_column: str, proportions: Sequence[str]) -> pd.DataFrame:
+    """The tasks of ``kind`` (every task for None; a table without ``kind_column`` is pick-and-place),
+    with the yes/no ``proportions`` as 1.0/0.0 (empty stays empty)."""
+    if kind is not None:
+        kinds = table[kind_column] if kind_column in table.columns else pd.Series(PICK_AND_PLACE, index=table.index)
+        table = table[kinds == kind].reset_index(drop=True)
+    words = {True: 1.0, False: 0.0, "true": 1.0, "false": 0.0, "True": 1.0, "False": 0.0}
+    mapped = {m: table[m].map(words) for m in proportions if m in table.columns}
+    # a value that is neither stays as it is, for check_trials to refuse by name
+    return table.assign(**{m: values.where(table[m].isna() | values.notna(), table[m]) for m, values in mapped.items()})
+
+
+def _description(trials: pd.DataFrame, interactions: Sequence[str], design: _Design) -> pd.DataFrame:
+    """Cell means of every interaction model and measure per group and ``within`` level, of every
+    participant with a value (not only the complete cases an ANOVA needs)."""
+    d = design
+    found = [_keyed(cell_means(d.cells(trials[trials[d.interaction] == name], dv), dv, d.within, d.group),
+                    {"interaction": name, "measure": dv})
+             for name in interactions for dv in d.measures]  # fmt: skip
+    found = [frame for frame in found if len(frame)]
+    return _concat(found, (d.group, d.within, *CELL_MEANS_COLUMNS))
 
 
 TRIAL_TABLES = ("trial_anova", "trial_coefficients", "trial_random", "trial_models")
@@ -356,10 +446,13 @@ class _Design:
     ss_type: int
     alpha: float
     labels: dict[str, str]
+    proportions: tuple[str, ...] = ()
 
     def cells(self, trials: pd.DataFrame, dv: str) -> pd.DataFrame:
-        """Participant-level cells of ``dv`` by the rules for counts and for measures of finished tasks."""
-        finished = self.completed if dv not in self.counts and self.completed in trials.columns else None
+        """Participant-level cells of ``dv`` by the rules for counts and proportions (every task with a
+        value) and for measures of finished tasks."""
+        every_task = dv in self.counts or dv in self.proportions
+        finished = self.completed if not every_task and self.completed in trials.columns else None
         return participant_cells(trials, dv, self.subject, self.group, self.interaction, self.within, finished)
 
 
@@ -491,17 +584,20 @@ def _likert(questionnaire, interaction: str, baseline: str | None, design: _Desi
 
 
 def _trial_models(trials: pd.DataFrame, design: _Design, practice: str | None) -> _Part:
-    """A linear mixed model of every finished task per measure that is not a count (counts have their
-    GEE): group x within x interaction model (when there are several) + practice, log-transformed
-    when every value is positive."""
+    """A linear mixed model of every finished task per measure that is neither a count (counts have
+    their GEE) nor a proportion: group x within x interaction model (each when it has several
+    levels) + practice, log-transformed when every value is positive."""
     d = design
     tables: dict[str, list[pd.DataFrame]] = {name: [] for name in TRIAL_TABLES}
     notes = []
-    for dv in (m for m in d.measures if m not in d.counts):
+    for dv in (m for m in d.measures if m not in d.counts and m not in d.proportions):
         finished = trials[trials[d.completed].astype(bool)] if d.completed in trials.columns else trials
         rows = finished[finished[dv].notna()]
-        crossed = [d.group, d.within] + ([d.interaction] if rows[d.interaction].nunique() > 1 else [])
-        fixed = " * ".join(crossed) + (f" + {practice}" if practice else "")
+        crossed = [factor for factor in (d.group, d.within, d.interaction) if rows[factor].nunique() > 1]
+        fixed = " + ".join([" * ".join(crossed)] * bool(crossed) + [practice] * bool(practice))
+        if not fixed:
+            notes.append(f"No trial model of {dv}: one {d.group}, one {d.within} and one interaction model.")
+            continue
         transform = "log" if len(rows) and (rows[dv] > 0).all() else None
         try:
             model = trial_model(rows, dv, fixed, d.subject, transform, slope=practice)
@@ -604,11 +700,15 @@ def _concat(frames: list[pd.DataFrame], columns) -> pd.DataFrame:
     return pd.DataFrame(columns=[*KEYS, *columns])
 
 
-def _checked(table, check, text, source: str, drop_duplicates: bool, **columns) -> tuple[pd.DataFrame, list[str]]:
-    """An input table (a DataFrame, or a file read here) checked by ``check``; with ``drop_duplicates``
-    its repeated rows dropped first, and the note that says so."""
+def _checked(table, check, text, source: str, drop_duplicates: bool, keep=None,
+             **columns) -> tuple[pd.DataFrame, list[str]]:
+    """An input table (a DataFrame, or a file read here) checked by ``check``; ``keep`` (a function of
+    the table) chooses its rows first; with ``drop_duplicates`` its repeated rows dropped first, and
+    the note that says so."""
     if not isinstance(table, pd.DataFrame):
         table, source = read_table(table, text=text_columns(text, columns)), str(table)
+    if keep is not None:
+        table = keep(table)
     notes = []
     if drop_duplicates:
         table, note = drop_repeated_rows(table, source)

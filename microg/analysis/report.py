@@ -15,13 +15,14 @@ from markupsafe import Markup
 
 from microg import __version__
 from microg.analysis import results as r
-from microg.analysis.analyse import EXCLUDED_PHASES, StudyAnalysis, analyse_study
+from microg.analysis.analyse import EXCLUDED_PHASES, PICK_AND_PLACE, StudyAnalysis, analyse_study, kinds_present
 from microg.analysis.anova import ANOVA_COLUMNS, SPHERICITY_ALPHA
 from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.figures import plot_bars, plot_ratings, plot_scores, save_figure
 from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
+from microg.analysis.tables import read_table
 
 MEASURE_FILES = {"time_s": "time"}
 INTERACTION_DESCRIPTIONS = {
@@ -38,6 +39,10 @@ TIDY_TABLES = {"sample": "sample", "cell_means": "cell_means", "corrections": "c
 """The tidy tables written as they are: StudyAnalysis field -> CSV file name."""
 SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated participants (a motor model), not people."
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
+NO_QUESTIONNAIRE = ("The study asks no questionnaire (its questionnaire table has no rows): the questionnaire's "
+                    "sections are left out.")
+KIND_TITLES = {"catch": "Catch", "stop_spin": "Stop of a spin", "send": "Send"}
+"""How a reader sees a task kind other than the pick-and-place (whose sections read as they always did)."""
 QUESTIONNAIRE_TABLES = {"scores": "scores", "summary": "score_summary", "consistency": "consistency"}
 """The questionnaire section's CSV files (the comparisons and changes go together into score_tests.csv)."""
 
@@ -81,6 +86,15 @@ def write_report(
         The HTML file. Beside it: report.md (Results and tables as Markdown), the CSV tables
         (:func:`write_tables`) and figures/ (PNG and SVG).
 
+    Notes
+    -----
+    A trials table whose analysed tasks are all pick-and-place (or that has no ``task_kind``) is
+    analysed as one study. Otherwise each task kind is analysed apart
+    (:func:`microg.analysis.analyse_study`'s ``kind``; pick-and-place first), its sections titled by
+    the kind and its CSV tables in a folder named after it (the pick-and-place's where they always
+    are); the questionnaire goes with the first kind. A questionnaire table without rows (a protocol
+    that asks none) is no questionnaire, and the report says so.
+
     Examples
     --------
     >>> import tempfile
@@ -92,16 +106,32 @@ def write_report(
     >>> path.name, (path.parent / "report.md").exists()
     ('report.html', True)
     """
-    analysis = analyse_study(trials, questionnaire, interaction, baseline, ss_type, excluded_phases, **columns)
+    no_questionnaire = ""
+    if questionnaire is not None and not len(_table(questionnaire)):
+        questionnaire, no_questionnaire = None, NO_QUESTIONNAIRE
+    table = _table(trials)
+    kinds = kinds_present(table, excluded_phases, columns.get("phase", "phase"))
+    if set(kinds) <= {PICK_AND_PLACE}:
+        analyses = [analyse_study(trials, questionnaire, interaction, baseline, ss_type, excluded_phases, **columns)]
+    else:
+        analyses = [analyse_study(trials, questionnaire if kind == kinds[0] else None, interaction, baseline, ss_type,
+                                  excluded_phases, kind=kind, **columns)
+                    for kind in kinds]  # fmt: skip
+    analysis = analyses[0]
     found = None
     if answers is not None and len(answers):
         found = analyse_questionnaires(answers, instruments, analysis.interaction, analysis.baseline, analysis.alpha)
         found = found if found.instruments else None
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    write_tables(analysis, out, found)
-    figures = write_figures(analysis, out / "figures", found)
-    sections = report_sections(analysis, found)
+    figures = []
+    for each in analyses:
+        folder = out if _plain(each) else out / each.kind
+        folder.mkdir(exist_ok=True)
+        write_tables(each, folder, found if each is analysis else None)
+        figures += write_figures(each, out / "figures", found if each is analysis else None)
+    sections = merged_sections(analyses, found)
+    sections["no_questionnaire"] = no_questionnaire
     (out / MARKDOWN_FILE).write_text(render_markdown(analysis, title, sections), encoding="utf-8")
     path = out / REPORT_FILE
     path.write_text(render_html(analysis, figures, title, sections), encoding="utf-8")
@@ -121,7 +151,9 @@ def write_tables(analysis: StudyAnalysis, out: Path, found: QuestionnaireAnalysi
     test vs baseline), likert.csv, art_anova.csv and art_contrasts.csv (the questionnaire's aligned rank
     transform, per item), dropped.csv and conditions.csv (labels).
     With ``found`` (the questionnaires' analysis): scores.csv, score_summary.csv, score_tests.csv (the
-    comparisons between interaction models and between administrations) and consistency.csv.
+    comparisons between interaction models and between administrations) and consistency.csv. For a
+    task kind other than the pick-and-place: description.csv (the cell means of every measure, with
+    or without an ANOVA).
     """
     a = analysis
     written = []
@@ -145,6 +177,8 @@ def write_tables(analysis: StudyAnalysis, out: Path, found: QuestionnaireAnalysi
         written.append(_csv(a.likert_art_contrasts, out / "art_contrasts.csv"))
     written.append(_csv(a.conditions, out / "conditions.csv"))
     written.append(_csv(a.dropped, out / "dropped.csv"))
+    if not _plain(a):
+        written.append(_csv(a.description, out / "description.csv"))
     if found is not None:
         written += [_csv(getattr(found, name), out / f"{file}.csv") for name, file in QUESTIONNAIRE_TABLES.items()]
         tests = pd.concat([found.comparisons, found.changes], ignore_index=True)
@@ -165,19 +199,21 @@ def likert_table(analysis: StudyAnalysis) -> pd.DataFrame:
 
 def write_figures(analysis: StudyAnalysis, folder: Path, found: QuestionnaireAnalysis | None = None) -> list[dict]:
     """Bars with each participant's point per interaction model and measure, the rating distribution, and
-    each instrument's scores."""
+    each instrument's scores; a task kind's named after it."""
     a = analysis
+    kind = "" if _plain(a) else f"{a.kind}_"
     figures = []
     for name, dv in a.analysed():
         cells = a.table("cells", name, dv)
         fig = plot_bars(cells, "value", a.table("posthoc", name, dv), a.within, a.group, ylabel=r.measure_label(dv),
                         title=a.label(name))  # fmt: skip
         caption = (
-            f"{r.measure_label(dv).capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
+            ("" if _plain(a) else f"{kind_title(a.kind)}: ")
+            + f"{r.measure_label(dv).capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
             "\u00b1 SE, dots individual participants (n per group in the legend); brackets mark "
             "Bonferroni-significant post hoc comparisons (* p < .05, ** p < .01, *** p < .001)"
         )
-        figures.append(_figure(fig, folder / f"bars_{MEASURE_FILES.get(dv, dv)}_{name}", caption))
+        figures.append(_figure(fig, folder / f"bars_{kind}{MEASURE_FILES.get(dv, dv)}_{name}", caption))
     if not a.likert_summary.empty:
         summary = a.likert_summary.copy()
         summary.iloc[:, 1] = summary.iloc[:, 1].map(a.label)
@@ -245,6 +281,10 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
         if tests["p_unc"].iloc[2] < a.alpha
     ]
     return {
+        "objects": a.objects,
+        "warnings": list(a.warnings),
+        "kinds": [],
+        "no_questionnaire": "",
         "interactions": [
             f"{label} ({role})"
             + (f": {name}" if label != name else "")
@@ -269,6 +309,81 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
         "simulated_answers": SIMULATED_RATINGS if found is not None and found.simulated else "",
         "methods": methods(a) + ([QUESTIONNAIRE_METHODS] if found is not None else []),
     }
+
+
+def merged_sections(analyses: Sequence[StudyAnalysis], found: QuestionnaireAnalysis | None = None) -> dict:
+    """The sections of each task kind's analysis (:func:`report_sections`) as one report: the first
+    analysis's (with the questionnaire), then each other kind's blocks, models, comparisons, sample,
+    exclusions and warnings after them; a kind other than the pick-and-place has its titles and rows
+    prefixed by the kind and a description in ``kinds``."""
+    merged = _kind_sections(analyses[0], report_sections(analyses[0], found))
+    for analysis in analyses[1:]:
+        more = _kind_sections(analysis, report_sections(analysis))
+        for key in ("blocks", "models", "comparison", "warnings", "kinds"):
+            merged[key] = merged[key] + more[key]
+        merged["sample"] = pd.concat([merged["sample"], more["sample"]], ignore_index=True)
+        listed = [table for table in (merged["dropped"], more["dropped"]) if table is not None]
+        merged["dropped"] = pd.concat(listed, ignore_index=True) if listed else None
+        merged["objects"] = tuple(sorted(set(merged["objects"]) | set(more["objects"])))
+        merged["interactions"] = list(dict.fromkeys(merged["interactions"] + more["interactions"]))
+        merged["methods"] = list(dict.fromkeys(merged["methods"] + more["methods"]))
+    return merged
+
+
+def kind_title(kind: str) -> str:
+    """How a reader sees a task kind: "Stop of a spin" for stop_spin."""
+    return KIND_TITLES.get(kind, kind.replace("_", " ").capitalize())
+
+
+def _kind_sections(analysis: StudyAnalysis, sections: dict) -> dict:
+    """``sections`` with a task kind's titles, table rows and warnings prefixed by the kind, and its
+    description; the pick-and-place's as they are."""
+    a = analysis
+    if _plain(a):
+        return sections
+    title = kind_title(a.kind)
+    prefixed = dict(sections)
+    prefixed["blocks"] = [{**block, "title": f"{title}: {block['title']}"} for block in sections["blocks"]]
+    prefixed["models"] = [{**block, "title": f"{title}: {block['title']}"} for block in sections["models"]]
+    prefixed["comparison"] = [f"{title}: {text}" for text in sections["comparison"]]
+    prefixed["warnings"] = [f"{title}: {text}" for text in sections["warnings"]]
+    prefixed["interactions"] = [f"{title}: {text}" for text in sections["interactions"]]
+    for key in ("sample", "dropped"):
+        if sections[key] is not None:
+            prefixed[key] = sections[key].assign(Analysis=f"{title}: " + sections[key]["Analysis"])
+    analysed = sorted({r.measure_label(dv) for _, dv in a.analysed()})
+    not_tested = [text for text in a.warnings if text.startswith("No ") and " ANOVA for " in text]
+    prefixed["kinds"] = [{
+        "title": title,
+        "text": (f"Measures: {', '.join(r.measure_label(dv) for dv in a.measures)}. "
+                 + (f"Mixed ANOVA of {', '.join(analysed)}." if analysed else
+                    "No mixed ANOVA: the design does not allow one (below); the cell means describe the tasks.")),
+        "notes": not_tested,
+        "description": r.description_table(a),
+    }]  # fmt: skip
+    prefixed["methods"] = sections["methods"] + [KIND_METHODS]
+    return prefixed
+
+
+KIND_METHODS = (
+    "Task kinds: the tasks of each kind (column task_kind) are analysed apart, by the same methods, with the kind's "
+    "own measures besides completion time and attempts (catch: time to catch, to the grasp that caught the object; "
+    "stop of a spin: time to rest, and flipped, whether the object turned over its spin axis; send: send error, "
+    "the closest approach of the drift's line to the target's centre, and release speed error, the release speed "
+    "minus the speed that reaches the target in the protocol's arrival time, which may be negative). Flipped is a "
+    "yes or no per task: a participant's cell is the proportion of its tasks that flipped, of every task with a value "
+    "(completed or not), and it has no trial model. The cell means of every measure per group and object describe "
+    "each kind, also where a mixed ANOVA cannot be made (one group or one object); the report then says so."
+)
+
+
+def _plain(analysis: StudyAnalysis) -> bool:
+    """Whether an analysis reads as a pick-and-place study's always did (every task, or the pick-and-place's)."""
+    return analysis.kind in (None, PICK_AND_PLACE)
+
+
+def _table(table: pd.DataFrame | str | Path) -> pd.DataFrame:
+    return table if isinstance(table, pd.DataFrame) else read_table(table)
 
 
 QUESTIONNAIRE_METHODS = (
@@ -322,10 +437,8 @@ def render_html(analysis: StudyAnalysis, figures: list[dict], title: str, sectio
         simulated_ratings=SIMULATED_RATINGS if a.simulated_ratings else "",
         interaction=a.label(a.interaction),
         baseline=a.label(a.baseline) if a.baseline else "",
-        objects=a.objects,
         within=a.within,
         excluded_phases=a.excluded_phases,
-        warnings=a.warnings,
         figures=figures,
         **(sections or report_sections(a)),
     )
@@ -349,6 +462,11 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
     ]
     if sections["dropped"] is not None:
         lines += ["Excluded participants:", "", markdown_table(sections["dropped"]), ""]
+    if sections["kinds"]:
+        lines += ["## Task kinds", ""]
+    for kind in sections["kinds"]:
+        lines += [f"### {kind['title']}", "", kind["text"], "", *[f"- {note}" for note in kind["notes"]], "",
+                  "**Cell means per group and object**", "", markdown_table(kind["description"]), ""]
     lines += ["## Results", ""]
     for block in sections["blocks"]:
         lines += [f"### {block['title']}", "", block["results"], "", block["assumptions"], ""]
@@ -370,6 +488,8 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
             lines += [f"**{caption}**", "", markdown_table(table), ""]
     if sections["likert_distribution"] is not None:
         lines += [markdown_table(sections["likert_distribution"]), ""]
+    if sections["no_questionnaire"]:
+        lines += ["### Questionnaire", "", sections["no_questionnaire"], ""]
     for block in sections["instruments"]:
         lines += [f"### {block['title']}", "", f"Source: {block['source']}", "", *[p + "\n" for p in block["results"]]]
         for caption, table in block["tables"]:

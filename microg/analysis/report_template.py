@@ -44,7 +44,13 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 <h3>Warnings</h3>
 {% if warnings %}<ul class="warnings">{% for w in warnings %}<li>{{ w }}</li>{% endfor %}</ul>{% else %}<p>None.</p>{% endif %}
 <h3>Excluded participants</h3>
-{% if dropped is not none %}<div class="table">{{ dropped | html }}</div>{% else %}<p>Nobody was excluded: every participant has every cell of every analysis.</p>{% endif %}
+{% if dropped is not none %}<div class="table">{{ dropped | html }}</div>{% else %}<p>Nobody was excluded: every participant has every cell of every analysis.</p>{% endif %}{% if kinds %}
+<h2>Task kinds</h2>
+{% for kind in kinds %}<h3>{{ kind.title }}</h3><p>{{ kind.text }}</p>
+{% if kind.notes %}<ul class="warnings">{% for note in kind.notes %}<li>{{ note }}</li>{% endfor %}</ul>{% endif %}
+<p class="caption">Cell means per group and object (participants' means of their tasks)</p>
+<div class="table">{{ kind.description | html }}</div>
+{% endfor %}{% endif %}
 
 <h2>Results</h2>
 {% for block in blocks %}<h3>{{ block.title }}</h3><p class="results">{{ block.results }}</p>
@@ -89,7 +95,7 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 {% if art_table is not none %}<p class="caption">Aligned rank transform ANOVA per item</p>
 <div class="table">{{ art_table | html }}</div>
 {% for caption, table in art_cells %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}{% endif %}
-{% else %}<p>No questionnaire table was given.</p>{% endif %}
+{% else %}<p>{{ no_questionnaire or "No questionnaire table was given." }}</p>{% endif %}
 
 {% if instruments %}
 <h2>Questionnaires</h2>

@@ -24,7 +24,9 @@ from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.likert import SCALE
 from microg.analysis.questionnaires import PAIRED_T, QuestionnaireAnalysis
 
-MEASURE_LABELS = {"time_s": "completion time (s)", "attempts": "attempts (drops)"}
+MEASURE_LABELS = {"time_s": "completion time (s)", "attempts": "attempts (drops)", "time_to_catch_s": "time to catch (s)",
+                  "time_to_rest_s": "time to rest (s)", "flipped": "flipped (proportion of tasks)",
+                  "send_error_m": "send error (m)", "release_speed_error": "release speed error (m/s)"}
 ETA_P, ETA_G, EPSILON, CHI2 = "\u03b7p\u00b2", "\u03b7G\u00b2", "\u03b5", "\u03c7\u00b2"
 MINUS = " \u2212 "
 ALPHA_SIGN = "\u03b1"
@@ -283,6 +285,25 @@ def cell_means_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.D
     if dv in a.counts:
         shown["% zero"] = (100 * table["share_zero"]).map(lambda v: number(v, 0))
     return shown
+
+
+def description_table(analysis: StudyAnalysis) -> pd.DataFrame:
+    """Mean, SD, SE and n of every interaction model and measure per group and level, whether or not an
+    ANOVA could be made (a task kind's description)."""
+    a = analysis
+    table = a.description
+    return pd.DataFrame(
+        {
+            "Interaction model": table["interaction"].map(a.label),
+            "Measure": table["measure"].map(measure_label),
+            a.group.capitalize(): table[a.group],
+            a.within.capitalize(): table[a.within],
+            "n": table["n"].astype(int),
+            "M": table["mean"].map(number),
+            "SD": table["sd"].map(number),
+            "SE": table["se"].map(number),
+        }
+    )
 
 
 def table1(analysis: StudyAnalysis) -> pd.DataFrame:

@@ -288,6 +288,8 @@ def check_trials(
     counts: Sequence[str] = ("attempts",),
     completed: str = "completed",
     label: str = "interaction_label",
+    design: bool = True,
+    signed: Sequence[str] = (),
 ) -> pd.DataFrame:
     """Check a trials table and return a copy with numeric measures, text labels and boolean flags.
 
@@ -310,6 +312,13 @@ def check_trials(
         count (an unfinished task has no completion time).
     label : str
         Optional column of each interaction model's label for readers; one label per interaction model.
+    design : bool
+        Require the mixed design: two groups or more and two ``within`` levels or more. A table
+        that is only described (a task kind's, whose analysis says what it cannot test) passes
+        with False.
+    signed : sequence of str
+        Measures that may be negative (a difference from the right value, as a send's
+        ``release_speed_error``).
 
     Returns
     -------
@@ -322,7 +331,8 @@ def check_trials(
         Naming the source, column, value and data row (1 = the first row after the header): a
         missing column, no rows, an empty label, a measure that is not a number, not finite, negative
         or absurdly large, a fractional count, a finished task without a measure, a participant in two
-        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels;
+        groups, an interaction with two labels, fewer than two groups or fewer than two ``within`` levels
+        (with ``design``);
         rows that repeat an earlier row in every column (:func:`drop_repeated_rows` drops them first
         where that is wanted), and two different rows of one exported task (same participant,
         ``session`` and ``task_index``).
@@ -359,7 +369,7 @@ def check_trials(
     for column in (subject, group, interaction, within):
         out[column] = _labels(trials, column, source, subject)
     for measure in dv:
-        out[measure] = _measure(trials, measure, source, subject, whole=measure in counts)
+        out[measure] = _measure(trials, measure, source, subject, whole=measure in counts, signed=measure in signed)
     for flag in FLAG_COLUMNS:
         if flag in trials.columns:
             out[flag] = _flags(trials, flag, source, subject)
@@ -371,8 +381,9 @@ def check_trials(
         out[label] = _labels(trials, label, source, subject)
         _check_one_each(out, interaction, label, source)
     _check_one_each(out, subject, group, source)
-    _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
-    _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
+    if design:
+        _require_levels(out, group, source, "a mixed ANOVA needs at least two groups")
+        _require_levels(out, within, source, "a within-participant comparison needs at least two levels")
     return out
 
 
@@ -645,12 +656,13 @@ def _numbers(table: pd.DataFrame, column: str, source: str, subject: str) -> pd.
     return numbers
 
 
-def _measure(table: pd.DataFrame, column: str, source: str, subject: str, whole: bool) -> pd.Series:
+def _measure(table: pd.DataFrame, column: str, source: str, subject: str, whole: bool, signed: bool) -> pd.Series:
     values = _numbers(table, column, source, subject)
     _require(table.assign(**{column: values}), column, np.isinf(values), source, "is not finite", subject)
     too_large = values.abs() > LARGEST_VALUE
     _require(table, column, too_large, source, f"is larger than {LARGEST_VALUE:g}", subject)
-    _require(table, column, values < 0, source, "is negative", subject)
+    if not signed:
+        _require(table, column, values < 0, source, "is negative", subject)
     if whole:
         fractional = values.notna() & (values != np.round(values))
         _require(table, column, fractional, source, "is not a count (a whole number)", subject)

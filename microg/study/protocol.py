@@ -47,7 +47,7 @@ from microg.paths import OBJECTS, POPULATIONS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
-from microg.task.rules import CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, StopSpinRules, TaskRules
+from microg.task.rules import CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, SendRules, StopSpinRules, TaskRules
 
 if TYPE_CHECKING:
     from microg.participant import Population, SkillProfile
@@ -291,11 +291,19 @@ class Protocol:
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
         value): a group's skill profile that does not exist, an instrument the rating model does not
-        answer. Empty when simulated sessions can run it."""
+        answer, a task kind the simulated participant does not play. Empty when simulated sessions
+        can run it."""
+        from microg.participant.actions import KIND_CODES
         from microg.participant.ratings import unanswered
         from microg.participant.skill import PROFILES
 
         problems = []
+        kinds = [(f"phases[{i}].kind", p.kind) for i, p in enumerate(self.phases)]
+        if self.training is not None:
+            kinds.append(("training.kind", self.training.kind))
+        for key, kind in kinds:
+            if kind not in KIND_CODES:
+                problems.append(f"{self.where}: {key} = {kind!r}: simulated participants play {list(KIND_CODES)}")
         profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
         for i, group in enumerate(self.groups):
             if group.player is None:
@@ -753,7 +761,7 @@ def _read_objects(top: _Reader, sources: dict, files: dict, meshes: dict) -> tup
 
 def _read_task(top: _Reader) -> TaskRules:
     """``[task]``: the default kind, start, places, radii, holds, timeouts, the workspace, and the
-    other kinds' numbers (``[task.catch]``, ``[task.stop_spin]``)."""
+    other kinds' numbers (``[task.catch]``, ``[task.stop_spin]``, ``[task.send]``)."""
     t = top.table("task")
     kind = t.text("kind", PICK_AND_PLACE, KINDS)
     places = t.raw("places")
@@ -786,7 +794,8 @@ def _read_task(top: _Reader) -> TaskRules:
         key = "start" if i == 0 else f"places[{i - 1}]"
         if not _inside(point, task):
             raise t.fail(key, list(point), "lies outside the workspace (workspace_min .. workspace_max)")
-    task = replace(task, kind=kind, catch=_read_catch(t, task), stop_spin=_read_stop_spin(t, task))
+    task = replace(task, kind=kind, catch=_read_catch(t, task), stop_spin=_read_stop_spin(t, task),
+                   send=_read_send(t, task))
     if kind != PICK_AND_PLACE:
         _needs_numbers(t, "kind", kind, task)
     t.done()
@@ -848,8 +857,26 @@ def _read_stop_spin(t: _Reader, task: TaskRules) -> StopSpinRules | None:
     return spin
 
 
+def _read_send(t: _Reader, task: TaskRules) -> SendRules | None:
+    """``[task.send]``: the target zone (``target``, its ``radius``) the object must drift into, and
+    ``arrival_s``, how long the drift from the release should take."""
+    s = t.table("send", None)
+    if s is None:
+        return None
+    send = SendRules(target=s.vector("target"), radius=s.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
+                     arrival_s=s.number("arrival_s", unit=" (seconds)"))
+    if not _inside(send.target, task):
+        raise s.fail("target", list(send.target), "lies outside the workspace (task.workspace_min .. workspace_max)")
+    if send.arrival_s >= task.timeout_s:
+        raise s.fail("arrival_s", send.arrival_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
+                     "send could arrive in time")
+    s.done()
+    return send
+
+
 def _needs_numbers(reader: _Reader, key: str, kind: str, task: TaskRules) -> None:
-    """Refuse a task kind whose numbers the ``task`` table lacks (``[task.catch]``, ``[task.stop_spin]``)."""
+    """Refuse a task kind whose numbers the ``task`` table lacks (``[task.catch]``, ``[task.stop_spin]``,
+    ``[task.send]``)."""
     if getattr(task, kind, True) is None:
         raise reader.fail(key, kind, f"a {kind} task needs its numbers: add a [task.{kind}] table")
 

@@ -1,17 +1,18 @@
 """A task's numbers: where the object starts, the limits every kind shares, and each kind's own.
 
 A task is of one *kind*: ``pick_and_place`` (the paper's, ``microg.task.stages``), ``catch``
-(``microg.task.catch``) or ``stop_spin`` (``microg.task.stop_spin``). Every kind reads the start,
-the timeout, the holding's settle and grace times and the workspace; the places and their holds are
-the pick-and-place's; ``CatchRules`` and ``StopSpinRules`` hold the other kinds' numbers.
+(``microg.task.catch``), ``stop_spin`` (``microg.task.stop_spin``) or ``send``
+(``microg.task.send``). Every kind reads the start, the timeout, the holding's settle and grace
+times and the workspace; the places and their holds are the pick-and-place's; ``CatchRules``,
+``StopSpinRules`` and ``SendRules`` hold the other kinds' numbers.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-PICK_AND_PLACE, CATCH, STOP_SPIN = "pick_and_place", "catch", "stop_spin"
-KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN)
+PICK_AND_PLACE, CATCH, STOP_SPIN, SEND = "pick_and_place", "catch", "stop_spin", "send"
+KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND)
 """The task kinds a protocol may choose (``kind = ...``)."""
 
 
@@ -42,6 +43,17 @@ class StopSpinRules:
 
 
 @dataclass(frozen=True)
+class SendRules:
+    """A send: the object released so that it drifts into the target zone, a sphere of ``radius`` (m)
+    about ``target`` (tracker frame), where a colleague catches it; ``arrival_s`` (s) is how long the
+    drift from the release point to the target's centre should take (the right release speed)."""
+
+    target: tuple[float, float, float]
+    radius: float
+    arrival_s: float
+
+
+@dataclass(frozen=True)
 class TaskRules:
     """A task's numbers (a protocol's ``task`` table sets them): the pick-and-place's (``stages``
     applies them), shared by every kind but the places, and the other kinds' own."""
@@ -62,3 +74,5 @@ class TaskRules:
     """The catch's numbers (``task.catch``); None when the protocol has none."""
     stop_spin: StopSpinRules | None = None
     """The stop of a spin's numbers (``task.stop_spin``); None when the protocol has none."""
+    send: SendRules | None = None
+    """The send's numbers (``task.send``); None when the protocol has none."""

@@ -92,3 +92,22 @@ def test_an_existing_demo_is_not_overwritten_unless_asked(demo):
     out, _ = demo
     result = CliRunner().invoke(main, ["demo", "--out", str(out / "a"), "--participants", "2", "--quiet"])
     assert result.exit_code == 1 and "exists and is not empty" in result.output
+
+
+def test_a_study_of_task_kinds_runs_to_a_report_of_each_kinds_measures(tmp_path):
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path), "--participants", "2", "--seed", "1", "--jobs",
+                                       "1", "--protocol", str(PROTOCOLS / "kinds-simulated.toml"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    report = tmp_path / "report"
+    markdown = (report / "report.md").read_text()
+    for text in ("### Catch", "### Stop of a spin", "time to catch (s)", "time to rest (s)",
+                 "flipped (proportion of tasks)", "The study asks no questionnaire"):
+        assert text in markdown, text
+    trials = pd.read_csv(tmp_path / "tables" / "trials.csv")
+    for kind, measures in (("catch", {"time_s", "attempts", "time_to_catch_s"}),
+                           ("stop_spin", {"time_s", "attempts", "time_to_rest_s", "flipped"})):
+        described = pd.read_csv(report / kind / "description.csv")
+        tasks = trials[trials["task_kind"] == kind]
+        assert set(described["measure"]) == {m for m in measures if tasks[m].notna().any()}
+        flips = described[described["measure"] == "flipped"]["mean"]
+        assert flips.between(0, 1).all()

@@ -87,3 +87,33 @@ def test_a_pick_and_place_session_logs_no_measures_and_leaves_the_kinds_columns_
     assert set(trials.task_kind) == {"pick_and_place"} and set(trials.status) == {"completed"}
     assert trials[["time_to_catch_s", "time_to_rest_s", "flipped"]].isna().all().all()
     assert not [e for e in store.events(session.id) if e.kind == "measures"]
+
+
+def send_hands(plan, seed):
+    """A pinch that closes on the cube at its start, carries it along z at 0.1 m/s and opens while
+    moving on, then lifts away: the cube drifts on toward the target (protocols/send.toml)."""
+    if plan.phase != "sending":
+        return ScriptedPinch(pinch_keyframes(plan))
+    half = float(plan.object.half_extents[0])
+    open_gap, closed = half + RADIUS + 0.02, half + RADIUS - 0.006
+    start, along, up = np.asarray(plan.start), np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    return ScriptedPinch([(0.0, start, open_gap), (0.3, start, closed), (0.6, start, closed),
+                          (1.0, start + 0.04 * along, closed), (1.1, start + 0.05 * along, open_gap),
+                          (1.4, start + 0.05 * along + 0.08 * up, open_gap), (8.0, start + 0.05 * along + 0.08 * up,
+                                                                               open_gap)])
+
+
+def test_a_session_runs_a_send_and_the_trials_table_has_its_measures(make_study):
+    store, record = make_study("send")
+    session = store.create_session(record.id, input_spec="scripted", simulated=True, clock="simulation")
+    run_session(store, session.id, ScriptedInputs(send_hands), clock=SimulationClock())
+    send = store.protocol.task.send
+    trials = trials_table(store).set_index("phase")
+    sent = trials.loc["sending"]
+    assert sent.task_kind == "send" and sent.status == "completed" and sent.attempts == 0
+    release = next(e.data for e in store.events(session.id) if e.kind == "release")
+    due = np.linalg.norm(np.subtract(send.target, release["position"])) / send.arrival_s
+    assert sent.release_speed_error == pytest.approx(release["speed"] - due, abs=1e-12)
+    assert release["position"][2] - store.protocol.task.start[2] > 0.03  # let go on the way, 4 cm along z
+    assert 0 <= sent.send_error_m < send.radius
+    assert trials.loc["placing"][["send_error_m", "release_speed_error"]].isna().all()

@@ -97,7 +97,8 @@ def test_a_protocol_without_kinds_is_a_pick_and_place_as_before():
 
 
 @pytest.mark.parametrize("old, new, expected", [
-    ('kind = "catch"', 'kind = "juggle"', ["phases[0].kind = 'juggle'", "['pick_and_place', 'catch', 'stop_spin']"]),
+    ('kind = "catch"', 'kind = "juggle"', ["phases[0].kind = 'juggle'",
+                                           "['pick_and_place', 'catch', 'stop_spin', 'send']"]),
     ("launch_speed = 0.4", "launch_speed = -0.4", ["task.catch.launch_speed = -0.4", "positive number (m/s)"]),
     ("launch_speed = 0.4", 'launch_speed = "fast"', ["task.catch.launch_speed = 'fast'", "(m/s)"]),
     ("launch_speed = 0.4", "launch_speed = 40", ["task.catch.launch_speed = 40", "at most 10 (m/s)"]),
@@ -121,3 +122,67 @@ def test_bad_kinds_and_numbers_are_refused_naming_file_key_and_value(tmp_path, o
 def test_a_default_kind_in_the_task_table_needs_its_numbers_too(tmp_path):
     extra = '[task]\nkind = "catch"\n'
     assert_refused(kinds_protocol(tmp_path, extra), ["task.kind = 'catch'", "add a [task.catch] table"])
+
+
+SEND = """
+[task.send]
+target = [0.1, 0.2, 0.05]
+radius = 0.03
+arrival_s = 2.0
+
+[[phases]]
+name = "sending"
+interaction = "impulse_penetration"
+label = "System 1"
+kind = "send"
+
+[[phases]]
+name = "placing"
+interaction = "soft_hand"
+label = "System 2"
+
+[[timeline]]
+phase = "training"
+minutes = 6
+
+[[timeline]]
+phase = "sending"
+minutes = 12
+
+[[timeline]]
+phase = "placing"
+minutes = 12
+"""
+
+
+def test_a_send_phase_has_its_target_zone_and_starts_the_object_at_rest(tmp_path):
+    p = load_protocol(kinds_protocol(tmp_path, SEND))
+    assert p.kind("sending") == "send" and p.rules("sending").kind == "send"
+    assert p.task.send.target == (0.1, 0.2, 0.05) and p.task.send.radius == 0.03 and p.task.send.arrival_s == 2.0
+    assert p.start_motion("send") == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    again = protocol_from_resolved(p.resolved, "study.db")
+    assert again.task == p.task
+
+
+def test_a_simulated_study_refuses_a_kind_the_simulated_participant_does_not_play(tmp_path):
+    problems = load_protocol(kinds_protocol(tmp_path, SEND)).simulation_problems()
+    assert any("phases[0].kind = 'send'" in problem and "simulated participants play" in problem
+               for problem in problems)
+    assert not load_protocol(kinds_protocol(tmp_path, name="other.toml")).simulation_problems()
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("radius = 0.03", "radius = -0.03", ["task.send.radius = -0.03", "positive number (m)"]),
+    ("radius = 0.03", "radius = 30", ["task.send.radius = 30", "at most 10 (m)"]),
+    ("target = [0.1, 0.2, 0.05]", "target = [0.1, 0.2, 5.0]", ["task.send.target = [0.1, 0.2, 5.0]", "workspace"]),
+    ("target = [0.1, 0.2, 0.05]", "target = [0.1, 0.2]", ["task.send.target = [0.1, 0.2]", "3 finite"]),
+    ("arrival_s = 2.0", 'arrival_s = "soon"', ["task.send.arrival_s = 'soon'", "(seconds)"]),
+    ("arrival_s = 2.0", "arrival_s = 300", ["task.send.arrival_s = 300", "shorter than task.timeout_s = 240 s"]),
+    ("arrival_s = 2.0", "arrival_s = 2.0\narival = 1", ["unknown key task.send.arival"]),
+    ("[task.send]\ntarget = [0.1, 0.2, 0.05]\nradius = 0.03\narrival_s = 2.0\n", "",
+     ["phases[0].kind = 'send'", "add a [task.send] table"]),
+], ids=["negative radius", "radius too large", "target outside", "target of two", "arrival not a number",
+        "arrival too long", "unknown key", "no table"])
+def test_bad_send_numbers_are_refused_naming_file_key_and_value(tmp_path, old, new, expected):
+    assert old in SEND, old
+    assert_refused(kinds_protocol(tmp_path, SEND.replace(old, new, 1)), expected)
