@@ -64,21 +64,29 @@ def session_with_display(folder, display: ParticipantDisplay, gate: threading.Ev
     return thread
 
 
-def wait(driver, script: str):
+def wait(driver, script: str, what: str = ""):
+    """The first truthy value of ``script`` in the page, polled; fails after ``WORK_S`` naming ``what``
+    it waited for (the script itself when not given)."""
     from selenium.webdriver.support.ui import WebDriverWait
 
-    return WebDriverWait(driver, WORK_S, poll_frequency=0.05).until(lambda d: d.execute_script(script))
+    return WebDriverWait(driver, WORK_S, poll_frequency=0.05).until(
+        lambda d: d.execute_script(script), f"waited {WORK_S:g} s for {what or script}")
 
 
 def picture_at(driver, level: dict) -> np.ndarray:
     """A screenshot of the picture held still, drawn at ``level`` ({scale, antialias}) once the
-    page has drawn it there (its drawing buffer is the viewport times the scale) and shown it."""
+    page has drawn it there (its drawing buffer is the viewport times the scale) and shown it
+    unchanged for two animation frames."""
     driver.execute_script("window.microg.quality.fix(arguments[0])", level)
     drawn = wait(driver, "const p = window.microg.picture; return p.level === window.microg.quality.level "
                          "&& [p.width, p.height, p.frame];")
     size = np.array(driver.execute_script("return [innerWidth, innerHeight]"))
     assert np.array_equal(drawn[:2], np.floor(size * level["scale"])), (level, drawn)
-    wait(driver, f"return window.microg.picture.frame === {drawn[2]} && window.microg.animationFrames > {drawn[2] + 1}")
+    # still: no new picture for two animation frames (a new renderer may draw more than once at its level)
+    wait(driver, "const m = window.microg, p = m.picture; "
+                 "if (!m.still || m.still.frame !== p.frame) { m.still = {frame: p.frame, at: m.animationFrames}; "
+                 "return false; } return p.level === m.quality.level && m.animationFrames > m.still.at + 1;",
+         f"the picture drawn at {level} to stay unchanged for two animation frames")
     return np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
 
 
