@@ -364,14 +364,9 @@ def _move_holding(p, s, seen, grasps, draws):
 # -- starting a movement --------------------------------------------------------------------
 
 @njit(cache=True)
-def _begin_reach(p, s, seen, grasps, draws):
-    """Plan a grasp of the object as it lies now and reach for its pre-grasp pose (the object out
-    of reach, or lying so that the hand cannot grip it: wait for it)."""
-    t = seen.t
-    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
-    if _distance(seen.position, p.home) > REACH_RADIUS or not grasps[key].valid:
-        _enter(s, WAIT_FOR_OBJECT, t)
-        return
+def _take_grasp(p, s, grasps, key, draws):
+    """Take grasp ``key``: its orientation (a ball's in the world's axes, as the hand holds it), this
+    movement's aim error, and the grip opened to its pre-shape."""
     s.grasp = key
     if p.round_object:
         s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
@@ -380,6 +375,18 @@ def _begin_reach(p, s, seen, grasps, draws):
     for i in range(3):
         s.aim[i] = draws.normal(0.0, p.aim_sd)
     s.closure = -p.preshape_margin
+
+
+@njit(cache=True)
+def _begin_reach(p, s, seen, grasps, draws):
+    """Plan a grasp of the object as it lies now and reach for its pre-grasp pose (the object out
+    of reach, or lying so that the hand cannot grip it: wait for it)."""
+    t = seen.t
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
+    if _distance(seen.position, p.home) > REACH_RADIUS or not grasps[key].valid:
+        _enter(s, WAIT_FOR_OBJECT, t)
+        return
+    _take_grasp(p, s, grasps, key, draws)
     _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, True, s.end)
     _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
     _enter(s, REACH, t)
@@ -427,16 +434,10 @@ def _begin_intercept(p, s, seen, grasps, draws):
     if ahead < 0.0:
         _enter(s, WAIT_FOR_OBJECT, t)
         return
-    s.grasp = key
-    if p.round_object:
-        s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
-    else:
-        s.grasp_orientation[:] = grasps[key].orientation
+    _take_grasp(p, s, grasps, key, draws)
     for i in range(3):
-        s.aim[i] = draws.normal(0.0, p.aim_sd)
         s.catch_at[i] = seen.position[i] + seen.velocity[i] * ahead
     s.close_origin[:] = seen.position
-    s.closure = -p.preshape_margin
     _grasp_pose(p, s, grasps, s.closure, s.catch_at, seen.orientation, True, s.end)
     _begin_movement(s, t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
     _enter(s, INTERCEPT, t)

@@ -27,16 +27,16 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .holding import EPS, Holding, hold
+from .holding import EPS, Holding, Placeless, hold
 from .observation import Observation
 from .rules import TaskRules
-from .stages import COMPLETED, FINAL, TIMEOUT, TaskDisplay, TaskEvent
+from .stages import COMPLETED, TIMEOUT, TaskDisplay, TaskEvent
 
 APPROACH, CATCH = "approach", "catch"
 STAGES = (APPROACH, CATCH, COMPLETED, TIMEOUT)
 
 
-class CatchState(NamedTuple):
+class _CatchFields(NamedTuple):
     stage: str = APPROACH
     started: float | None = None
     ended: float | None = None
@@ -51,25 +51,11 @@ class CatchState(NamedTuple):
     time_to_catch: float | None = None
     """s from the first frame to the grasp that made the catch (None unless completed)."""
 
-    place = 0
-    """A catch has no places (what the frame log keeps of a place stays 0)."""
-    lit_since = None
 
-    @property
-    def held(self) -> bool:
-        return self.holding.held
+class CatchState(Placeless, _CatchFields):
+    """A catch's state: its stage, its hold, its touches and drops."""
 
-    @property
-    def finished(self) -> bool:
-        return self.stage in FINAL
-
-    @property
-    def completion_time(self) -> float | None:
-        return self.ended - self.started if self.stage == COMPLETED else None
-
-    def place_timer(self, t: float) -> float:
-        """0: a catch has no places."""
-        return 0.0
+    __slots__ = ()
 
 
 def advance(state: CatchState, obs: Observation, rules: TaskRules) -> tuple[CatchState, list[TaskEvent]]:

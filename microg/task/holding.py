@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 from .rules import TaskRules
+from .stages import COMPLETED, FINAL
 
 EPS = 1e-9
 """s: times that differ by less are equal (frame times are sums of float intervals)."""
@@ -44,3 +45,30 @@ def hold(holding: Holding, t: float, grasped: bool, rules: TaskRules) -> tuple[H
     if t - since >= rules.drop_grace_s - EPS:
         return Holding(), Change(ended=since)
     return Holding(True, None, since), Change()
+
+
+class Placeless:
+    """What the session and the frame log read of a task's state, for a kind without places (the
+    catch, the stop of a spin, the send): mixed into each kind's NamedTuple of fields, which has
+    ``stage``, ``started``, ``ended`` and ``holding``."""
+
+    __slots__ = ()
+    place = 0
+    """No places: what the frame log keeps of a place stays 0."""
+    lit_since = None
+
+    @property
+    def held(self) -> bool:
+        return self.holding.held
+
+    @property
+    def finished(self) -> bool:
+        return self.stage in FINAL
+
+    @property
+    def completion_time(self) -> float | None:
+        return self.ended - self.started if self.stage == COMPLETED else None
+
+    def place_timer(self, t: float) -> float:
+        """0: no places."""
+        return 0.0

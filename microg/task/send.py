@@ -39,10 +39,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .holding import EPS, Holding, hold
+from .holding import EPS, Holding, Placeless, hold
 from .observation import Observation
 from .rules import TaskRules
-from .stages import COMPLETED, FINAL, TIMEOUT, TaskDisplay, TaskEvent
+from .stages import COMPLETED, TIMEOUT, TaskDisplay, TaskEvent
 
 PICK_UP, CARRY, DRIFT = "pick_up", "carry", "drift"
 STAGES = (PICK_UP, CARRY, DRIFT, COMPLETED, TIMEOUT)
@@ -55,7 +55,7 @@ class Release(NamedTuple):
     velocity: tuple[float, float, float]
 
 
-class SendState(NamedTuple):
+class _SendFields(NamedTuple):
     stage: str = PICK_UP
     started: float | None = None
     ended: float | None = None
@@ -73,25 +73,11 @@ class SendState(NamedTuple):
     send_error: float | None = None
     """m: the entry point's distance from the target's centre (the last miss's closest approach)."""
 
-    place = 0
-    """A send has no places (what the frame log keeps of a place stays 0)."""
-    lit_since = None
 
-    @property
-    def held(self) -> bool:
-        return self.holding.held
+class SendState(Placeless, _SendFields):
+    """A send's state: its stage, its hold, the release and the drift's closest approach."""
 
-    @property
-    def finished(self) -> bool:
-        return self.stage in FINAL
-
-    @property
-    def completion_time(self) -> float | None:
-        return self.ended - self.started if self.stage == COMPLETED else None
-
-    def place_timer(self, t: float) -> float:
-        """0: a send has no places."""
-        return 0.0
+    __slots__ = ()
 
 
 def advance(state: SendState, obs: Observation, rules: TaskRules) -> tuple[SendState, list[TaskEvent]]:

@@ -30,16 +30,16 @@ import numpy as np
 
 from microg.sim.rotation import quat_to_matrix
 
-from .holding import EPS, Holding, hold
+from .holding import EPS, Holding, Placeless, hold
 from .observation import Observation
 from .rules import TaskRules
-from .stages import COMPLETED, FINAL, TIMEOUT, TaskDisplay, TaskEvent
+from .stages import COMPLETED, TIMEOUT, TaskDisplay, TaskEvent
 
 SPINNING, RESTING = "spinning", "resting"
 STAGES = (SPINNING, RESTING, COMPLETED, TIMEOUT)
 
 
-class StopSpinState(NamedTuple):
+class _StopSpinFields(NamedTuple):
     stage: str = SPINNING
     started: float | None = None
     ended: float | None = None
@@ -52,25 +52,11 @@ class StopSpinState(NamedTuple):
     time_to_rest: float | None = None
     """s from the first frame to the rest that completed the task (None unless completed)."""
 
-    place = 0
-    """A stop of a spin has no places (what the frame log keeps of a place stays 0)."""
-    lit_since = None
 
-    @property
-    def held(self) -> bool:
-        return self.holding.held
+class StopSpinState(Placeless, _StopSpinFields):
+    """A stop of a spin's state: its stage, its hold, its rest and whether it flipped."""
 
-    @property
-    def finished(self) -> bool:
-        return self.stage in FINAL
-
-    @property
-    def completion_time(self) -> float | None:
-        return self.ended - self.started if self.stage == COMPLETED else None
-
-    def place_timer(self, t: float) -> float:
-        """0: a stop of a spin has no places."""
-        return 0.0
+    __slots__ = ()
 
 
 def advance(state: StopSpinState, obs: Observation, rules: TaskRules) -> tuple[StopSpinState, list[TaskEvent]]:
