@@ -115,6 +115,9 @@ KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin
 """Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
 and ``attempts``: the analysis reads a kind's tasks with them (``microg.task.kinds.MEASURES`` names
 the same columns for the export)."""
+KIND_ATTEMPTS = {"pick_and_place": "drops", "catch": "touches that did not hold", "stop_spin": "drops",
+                 "send": "misses"}
+"""What a task kind's ``attempts`` count (``microg.task``'s rules)."""
 PROPORTIONS = ("flipped",)
 """Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""
 SIGNED = ("release_speed_error",)

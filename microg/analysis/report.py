@@ -204,12 +204,12 @@ def write_figures(analysis: StudyAnalysis, folder: Path, found: QuestionnaireAna
     kind = "" if _plain(a) else f"{a.kind}_"
     figures = []
     for name, dv in a.analysed():
-        cells = a.table("cells", name, dv)
-        fig = plot_bars(cells, "value", a.table("posthoc", name, dv), a.within, a.group, ylabel=r.measure_label(dv),
+        cells, label = a.table("cells", name, dv), r.measure_label(dv, a.kind)
+        fig = plot_bars(cells, "value", a.table("posthoc", name, dv), a.within, a.group, ylabel=label,
                         title=a.label(name))  # fmt: skip
         caption = (
             ("" if _plain(a) else f"{kind_title(a.kind)}: ")
-            + f"{r.measure_label(dv).capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
+            + f"{label.capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
             "\u00b1 SE, dots individual participants (n per group in the legend); brackets mark "
             "Bonferroni-significant post hoc comparisons (* p < .05, ** p < .01, *** p < .001)"
         )
@@ -237,7 +237,7 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
     for name, dv in a.analysed():
         post = a.table("posthoc", name, dv)
         block = {
-            "title": f"{r.measure_label(dv).capitalize()}, {a.label(name)}",
+            "title": f"{r.measure_label(dv, a.kind).capitalize()}, {a.label(name)}",
             "results": r.anova_paragraph(a, name, dv),
             "assumptions": r.assumptions_paragraph(a, name, dv),
             "tables": [
@@ -261,7 +261,7 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
         blocks.append(block)
     models = [
         {
-            "title": f"{r.measure_label(dv).capitalize()}, every finished task: linear mixed model",
+            "title": f"{r.measure_label(dv, a.kind).capitalize()}, every finished task: linear mixed model",
             "results": r.trial_model_paragraph(a, dv),
             "tables": [
                 ("Type 3 F tests (Satterthwaite df)", r.trial_anova_table(a, dv)),
@@ -351,11 +351,11 @@ def _kind_sections(analysis: StudyAnalysis, sections: dict) -> dict:
     for key in ("sample", "dropped"):
         if sections[key] is not None:
             prefixed[key] = sections[key].assign(Analysis=f"{title}: " + sections[key]["Analysis"])
-    analysed = sorted({r.measure_label(dv) for _, dv in a.analysed()})
+    analysed = sorted({r.measure_label(dv, a.kind) for _, dv in a.analysed()})
     not_tested = [text for text in a.warnings if text.startswith("No ") and " ANOVA for " in text]
     prefixed["kinds"] = [{
         "title": title,
-        "text": (f"Measures: {', '.join(r.measure_label(dv) for dv in a.measures)}. "
+        "text": (f"Measures: {', '.join(r.measure_label(dv, a.kind) for dv in a.measures)}. "
                  + (f"Mixed ANOVA of {', '.join(analysed)}." if analysed else
                     "No mixed ANOVA: the design does not allow one (below); the cell means describe the tasks.")),
         "notes": not_tested,

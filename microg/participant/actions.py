@@ -14,16 +14,24 @@ a clean run goes through them:
     corrective carries) -> open -> retreat -> watch -> done
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
-open, back off, reach again). The other task kinds (``PLAYER.kind``) take the object and keep it:
+open, back off, reach again). The catch and the stop of a spin (``PLAYER.kind``) take the object
+and keep it; the send takes it and pushes it off toward the target:
 
     catch:     wait -> intercept -> descend -> close -> squeeze -> keep -> done
     stop_spin: wait -> reach -> descend -> close -> squeeze -> keep -> done
+    send:      wait -> reach -> descend -> close -> squeeze -> push -> open -> retreat (braking) -> watch
+               -> done (the send missed: wait -> reach ... again)
 
 A catch's ``intercept`` moves the pre-shaped hand into the launched object's path, above the point
 where it will be once the hand is there (zero gravity: x + v t, from the velocity it is seen moving
 at), and waits; as the object arrives it descends onto it, following it (so that it ends moving
 with it), closes and squeezes moving with it, and brakes to a stop in ``BRAKE_S`` (a soft catch).
-A catch's object that moves slower than ``MOVING_SPEED`` is reached for as it lies. Random draws
+A catch's object that moves slower than ``MOVING_SPEED`` is reached for as it lies. A send's
+``push`` aims the held object at the target (with the aim error) and brings it up to the speed that
+drifts there in ``arrival_s`` as the participant's own clock runs (``clock_cv``), its speed rising
+smoothly over ``PUSH_S``; the hand opens coasting on at that speed, then brakes as it withdraws
+(in ``BRAKE_S``). A send that the task shows missed (back to its pick-up stage) is fetched and sent
+again. Random draws
 come from the participant's ``decisions`` generator. Everything is compiled (numba): a session
 calls ``participant.next_frame`` once a frame, and an in-silico study steps many participants and
 their worlds in one compiled loop, with the same code.
@@ -37,7 +45,7 @@ import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
-from microg.task.rules import CATCH, PICK_AND_PLACE, STOP_SPIN
+from microg.task.rules import CATCH, PICK_AND_PLACE, SEND, STOP_SPIN
 from .anatomy import REST
 from .grasp import CLOSURES, choose_grasp
 from .motion import minimum_jerk_at, movement_time
@@ -85,23 +93,29 @@ MAX_PLACES = 8
 MOVING_SPEED = 0.02
 """m/s: a catch's object moving at least this fast is intercepted in its path, a slower one reached for."""
 BRAKE_S = 0.3
-"""s: a catching hand, moving with the object it took, slows to a stop in this time (evenly)."""
+"""s: a catching hand, moving with the object it took, slows to a stop in this time (evenly); so does
+a sending hand as it withdraws from the object it let go."""
+PUSH_S = 0.4
+"""s: a send brings the held object up to its release speed in this time (the speed rising as a
+minimum-jerk movement's position does, so that the push starts and ends without a jolt)."""
 
 ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "lift", "carry", "hold", "retry",
-           "open", "retreat", "watch", "done", "intercept", "keep")
+           "open", "retreat", "watch", "done", "intercept", "keep", "push")
 """The participant's actions ("phase" is the study's timeline, "stage" the task's): ``STATE.action``
 is an index into this tuple."""
 (WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
- DONE, INTERCEPT, KEEP) = range(len(ACTIONS))
-KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN)
+ DONE, INTERCEPT, KEEP, PUSH) = range(len(ACTIONS))
+KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND)
 """The task kinds a participant plays, as ``PLAYER.kind`` gives them (``microg.task.rules.KINDS``)."""
-PLACING, CATCHING = 0, 1
-"""``PLAYER.kind`` codes: the pick-and-place, the catch."""
+PLACING, CATCHING, SENDING = (KIND_CODES.index(kind) for kind in (PICK_AND_PLACE, CATCH, SEND))
+"""``PLAYER.kind`` codes: the pick-and-place, the catch, the send."""
 STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout", "approach", "catch", "spinning",
-               "resting")
-"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch`` and ``stop_spin``)."""
-MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH = 0, 2, 3, 4, 5
-"""``SEEN.stage`` codes: manipulation, release, the two that end the task, a catch's approach."""
+               "resting", "pick_up", "carry", "drift")
+"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch``, ``stop_spin``
+and ``send``)."""
+MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP = 0, 2, 3, 4, 5, 9
+"""``SEEN.stage`` codes: manipulation, release, the two that end the task, a catch's approach, a
+send's pick-up."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
          "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s")
@@ -113,7 +127,7 @@ PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
     ("mirror", "f8"), ("caution", "f8"),
     ("round_object", "?"), ("half", "f8", (3,)), ("mass", "f8"), ("static_friction", "f8"), ("gravity", "f8", (3,)),
     ("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8"),
-    ("release", "f8", (3,)), ("has_release", "?"),
+    ("release", "f8", (3,)), ("has_release", "?"), ("target", "f8", (3,)), ("arrival_s", "f8"),
     ("period", "f8"), ("jitter_sd", "f8"), ("p_one_missing", "f8"), ("p_two_missing", "f8"),
     ("noise_tau", "f8"), ("noise_sd", "f8", (16,)), ("tremor_centre", "f8"), ("tremor_base", "f8"),
 ], align=True)
@@ -121,8 +135,8 @@ PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
 task's kind (``KIND_CODES``), the direction its grip squeezes most along (``grasp.choose_grasp``),
 where the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
 caution with this object, the object (ball or box, half extents, mass, friction), the gravity, the
-places and the hold (a place's, a catch's or a rest's), where to let go, the frame timing and the
-tremor and noise constants."""
+places and the hold (a place's, a catch's or a rest's), where to let go, a send's target and drift
+time, the frame timing and the tremor and noise constants."""
 STATE = np.dtype([
     ("time", "f8"), ("action", "i8"), ("since", "f8"), ("go_at", "f8"),
     ("pose", _POSE), ("start", _POSE), ("end", _POSE), ("begin", "f8"), ("duration", "f8"),
@@ -141,7 +155,8 @@ it saw (its own count; the task keeps the official one); ``in_hand`` where the o
 hand when the grip settled (hand frame), ``close_origin`` where it was when closing began (a
 catching hand's: where it should be, moving on at ``drift``); ``released_since``, ``dark_since``:
 NaN for none; ``catch_at``: where the intercepting hand waits for the object's centre; ``drift``:
-the velocity a catching hand moves on at with the object, and brakes from (zero otherwise)."""
+the velocity a catching hand moves on at with the object, and brakes from, or a send's release
+velocity, which the sending hand coasts on at and brakes from (zero otherwise)."""
 SEEN = np.dtype([
     ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
     ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"), ("velocity", "f8", (3,)),
@@ -453,6 +468,20 @@ def _begin_keep(p, s, seen, draws):
 
 
 @njit(cache=True)
+def _begin_push(p, s, seen, draws):
+    """Plan the send from where the object is held, after a pause: toward the target (with an aim
+    error), at the speed v that drifts there in ``arrival_s`` on the participant's own clock; the
+    push covers v ``PUSH_S`` / 2 of the way, so v = distance / (arrival + ``PUSH_S`` / 2)."""
+    arrival = p.arrival_s * (1.0 + draws.normal(0.0, p.clock_cv))
+    for i in range(3):
+        s.drift[i] = (p.target[i] + draws.normal(0.0, p.aim_sd) - seen.position[i]) / (arrival + PUSH_S / 2.0)
+    _object_in_hand(s, seen, s.in_hand)
+    _copy_pose(s.pose, s.end)
+    _begin_movement(s, seen.t + pause(p, draws, 0.0), PUSH_S)
+    _enter(s, PUSH, seen.t)
+
+
+@njit(cache=True)
 def _begin_carry(p, s, seen, draws, delay):
     """Carry the object to the current destination (with an aim error), after ``delay`` (s)."""
     goal = _destination(p, s)
@@ -567,6 +596,9 @@ def squeeze(p, s, seen, grasps, draws):
     _closing(s, grasps, seen, p, limit)
     if _check_drop(p, s, seen, grasps, draws, True) or s.closure < limit or seen.t - s.since < SETTLE_S:
         return
+    if p.kind == SENDING:
+        _begin_push(p, s, seen, draws)
+        return
     if p.kind != PLACING:
         _begin_keep(p, s, seen, draws)
         return
@@ -670,6 +702,31 @@ def intercept(p, s, seen, grasps, draws):
 
 
 @njit(cache=True)
+def push(p, s, seen, grasps, draws):
+    """Push the held object off toward the target: the hand's speed rises from rest to the release
+    speed (``drift``) over ``PUSH_S`` as minimum jerk, so it has gone drift x ``PUSH_S`` x (2.5 tau^4 -
+    3 tau^5 + tau^6) at tau of the push (the speed's integral); then let go, coasting on."""
+    tau = min(max((seen.t - s.begin) / s.duration, 0.0), 1.0)
+    gone = s.duration * tau ** 4 * (2.5 - 3.0 * tau + tau * tau)
+    for i in range(3):
+        s.pose.position[i] = s.start.position[i] + s.drift[i] * gone
+    _closing(s, grasps, seen, p, s.grip)
+    if not _keep_grip(p, s, seen, grasps, draws) and tau >= 1.0:
+        _begin_open(p, s, grasps, seen.t)
+
+
+@njit(cache=True)
+def _coast(s, seen):
+    """A sending hand coasts on at the release velocity (``drift``) while it opens, then brakes to a
+    stop in ``BRAKE_S`` as it withdraws: its movement is carried along."""
+    factor = 1.0 if s.action == OPEN else max(1.0 - (seen.t - s.since) / BRAKE_S, 0.0)
+    for i in range(3):
+        step = s.drift[i] * factor * seen.dt
+        s.start.position[i] += step
+        s.end.position[i] += step
+
+
+@njit(cache=True)
 def _ride(p, s, seen, grasps, draws):
     """A catching hand moves on at the object's velocity (``drift``) while it closes on it (its pose,
     and where the object should be: ``close_origin``); an object that is not where it should be
@@ -701,11 +758,16 @@ def keep(p, s, seen, grasps, draws):
 
 @njit(cache=True)
 def open_hand(p, s, seen, grasps, draws):
-    """Open the grip, then withdraw quickly, out of the back of the hand."""
+    """Open the grip, then withdraw quickly, out of the back of the hand; a sending hand stays open
+    and brakes (``_coast``), and the object drifts on out of it."""
     if _move(s, seen.t) < 1.0:
         return
-    rotation = quat_to_matrix(s.pose.orientation)
     _copy_pose(s.pose, s.end)
+    if p.kind == SENDING:
+        _begin_movement(s, seen.t, BRAKE_S)
+        _enter(s, RETREAT, seen.t)
+        return
+    rotation = quat_to_matrix(s.pose.orientation)
     for i in range(3):
         for k in range(3):
             s.end.position[i] += rotation[i, k] * RETREAT_OFFSET[k]
@@ -718,13 +780,20 @@ def open_hand(p, s, seen, grasps, draws):
 def retreat(p, s, seen, grasps, draws):
     """Withdraw the open hand, then watch the object."""
     if _move(s, seen.t) >= 1.0:
+        s.drift[:] = 0.0
         _enter(s, WATCH, seen.t)
 
 
 @njit(cache=True)
 def watch(p, s, seen, grasps, draws):
     """Stay until the object is seen away from the hand (with a display: until the task shows it
-    is over); if it still clings after ``WATCH_S``, open and back off again."""
+    is over, or that a send missed: fetch it again); if it still clings after ``WATCH_S``, open and
+    back off again."""
+    if p.kind == SENDING and seen.has_display and seen.stage == PICK_UP:
+        s.attempts += 1
+        s.go_at = seen.t + pause(p, draws, p.drop_pause_s)
+        _enter(s, WAIT, seen.t)
+        return
     away = _distance(seen.position, s.pose.position) > RELEASED_DISTANCE and not seen.grasped
     if away and not seen.has_display:
         _enter(s, DONE, seen.t)
@@ -736,13 +805,13 @@ def watch(p, s, seen, grasps, draws):
 def follow_display(p, s, seen, grasps, draws):
     """React to what the task display shows, before the action does; False if it changes nothing.
     The task is over: done. The task shows the object not held (a pick-and-place's manipulation, a
-    catch's approach) while the hand thinks it holds it: go back for it (after a reaction time in
-    the action)."""
+    catch's approach, a send's pick-up) while the hand thinks it holds it: go back for it (after a
+    reaction time in the action)."""
     if seen.stage == COMPLETED or seen.stage == TIMEOUT:
         _enter(s, DONE, seen.t)
         return True
-    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP
-    loose = seen.stage == MANIPULATION or seen.stage == APPROACH
+    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP or s.action == PUSH
+    loose = seen.stage == MANIPULATION or seen.stage == APPROACH or seen.stage == PICK_UP
     if loose and holding and seen.t - s.since > p.reaction_s:
         s.attempts += 1
         _begin_retry(p, s, grasps, draws, seen.t, True)
@@ -759,6 +828,8 @@ def decide(p, s, seen, grasps, draws):
     if p.kind == CATCHING and (action == DESCEND or action == CLOSE or action == SQUEEZE) \
             and _ride(p, s, seen, grasps, draws):
         return
+    if p.kind == SENDING and (action == OPEN or action == RETREAT):
+        _coast(s, seen)
     if action == WAIT:
         wait(p, s, seen, grasps, draws)
     elif action == WAIT_FOR_OBJECT:
@@ -789,3 +860,5 @@ def decide(p, s, seen, grasps, draws):
         intercept(p, s, seen, grasps, draws)
     elif action == KEEP:
         keep(p, s, seen, grasps, draws)
+    elif action == PUSH:
+        push(p, s, seen, grasps, draws)

@@ -1,5 +1,5 @@
 """The simulated participant: a closed-loop motor model that plays a task (a pick-and-place, a
-catch, a stop of a spin).
+catch, a stop of a spin, a send).
 
     participant = SimulatedParticipant(plan, "veteran", seed=7)
     for moment in play(world, Tracking(participant), plan.rules):   # microg.task.play
@@ -43,7 +43,7 @@ from numba.typed import List
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.skeleton import BONES_PER_HAND, SIDES, HandFrame, side_slots
 from microg.task import Observation
-from microg.task.rules import CATCH, STOP_SPIN, TaskRules
+from microg.task.rules import CATCH, SEND, STOP_SPIN, TaskRules
 from .actions import ACTIONS, DONE, KIND_CODES, MAX_PLACES, PLAYER, SEEN, SKILL, STAGE_CODES, STATE, decide, pause
 from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .grasp import TOWARD_USER, UP, grasps
@@ -92,6 +92,8 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     places = np.asarray(rules.places, dtype=np.float64)
     player["places"][:len(places)] = places
     player["n_places"], player["place_radius"], player["hold_s"] = len(places), rules.place_radius, kind_hold_s(rules)
+    if rules.kind == SEND:
+        player["target"], player["arrival_s"] = rules.send.target, rules.send.arrival_s
     player["has_release"] = plan.release_position is not None
     if plan.release_position is not None:
         player["release"] = plan.release_position
@@ -109,12 +111,17 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
 
 def squeezed_toward(rules: TaskRules) -> np.ndarray:
     """The direction the grip squeezes most along (``grasp.choose_grasp``): toward the user, or
-    for a catch across the launch's path (its horizontal normal, on the user's side), so that the
-    object flies in between the thumb and the fingers."""
-    if rules.kind != CATCH:
+    across the object's path (its horizontal normal, on the user's side) for a catch (the launch's)
+    and a send (from the start to the target), so that the object flies in between the thumb and the
+    fingers, or out from between them, and no digit stands in its way."""
+    if rules.kind == CATCH:
+        path = np.asarray(rules.catch.direction, dtype=np.float64)
+    elif rules.kind == SEND:
+        path = np.subtract(rules.send.target, rules.start)
+    else:
         return TOWARD_USER
-    across = np.cross(rules.catch.direction, UP)
-    if np.linalg.norm(across) < 1e-6:  # launched straight up or down: any side will do
+    across = np.cross(path, UP)
+    if np.linalg.norm(across) < 1e-6 * np.linalg.norm(path):  # straight up or down: any side will do
         return TOWARD_USER
     across /= np.linalg.norm(across)
     return across if across @ TOWARD_USER >= 0 else -across

@@ -291,19 +291,11 @@ class Protocol:
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
         value): a group's skill profile that does not exist, an instrument the rating model does not
-        answer, a task kind the simulated participant does not play. Empty when simulated sessions
-        can run it."""
-        from microg.participant.actions import KIND_CODES
+        answer. Empty when simulated sessions can run it."""
         from microg.participant.ratings import unanswered
         from microg.participant.skill import PROFILES
 
         problems = []
-        kinds = [(f"phases[{i}].kind", p.kind) for i, p in enumerate(self.phases)]
-        if self.training is not None:
-            kinds.append(("training.kind", self.training.kind))
-        for key, kind in kinds:
-            if kind not in KIND_CODES:
-                problems.append(f"{self.where}: {key} = {kind!r}: simulated participants play {list(KIND_CODES)}")
         profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
         for i, group in enumerate(self.groups):
             if group.player is None:
@@ -893,8 +885,9 @@ def _renamed(reader: _Reader, old: str, message: str) -> None:
 
 def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
     """``[[phases]]``: each phase's name, the interaction model it runs, how the participant
-    hears it named, the display latency it adds and its task kind; a study compares different
-    interaction models, so no two phases run the same one."""
+    hears it named, the display latency it adds and its task kind. The report compares interaction
+    models within each task kind, so no two phases run the same model with the same kind; phases of
+    one model share its label (the participant hears one name for it, and is asked about it once)."""
     _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
                             "but `system` is now `interaction`)")
     phases = []
@@ -911,12 +904,18 @@ def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
     for i, phase in enumerate(phases):
-        earlier = next((j for j in range(i) if phases[j].interaction == phase.interaction), None)
-        if earlier is not None:
-            raise top.fail(f"phases[{i}].interaction", phase.interaction, f"phases[{earlier}] runs this interaction "
-                           "model already; a study compares different interaction models (answers and tables are "
-                           "kept per interaction model)")
-    top.unique("phases", [p.label for p in phases], "label")
+        for j, other in enumerate(phases[:i]):
+            if (other.interaction, other.kind) == (phase.interaction, phase.kind):
+                raise top.fail(f"phases[{i}].interaction", phase.interaction, f"phases[{j}] runs this interaction "
+                               f"model already with the same task kind ({phase.kind}); the report compares "
+                               "interaction models within each task kind: give this phase another model or kind")
+            if (other.interaction == phase.interaction) != (other.label == phase.label):
+                same = other.interaction == phase.interaction
+                raise top.fail(f"phases[{i}].label", phase.label, f"phases[{j}] runs "
+                               f"{'the same' if same else 'another'} interaction model and is labelled "
+                               f"{other.label!r}: the participant hears each interaction model named by one label "
+                               "of its own"
+                               + ("" if same else f" ({phase.label!r} appears twice)"))
     return tuple(phases)
 
 
@@ -998,7 +997,7 @@ def _read_timeline(top: _Reader, *, groups: tuple[Group, ...], phases: tuple[Tas
     asked: dict[tuple[str, str, str], int] = {}
     for i, phase in enumerate(timeline):
         for instrument in phase.instruments:
-            for about in (p.name if p else "" for p in _about(phase, phases)):
+            for about in (p.interaction if p else "" for p in _about(phase, phases)):
                 key = (instrument, phase.administration, about)
                 if key in asked:
                     raise top.fail(f"timeline[{i}].administration", phase.administration, f"timeline[{asked[key]}] "
@@ -1038,7 +1037,7 @@ def _read_asking(p: _Reader, name: str, *, reserved: tuple[str, ...], phases: tu
 def _about(phase: Phase, phases: tuple[TaskPhase, ...]) -> tuple[TaskPhase | None, ...]:
     """What a questionnaire phase asks about (``Protocol.about``, before the protocol exists)."""
     if phase.about == ABOUT_EACH:
-        return phases
+        return tuple(p for i, p in enumerate(phases) if all(q.interaction != p.interaction for q in phases[:i]))
     return tuple(p for p in phases if p.name == phase.about) or (None,)
 
 

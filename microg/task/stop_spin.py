@@ -14,9 +14,14 @@ Rules (times are the observations' clock; omega is the object's angular velocity
   to spinning.
 - *Completed* once the object has been at rest ``hold_s``. **Completion time** runs from the task's
   first frame to then; **time to rest** to when that rest began.
-- *Flipped*: the object's spin axis turned more than 90 degrees from ``spin_axis`` in the object's
-  own frame (the intermediate-axis flip), seen while it turned freely (nothing touched it) at
-  ``rest_omega`` or faster: a grip that brakes the spin and makes it turn back is no flip.
+- *Flipped*: the object's spin axis, in the object's own frame, turned more than 90 degrees while
+  it turned freely at ``rest_omega`` or faster (the intermediate-axis flip): nothing touched it at
+  the frame's end and its centre's velocity changed less than ``FREE_DV`` since the frame before
+  (a touch within the frame, over by its end, changes it; a falling object is never free, so flips
+  are judged in weightlessness),
+  from the axis it turned about when that free spell began (the first spell's: ``spin_axis``, as
+  the task starts it), so that a grip that brakes the spin and makes it turn back, or a touch that
+  knocks it into another spin, is no flip.
 - *Attempts* are drops: holds that ended before the task was completed.
 - *Timeout*: a task still unfinished ``timeout_s`` after its first frame ends as not completed
   (the object never came to rest).
@@ -37,6 +42,9 @@ from .stages import COMPLETED, TIMEOUT, TaskDisplay, TaskEvent
 
 SPINNING, RESTING = "spinning", "resting"
 STAGES = (SPINNING, RESTING, COMPLETED, TIMEOUT)
+FREE_DV = 1e-4
+"""m/s: an object whose centre's velocity changed more than this from one frame to the next was
+touched (a free object in weightlessness keeps it to round-off)."""
 
 
 class _StopSpinFields(NamedTuple):
@@ -47,6 +55,11 @@ class _StopSpinFields(NamedTuple):
     rest_since: float | None = None
     """When the current rest began (None while spinning)."""
     flipped: bool = False
+    free_axis: tuple[float, float, float] | None = None
+    """The spin axis in the object's frame when the current free spell began (None: not free)."""
+    last_velocity: tuple[float, float, float] | None = None
+    """The object's centre's velocity at the frame before (None at the first frame, which shows the
+    object moving as the task started it)."""
     attempts: int = 0
     """Drops so far: holds lost before the task was completed."""
     time_to_rest: float | None = None
@@ -80,10 +93,17 @@ def advance(state: StopSpinState, obs: Observation, rules: TaskRules) -> tuple[S
         state = state._replace(attempts=attempts)
     omega = np.asarray(obs.angular_velocity, dtype=np.float64)
     rate = float(np.linalg.norm(omega))
-    free = not obs.grasped and (obs.touching is None or not np.any(obs.touching))
-    if not state.flipped and free and rate >= spin.rest_omega:
+    velocity = tuple(float(v) for v in obs.velocity)
+    steady = state.last_velocity is None or float(np.linalg.norm(np.subtract(velocity, state.last_velocity))) < FREE_DV
+    free = steady and not obs.grasped and (obs.touching is None or not np.any(obs.touching))
+    state = state._replace(last_velocity=velocity)
+    if not free or rate < spin.rest_omega:
+        state = state._replace(free_axis=None)
+    elif not state.flipped:
         own = quat_to_matrix(np.asarray(obs.orientation, dtype=np.float64)).T @ omega
-        if float(own @ np.asarray(spin.spin_axis)) < 0.0:
+        if state.free_axis is None:
+            state = state._replace(free_axis=tuple(float(w) for w in own))
+        if float(own @ np.asarray(state.free_axis)) < 0.0:
             events.append(TaskEvent(t, "flip", {"omega": [float(w) for w in own]}))
             state = state._replace(flipped=True)
     at_rest = rate < spin.rest_omega and (state.held or float(np.linalg.norm(obs.velocity)) < spin.rest_speed)

@@ -1,6 +1,6 @@
 """The simulated participant plays the other task kinds in the real physics: it catches a launched
-cube and stops a spinning one (checked from the recorded object and hand), and a launch it cannot
-reach times out untouched."""
+cube, stops a spinning one and sends one to a target (checked from the recorded object and hand),
+and a launch it cannot reach times out untouched."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from microg.hands import Tracking
 from microg.participant import SimulatedParticipant
@@ -18,13 +19,15 @@ from microg.study.session import task_world
 from microg.study.store import PlannedTask
 from microg.task import COMPLETED, TIMEOUT, play
 
-PROTOCOL = load_protocol(Path(__file__).parents[1] / "study" / "protocols" / "kinds-simulated.toml")
+PROTOCOLS = Path(__file__).parents[1] / "study" / "protocols"
+PROTOCOL = load_protocol(PROTOCOLS / "kinds-simulated.toml")
+SENDING = load_protocol(PROTOCOLS / "send.toml")
 
 
-def plan_and_world(phase: str):
-    interaction = next(p.interaction for p in PROTOCOL.phases if p.name == phase)
+def plan_and_world(phase: str, protocol=PROTOCOL):
+    interaction = next(p.interaction for p in protocol.phases if p.name == phase)
     task = PlannedTask(0, phase, interaction, "cube", "C", 1)
-    return participant_plan(PROTOCOL, task), task_world(PROTOCOL, task)
+    return participant_plan(protocol, task), task_world(protocol, task)
 
 
 def played(plan, world, seed):
@@ -104,3 +107,46 @@ def test_a_launch_away_from_the_hand_beyond_its_reach_times_out_untouched():
     assert state.stage == TIMEOUT and state.attempts == 0
     assert not r["touched"].any() and not r["grasped"].any()
     assert sum(e.kind == "respawn" for m in moments for e in m.events) >= 3
+
+
+def _drift_line(r, since, until):
+    """The straight line (a point and the velocity) that the object drifts on, free, between the
+    release at ``since`` and ``until``: from the last frame before ``until`` at which its velocity
+    changed (the open hand coasts along with it for a while, and its palm may still nudge it)."""
+    window = np.flatnonzero((r["t"] >= since) & (r["t"] < until))
+    changed = np.flatnonzero(np.any(r["velocity"][window][1:] != r["velocity"][window][:-1], axis=1))
+    free = window[changed[-1] + 1 if len(changed) else 0:]
+    return r["position"][free[0]], r["velocity"][free[0]], r["physics_t"][free[0]], free
+
+
+def _closest(point, velocity, centre):
+    f = np.subtract(centre, point)
+    return float(np.linalg.norm(f - max(f @ velocity / (velocity @ velocity), 0.0) * velocity))
+
+
+def test_a_veteran_sends_the_cube_misses_once_and_sends_it_again_into_the_target_zone():
+    """Each send's drift, once the hand has let go, is the straight line of its velocity (zero
+    gravity): the miss's closest approach and the arrival's send error are that line's closest
+    approach to the target, the release is where the recorded grasp went, and the second send
+    arrives in the zone."""
+    plan, world = plan_and_world("sending", SENDING)
+    moments, r = played(plan, world, 2)
+    state, send = moments[-1].state, SENDING.task.send
+    events = [e for m in moments for e in m.events]
+    releases, misses = [e for e in events if e.kind == "release"], [e for e in events if e.kind == "miss"]
+    assert state.stage == COMPLETED and state.attempts == len(misses) == 1 and len(releases) == 2
+    for release in releases:  # where and as fast as the object moved at the first frame the grasp was gone
+        at = np.flatnonzero((r["t"] <= release.t) & r["grasped"])[-1] + 1
+        np.testing.assert_allclose(release.data["position"], r["position"][at], atol=1e-12)
+        assert release.data["speed"] == pytest.approx(np.linalg.norm(r["velocity"][at]), abs=1e-12)
+    for since, until, measured in ((releases[0].t, misses[0].t, misses[0].data["closest_m"]),
+                                   (releases[1].t, np.inf, state.send_error)):
+        point, velocity, t0, free = _drift_line(r, since, until)
+        assert len(free) > 10
+        np.testing.assert_allclose(r["position"][free], point + np.outer(r["physics_t"][free] - t0, velocity),
+                                   atol=1e-6)
+        assert measured == pytest.approx(_closest(point, velocity, send.target), abs=1e-6)
+    assert misses[0].data["closest_m"] > send.radius > state.send_error
+    last = releases[1]
+    due = np.linalg.norm(np.subtract(last.data["position"], send.target)) / send.arrival_s
+    assert state.release_speed_error == pytest.approx(last.data["speed"] - due, abs=1e-12)

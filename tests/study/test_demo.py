@@ -9,6 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from microg.cli import main
+from microg.study.protocol import load_protocol
 
 from .conftest import PROTOCOLS
 
@@ -111,3 +112,28 @@ def test_a_study_of_task_kinds_runs_to_a_report_of_each_kinds_measures(tmp_path)
         assert set(described["measure"]) == {m for m in measures if tasks[m].notna().any()}
         flips = described[described["measure"] == "flipped"]["mean"]
         assert flips.between(0, 1).all()
+
+
+def test_a_simulated_skills_study_trains_a_catch_then_stops_a_spin_and_sends_to_a_report(tmp_path):
+    """The microgravity-skills protocol (the cube only, a short timeout) end to end: the veterans'
+    training catch, then everyone's stop of a spin and send with one interaction model, logged,
+    exported and reported per kind, and that interaction model rated once by each participant."""
+    protocol = PROTOCOLS / "skills-quick.toml"
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path), "--participants", "2", "--seed", "1", "--jobs",
+                                       "1", "--protocol", str(protocol), "--quiet"])
+    assert result.exit_code == 0, result.output
+    trials = pd.read_csv(tmp_path / "tables" / "trials.csv")
+    played = set(trials[["group", "phase", "task_kind"]].itertuples(index=False, name=None))
+    assert played == {("V", "training", "catch"), ("V", "stopping", "stop_spin"), ("B", "stopping", "stop_spin"),
+                      ("V", "sending", "send"), ("B", "sending", "send")}
+    arrived = trials[(trials["task_kind"] == "send") & (trials["status"] == "completed")]
+    radius = load_protocol(protocol).task.send.radius
+    assert len(arrived) and (arrived["send_error_m"] < radius).all()  # an arrival's line passes through the zone
+    markdown = (tmp_path / "report" / "report.md").read_text()
+    for text in ("### Stop of a spin", "### Send", "send error (m)", "release speed error (m/s)", "time to rest (s)"):
+        assert text in markdown, text
+    for kind in ("stop_spin", "send"):
+        assert (tmp_path / "report" / kind / "description.csv").exists()
+    answers = pd.read_csv(tmp_path / "tables" / "answers.csv")
+    assert set(answers["interaction"]) == {"impulse_penetration"}
+    assert (answers.groupby(["participant", "item"]).size() == 1).all() and answers["participant"].nunique() == 2

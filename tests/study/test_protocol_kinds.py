@@ -164,13 +164,6 @@ def test_a_send_phase_has_its_target_zone_and_starts_the_object_at_rest(tmp_path
     assert again.task == p.task
 
 
-def test_a_simulated_study_refuses_a_kind_the_simulated_participant_does_not_play(tmp_path):
-    problems = load_protocol(kinds_protocol(tmp_path, SEND)).simulation_problems()
-    assert any("phases[0].kind = 'send'" in problem and "simulated participants play" in problem
-               for problem in problems)
-    assert not load_protocol(kinds_protocol(tmp_path, name="other.toml")).simulation_problems()
-
-
 @pytest.mark.parametrize("old, new, expected", [
     ("radius = 0.03", "radius = -0.03", ["task.send.radius = -0.03", "positive number (m)"]),
     ("radius = 0.03", "radius = 30", ["task.send.radius = 30", "at most 10 (m)"]),
@@ -186,3 +179,31 @@ def test_a_simulated_study_refuses_a_kind_the_simulated_participant_does_not_pla
 def test_bad_send_numbers_are_refused_naming_file_key_and_value(tmp_path, old, new, expected):
     assert old in SEND, old
     assert_refused(kinds_protocol(tmp_path, SEND.replace(old, new, 1)), expected)
+
+
+def test_the_skills_protocol_trains_catching_and_tests_two_kinds_with_one_interaction_model():
+    """Two phases may run one interaction model with different task kinds (the report compares
+    interaction models within a kind); they share its label, and ``about = "each"`` asks about the
+    model once."""
+    p = load_protocol(PROTOCOLS / "microgravity-skills.toml")
+    assert p.training.kind == "catch" and [o.name for o in p.training.objects] == ["cube"]
+    assert [(ph.name, ph.interaction, ph.kind, ph.label) for ph in p.phases] == [
+        ("stopping", "impulse_penetration", "stop_spin", "System 1"),
+        ("sending", "impulse_penetration", "send", "System 1")]
+    asked = next(ph for ph in p.timeline if ph.instruments)
+    assert [a.interaction for a in p.about(asked)] == ["impulse_penetration"]
+    assert p.simulation_problems() == [] and sum(ph.minutes for ph in p.timeline) <= p.duration_minutes
+
+
+TWO_KINDS = KINDS.replace('interaction = "soft_hand"', 'interaction = "impulse_penetration"')
+
+
+@pytest.mark.parametrize("text, expected", [
+    (TWO_KINDS.replace('kind = "stop_spin"', 'kind = "catch"').replace("System 2", "System 1"),
+     ["phases[1].interaction = 'impulse_penetration'",
+      "phases[0] runs this interaction model already with the same task kind (catch)"]),
+    (TWO_KINDS, ["phases[1].label = 'System 2'", "phases[0] runs the same interaction model and is labelled "
+                                                "'System 1'"]),
+])
+def test_phases_of_one_interaction_model_need_different_kinds_and_one_label(tmp_path, text, expected):
+    assert_refused(kinds_protocol(tmp_path, text), expected)

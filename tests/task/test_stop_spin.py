@@ -106,3 +106,86 @@ def test_a_spin_that_keeps_its_axis_has_not_flipped():
     state, _ = play(lambda t: Observation(t, False, (0.0, 0.2, 0.0), about_y(SPIN * t),
                                           angular_velocity=np.array([0.0, SPIN, 0.0])))
     assert state.stage == TIMEOUT and not state.flipped
+
+
+@pytest.mark.parametrize("seen", ["touching", "velocity"])
+def test_a_touch_that_knocks_the_spin_round_starts_a_new_free_spell_and_is_no_flip(seen):
+    """Knocked at GRIP_AT, the object spins on about its own -y axis: turned over from the
+    protocol's spin axis, but by the knock, not while it turned freely. The knock is seen as a
+    phalanx touching it at the frame's end, or only by the push it gave (a touch over within the
+    frame)."""
+    def knocked(t):
+        after = t > GRIP_AT
+        touched = seen == "touching" and abs(t - GRIP_AT) < 0.5 / RATE
+        return Observation(t, False, (0.0, 0.2, 0.0), about_x(math.pi if after else 0.0),
+                           angular_velocity=np.array([0.0, SPIN, 0.0]), touching=np.array([touched] + [False] * 39),
+                           velocity=np.array([0.0, 0.0, 0.01 if after and seen == "velocity" else 0.0]))
+
+    state, events = play(knocked)
+    assert state.stage == TIMEOUT and not state.flipped and not any(e.kind == "flip" for e in events)
+
+
+FRAME_S = 1 / 90
+"""The frame interval of the free tumbles below (s)."""
+
+
+def free_tumble(name: str, seconds: float):
+    """A stop of a spin of the skills protocol's ``name`` that nobody touches, in the physics: its
+    final state, its events (with the physics' time of each frame, ``physics_t`` in its data) and
+    the protocol."""
+    import dataclasses
+
+    from microg.paths import PROTOCOLS
+    from microg.sim import snapshot, step
+    from microg.skeleton import HandFrame
+    from microg.study.protocol import load_protocol
+    from microg.study.session import task_world
+    from microg.study.store import PlannedTask
+    from microg.task.observation import seen_in
+
+    protocol = load_protocol(PROTOCOLS / "microgravity-skills.toml")
+    rules = dataclasses.replace(protocol.rules("stopping"), timeout_s=seconds)
+    world = task_world(protocol, PlannedTask(0, "stopping", "impulse_penetration", name,
+                                             protocol.object(name).code, 1))
+    state, events, k = StopSpinState(), [], 0
+    while not state.finished:
+        k += 1
+        world = step(world, HandFrame.made(k * FRAME_S, ()))
+        state, new = advance(state, seen_in(snapshot(world)), rules)
+        events += [e._replace(data={**e.data, "physics_t": world.time}) for e in new]
+    return state, events, protocol
+
+
+def euler_flip_time(protocol, name: str) -> float:
+    """When the free body's own spin axis first turns 90 degrees from where it started, by Euler's
+    equations for a box's principal moments (I dw/dt = (I w) x w), integrated to 1e-10."""
+    from scipy.integrate import solve_ivp
+
+    spec = protocol.object(name).spec
+    x, y, z = spec.size
+    inertia = spec.mass / 12 * np.array([y * y + z * z, x * x + z * z, x * x + y * y])
+    spin = protocol.task.stop_spin
+    w0 = spin.spin_rate * np.asarray(spin.spin_axis)
+
+    def crossed(t, w):
+        return float(w @ w0)
+
+    crossed.terminal, crossed.direction = True, -1
+    solution = solve_ivp(lambda t, w: np.cross(inertia * w, w) / inertia, (0.0, 60.0), w0, events=crossed,
+                         rtol=1e-10, atol=1e-12)
+    return float(solution.t_events[0][0]) if len(solution.t_events[0]) else math.inf
+
+
+def test_a_free_flat_cuboid_spun_near_its_intermediate_axis_flips_when_eulers_equations_say():
+    """The flip is seen at the first frame past Euler's time, or the next one: the physics moves in
+    whole steps of its own (here 1/99 s), so a frame may show the object a step behind its clock."""
+    state, events, protocol = free_tumble("flat_cuboid", 6.0)
+    due = euler_flip_time(protocol, "flat_cuboid")
+    assert due < 6.0 and state.stage == TIMEOUT and state.flipped
+    flip = next(e.data["physics_t"] for e in events if e.kind == "flip")
+    assert due < flip <= due + 2 * FRAME_S
+
+
+def test_a_free_cube_keeps_its_spin_axis_and_does_not_flip():
+    state, _, protocol = free_tumble("cube", 6.0)
+    assert euler_flip_time(protocol, "cube") == math.inf and not state.flipped
