@@ -69,9 +69,12 @@ def assumption_checks(
 
 def _levene(values: pd.Series, groups: np.ndarray, level, alpha: float) -> tuple:
     samples = [values[groups == g].to_numpy() for g in sorted(set(groups))]
-    if min(len(s) for s in samples) < 2 or all(np.ptp(s) == 0 for s in samples):
+    # the test is an ANOVA of the distances from each group's median: with none varying within any
+    # group (no variation, or two participants a group) its F has a zero denominator
+    if min(len(s) for s in samples) < 2 or all(np.ptp(np.abs(s - np.median(s))) == 0 for s in samples):
         return ("Levene", level, np.nan, np.nan, np.nan, np.nan, alpha, False,
-                f"cannot be computed at {level}: too few participants or no variation")  # fmt: skip
+                f"cannot be computed at {level}: too few participants, or their distances from their group's "
+                "median do not vary")  # fmt: skip
     test = stats.levene(*samples, center="median")
     df1, df2 = len(samples) - 1, sum(len(s) for s in samples) - len(samples)
     violated = bool(test.pvalue < alpha)

@@ -53,7 +53,7 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
         if record is None:
             raise ValueError(f"--session {session}: participant {session} has no session yet")
         track = read_track(store, find_run(store, record, task_index, run))
-        layout = task_layout(store.protocol, track.run.object)
+        layout = task_layout(store.protocol, track.run.object, track.run.phase)
     outside = [t for t in seconds if not 0.0 <= t <= track.duration]
     if outside:
         raise ValueError(f"--at {outside[0]:g}: task {task_index} of {record.participant_id} lasts "
@@ -63,5 +63,5 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
         return write_animation(track, layout, camera=camera, out=out, hands=hands, size=size, fps=fps, speed=speed,
                                progress=progress)
     moments = ([KeyMoment(f"{t:g} s", track.index_at(t)) for t in seconds] if seconds
-               else key_moments(track, len(layout.places)))
+               else key_moments(track, len(layout.places), layout.kind))
     return write_strip(track, layout, camera=camera, moments=moments, out=out, hands=hands, size=size, title=title)

@@ -173,7 +173,7 @@ class ParticipantDisplay:
     def get_ready(self, task: PlannedTask) -> None:
         """Before a task: the scene of the task, and "get ready"."""
         self.deliver_events()
-        layout = task_layout(self.protocol, task.object)
+        layout = task_layout(self.protocol, task.object, task.phase)
         camera = default_camera(layout, fov_deg=self.viewpoint.fov_deg)
         eye = camera.eye if self.viewpoint.eye is None else np.asarray(self.viewpoint.eye)
         target = camera.target if self.viewpoint.look_at is None else np.asarray(self.viewpoint.look_at)
@@ -182,7 +182,9 @@ class ParticipantDisplay:
             "size": layout.size.tolist(), "start": layout.start.tolist(), "places": layout.places.tolist(),
             "surface": None if layout.surface is None else {"vertices": layout.surface[0].ravel().tolist(),
                                                             "faces": layout.surface[1].ravel().tolist()},
-            "place_radius": layout.place_radius, "hold_s": layout.hold_s,
+            "place_radius": layout.place_radius, "hold_s": layout.hold_s, "kind": layout.kind,
+            "target": None if layout.target is None else {"centre": layout.target.tolist(),
+                                                          "radius": layout.target_radius},
             "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),
                                                               "size": layout.table_size.tolist()},
             "camera": {"eye": list(map(float, eye)), "target": list(map(float, target)),

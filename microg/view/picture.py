@@ -35,6 +35,8 @@ PANEL_FRAME = "0.35"
 """Grey of the line around each panel of a strip."""
 CENTRE_DOT = 0.005
 """Radius (m) of the dot at each place's centre."""
+QUARTER_TURN_ABOUT_Y = (0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5))
+"""(x, y, z, w): the second of a target zone's crossed rings, facing x."""
 LETTERS = "abcdefghijklmnopqrstuvwxyz"
 """The panels' letters, as in the paper's figures: (a), (b), ..."""
 
@@ -76,6 +78,7 @@ class Renderer:
         self.pb = pybullet
         self.layout, self.camera, self.size = layout, camera, size
         self.ring = ring_mesh(layout.place_radius)
+        self.target_ring = ring_mesh(layout.target_radius) if layout.target is not None else None
         width, height = size
         self.view = pybullet.computeViewMatrix(list(camera.eye), list(camera.target), [0, 1, 0])
         self.projection = pybullet.computeProjectionMatrixFOV(camera.fov_deg, width / height, 0.01, 10.0)
@@ -128,6 +131,13 @@ class Renderer:
             rgba = _rgba(PALETTE[state])
             self._body(pb.GEOM_MESH, rgba, place, vertices=vertices.tolist(), indices=faces.ravel().tolist())
             self._body(pb.GEOM_SPHERE, rgba, place, radius=CENTRE_DOT)
+        if self.target_ring is not None:
+            vertices, faces = self.target_ring
+            rgba = _rgba(PALETTE["target"])
+            for turn in ((0.0, 0.0, 0.0, 1.0), QUARTER_TURN_ABOUT_Y):
+                self._body(pb.GEOM_MESH, rgba, layout.target, turn, vertices=vertices.tolist(),
+                           indices=faces.ravel().tolist())
+            self._body(pb.GEOM_SPHERE, rgba, layout.target, radius=CENTRE_DOT)
         if hands in ("tracked", "both"):
             both = hands == "both"
             self._capsules(scene.tracked, bone_colours(np.zeros_like(scene.touching), "tracked"),
@@ -158,7 +168,7 @@ def write_strip(track: Track, layout: TaskLayout, *, camera: Camera, moments: li
     scenes = [track.scene(m.index, n_places) for m in moments]
     with Renderer(layout, camera, size) as renderer:
         images = [renderer.draw(scene, hands) for scene in scenes]
-    panels = [Panel(image, f"({letter}) {moment.label}", hud_lines(scene, layout.hold_s, n_places))
+    panels = [Panel(image, f"({letter}) {moment.label}", hud_lines(scene, layout))
               for letter, image, moment, scene in zip(LETTERS, images, moments, scenes)]
     return _save_panels([panels], [""], out=out, size=size, title=_title(track) if title else None)
 
@@ -247,7 +257,7 @@ def write_animation(track: Track, layout: TaskLayout, *, camera: Camera, out: Pa
     with Renderer(layout, camera, size) as renderer:
         for t in tqdm(times, unit="frame", desc=out.name, disable=not progress):
             scene = track.scene(track.index_at(float(t)), n_places)
-            pictures.append(_captioned(renderer.draw(scene, hands), hud_lines(scene, layout.hold_s, n_places)))
+            pictures.append(_captioned(renderer.draw(scene, hands), hud_lines(scene, layout)))
     return _save_animation(pictures, out, fps)
 
 

@@ -11,7 +11,8 @@ colour (the paper's highlighted hand avatar, Fig. 1).
 
 Places are rings of the protocol's ``place_radius`` around each place: grey until they are the
 current target, white while the object is on its way there, yellow while lit (the object is held
-inside and the place's timer runs), green once done (Fig. 9).
+inside and the place's timer runs), green once done (Fig. 9). Only a pick-and-place has places; a
+send's target zone is two crossed rings of its radius about its centre, in its own colour.
 """
 
 from __future__ import annotations
@@ -20,8 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microg.schema import KIND_ATTEMPTS
 from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Protocol
+from microg.task.rules import PICK_AND_PLACE, SEND
 
 HAND_MODES = ("rendered", "tracked", "both")
 """Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
@@ -37,6 +40,7 @@ PALETTE = {
     "next": (245, 245, 245),         # the current target, not reached
     "lit": (255, 215, 0),            # the object held in the target: its timer runs
     "done": (40, 185, 70),           # held there for hold_s
+    "target": (40, 190, 230),        # a send's target zone: cyan
 }
 """Colours (RGB 0-255), chosen to be told apart by hue, in a picture as in a screenshot."""
 TRACKED_OPACITY = 0.35
@@ -166,7 +170,7 @@ class FrameScene:
     place_timer: float
     held: bool
     attempts: int
-    """Drops so far."""
+    """Attempts so far (what the task's kind counts)."""
     object_position: np.ndarray
     object_orientation: np.ndarray
     """(w, x, y, z)"""
@@ -179,21 +183,26 @@ class FrameScene:
     """State of each place marker (``PLACE_STATES``)."""
 
 
-def hud_lines(scene: FrameScene, hold_s: float, n_places: int) -> list[str]:
-    """The heads-up display: stage, task timer, place and its timer, attempts."""
-    if scene.place_lit:
-        place = f"place {scene.place + 1} lit: {scene.place_timer:.1f} / {hold_s:g} s"
-    elif scene.place < n_places:
-        place = f"place {scene.place + 1} of {n_places}: not reached"
-    else:
-        place = f"all {n_places} places done"
+def hud_lines(scene: FrameScene, layout: TaskLayout) -> list[str]:
+    """The heads-up display: stage, task timer, place and its timer (a pick-and-place's), whether
+    the object is held, attempts (by what the task's kind counts)."""
+    n_places = len(layout.places)
     holding = "holding" if scene.held else "not holding"
-    return [f"{scene.stage} · {scene.t:.1f} s", f"{place} · {holding}", f"attempts (drops): {scene.attempts}"]
+    if layout.kind != PICK_AND_PLACE:
+        place = holding
+    elif scene.place_lit:
+        place = f"place {scene.place + 1} lit: {scene.place_timer:.1f} / {layout.hold_s:g} s · {holding}"
+    elif scene.place < n_places:
+        place = f"place {scene.place + 1} of {n_places}: not reached · {holding}"
+    else:
+        place = f"all {n_places} places done · {holding}"
+    return [f"{scene.stage} · {scene.t:.1f} s", place, f"attempts ({KIND_ATTEMPTS[layout.kind]}): {scene.attempts}"]
 
 
 @dataclass(frozen=True)
 class TaskLayout:
-    """What stays put during a task: the object's shape, the places, the table."""
+    """What stays put during a task: the object's shape, its kind's marks (a pick-and-place's places,
+    a send's target zone), the table, and what a view frames."""
 
     shape: str
     """``box``, ``sphere`` or ``mesh``."""
@@ -211,6 +220,15 @@ class TaskLayout:
     """Edge lengths of the table slab (m)."""
     surface: tuple[np.ndarray, np.ndarray] | None = None
     """A mesh object's surface in its body frame: vertices (V, 3) and triangles (F, 3)."""
+    kind: str = PICK_AND_PLACE
+    """The task's kind (``microg.task.rules.KINDS``): only a pick-and-place has ``places``."""
+    target: np.ndarray | None = None
+    """A send's target zone's centre (m); None for the other kinds."""
+    target_radius: float = 0.0
+    workspace: np.ndarray | None = None
+    """(P, 3) what a view frames (None: the start and the places): the start, the protocol's places,
+    its send's target zone's sides and the start of its catch's path, so that the view stays put
+    from one task to the next."""
 
 
 TABLE_MARGIN = 0.12
@@ -220,22 +238,34 @@ DEMO_TABLE_HALF_WIDTH = 0.20
 """Half the width (m) of the table drawn under a scene without a task."""
 CAMERA_MARGIN = 0.05
 """Space (m) the default camera leaves around the start and the places."""
+CATCH_PATH_VIEWED = 0.2
+"""How much (m) of a catch's launch path from the start a view frames: where the hand meets it."""
 RING_TUBE = 0.003
 """Radius of a place ring's tube (m)."""
 
 
-def task_layout(protocol: Protocol, object_name: str) -> TaskLayout:
-    """The layout of a task with ``object_name``: its start pose and the protocol's places, with a
-    table under the start and the places when the protocol has one."""
+def task_layout(protocol: Protocol, object_name: str, phase: str | None = None) -> TaskLayout:
+    """The layout of a task with ``object_name`` in ``phase`` (None: a pick-and-place): its start
+    pose and its kind's marks (the protocol's places, or a send's target zone), with a table under
+    the start and the places when the protocol has one."""
     spec = protocol.object(object_name).spec
+    kind = protocol.kind(phase) if phase is not None else PICK_AND_PLACE
     start = np.asarray(protocol.start_pose(object_name)[0], dtype=np.float64)
     places = np.asarray(protocol.task.places, dtype=np.float64)
+    send, catch = protocol.task.send, protocol.task.catch
+    zone = [] if send is None else [np.asarray(send.target) + offset
+                                    for offset in send.radius * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])]
+    path = [] if catch is None else [start + CATCH_PATH_VIEWED * np.asarray(catch.direction)]
+    workspace = np.vstack([start, places, *zone, *path])
     xs = np.concatenate([[start[0]], places[:, 0]])
     height = protocol.table_height
     centre = np.array([0.5 * (xs.min() + xs.max()), height if height is not None else np.nan, start[2]])
     size = np.array([xs.max() - xs.min() + 2 * TABLE_MARGIN, TABLE_THICKNESS, TABLE_DEPTH])
-    return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start, places,
-                      protocol.task.place_radius, protocol.task.hold_s, height, centre, size, surface_of(spec))
+    return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start,
+                      places if kind == PICK_AND_PLACE else np.empty((0, 3)), protocol.task.place_radius,
+                      protocol.task.hold_s, height, centre, size, surface_of(spec), kind,
+                      np.asarray(send.target, dtype=np.float64) if kind == SEND else None,
+                      send.radius if kind == SEND else 0.0, workspace)
 
 
 def surface_of(spec) -> tuple[np.ndarray, np.ndarray] | None:
@@ -264,10 +294,10 @@ class Camera:
 
 def default_camera(layout: TaskLayout, aspect: float = 4 / 3, fov_deg: float = 40.0) -> Camera:
     """The participant's side of the scene, a little from above (y up, +z toward the participant),
-    just far enough back that the start and every place, with a margin, fill a view of ``aspect``
-    (width / height)."""
-    return framing_camera(np.vstack([layout.start, layout.places]), layout.place_radius + CAMERA_MARGIN, aspect,
-                          fov_deg)
+    just far enough back that the layout's workspace (the start and every place, and a send's
+    target), with a margin, fill a view of ``aspect`` (width / height)."""
+    points = np.vstack([layout.start, layout.places]) if layout.workspace is None else layout.workspace
+    return framing_camera(points, layout.place_radius + CAMERA_MARGIN, aspect, fov_deg)
 
 
 def framing_camera(points, margin: float, aspect: float = 4 / 3, fov_deg: float = 40.0) -> Camera:

@@ -119,7 +119,7 @@ class HandLayer:
 
 
 class SceneDrawer:
-    """The 3D scene of a task: tracker, table, object, place rings, the two hands."""
+    """The 3D scene of a task: tracker, table, object, place rings or a send's target zone, the two hands."""
 
     def __init__(self, server):
         self.server = server
@@ -132,7 +132,7 @@ class SceneDrawer:
         self.rendered = HandLayer(server, "rendered", None)
 
     def set_layout(self, layout: TaskLayout) -> None:
-        """Rebuild what differs between tasks: the object, the places, the table."""
+        """Rebuild what differs between tasks: the object, the places or the target zone, the table."""
         for handle in [self.object, *self.places, *self.fixed]:
             if handle is not None:
                 handle.remove()
@@ -150,6 +150,11 @@ class SceneDrawer:
                                                      position=tuple(place), cast_shadow=False))
             self.places.append(scene.add_icosphere(f"/places/{k}/centre", radius=0.005, color=PALETTE["pending"],
                                                    position=tuple(place), cast_shadow=False))
+        if layout.target is not None:
+            vertices, faces = ring_mesh(layout.target_radius)
+            for name, turn in (("front", (1.0, 0.0, 0.0, 0.0)), ("side", (np.sqrt(0.5), 0.0, np.sqrt(0.5), 0.0))):
+                self.fixed.append(scene.add_mesh_simple(f"/target/{name}", vertices, faces, color=PALETTE["target"],
+                                                        position=tuple(layout.target), wxyz=turn, cast_shadow=False))
         if layout.table_height is not None:
             self.fixed.append(scene.add_box("/table", color=PALETTE["table"], dimensions=tuple(layout.table_size),
                                             position=tuple(layout.table_centre - [0.0, layout.table_size[1] / 2, 0.0])))
@@ -306,10 +311,10 @@ class View:
 
     def select_run(self, run: RunInfo, seconds: float) -> None:
         """Show ``run`` from ``seconds`` after its first frame."""
-        previous = self.track.run.object if self.track else None
+        previous = (self.track.run.object, self.track.run.phase) if self.track else None
         self.track = read_track(self.store, run)
-        if run.object != previous:
-            layout = self.layout = task_layout(self.store.protocol, run.object)
+        if (run.object, run.phase) != previous:
+            layout = self.layout = task_layout(self.store.protocol, run.object, run.phase)
             self.drawer.set_layout(layout)
             camera = default_camera(layout, aspect=BROWSER_ASPECT)
             self.server.initial_camera.position = tuple(camera.eye)
@@ -402,7 +407,7 @@ class View:
         mode = "live" if self.playback.follow and self.session.status == "running" else "replay"
         result = {"completed": f"completed in {run.time_s:.1f} s" if run.time_s is not None else "completed"}.get(
             run.status, run.status)
-        lines = hud_lines(scene, self.layout.hold_s, len(self.layout.places))
+        lines = hud_lines(scene, self.layout)
         return "\n\n".join([
             f"**{run.participant}** · session {run.session_id} ({self.session.status}) · *{mode}*",
             f"task {run.task_index}: {run.phase}, {run.object} ({run.object_code}), {run.interaction} · {result}",

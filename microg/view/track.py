@@ -19,6 +19,7 @@ import numpy as np
 from microg.skeleton import SIDES
 from microg.study import framelog
 from microg.study.store import SessionRecord, Store, StoreError, open_study
+from microg.task.rules import CATCH, PICK_AND_PLACE, SEND, STOP_SPIN
 
 from .scene import FrameScene, both_sides, hand_values, place_states, rendered_bones, tracked_bones
 
@@ -110,16 +111,20 @@ def find_run(store: Store, session: SessionRecord, task_index: int, run: int | N
     return chosen[-1]
 
 
+ATTEMPT_EVENTS = ("drop", "miss")
+"""The events that count an attempt: a drop (a send's: a miss)."""
+
+
 @dataclass
 class Track:
-    """The frames of one task run read so far, and its drops; grows with ``refresh``."""
+    """The frames of one task run read so far, and its attempts; grows with ``refresh``."""
 
     run: RunInfo
     frames: np.ndarray = field(default_factory=lambda: np.empty(0, dtype=framelog.FRAME))
     """The run's logged frames read so far (``framelog.FRAME`` records)."""
     times: list[float] = field(default_factory=list)
-    drops: list[float] = field(default_factory=list)
-    """Frame times of the run's drops (``drop`` events), sorted."""
+    attempt_times: list[float] = field(default_factory=list)
+    """Frame times of the run's attempts (``ATTEMPT_EVENTS``), sorted."""
 
     @property
     def start(self) -> float:
@@ -135,7 +140,7 @@ class Track:
         return max(0, bisect.bisect_right(self.times, self.start + seconds + 1e-9) - 1)
 
     def refresh(self, store: Store) -> int:
-        """Read the frames committed since the last read, the run's status and its drops; returns
+        """Read the frames committed since the last read, the run's status and its attempts; returns
         the number of new frames. The status is read first: a run's last frames commit together
         with its end, so frames read after a final status are all of them."""
         status = store.db.execute("SELECT status, time_s, attempts FROM task_runs WHERE id = ?",
@@ -144,8 +149,8 @@ class Track:
         new = framelog.read(store.db, self.run.id, len(self.frames))
         self.frames = np.concatenate([self.frames, new])
         self.times += new["t"].tolist()
-        self.drops = sorted(e.data.get("frame_t", e.t) for e in store.events(self.run.session_id, self.run.id)
-                            if e.kind == "drop")
+        self.attempt_times = sorted(e.data.get("frame_t", e.t) for e in store.events(self.run.session_id, self.run.id)
+                            if e.kind in ATTEMPT_EVENTS)
         return len(new)
 
     def scene(self, index: int, n_places: int) -> FrameScene:
@@ -156,7 +161,7 @@ class Track:
         return FrameScene(
             t=t - self.start, stage=framelog.STAGES[f["stage"]], place=place, place_lit=lit,
             place_timer=float(f["place_timer"]), held=bool(f["held"]),
-            attempts=bisect.bisect_right(self.drops, t + 1e-9), object_position=f["position"].astype(np.float64),
+            attempts=bisect.bisect_right(self.attempt_times, t + 1e-9), object_position=f["position"].astype(np.float64),
             object_orientation=f["orientation"].astype(np.float64),
             tracked=both_sides([tracked_bones(h) for h in hands]), rendered=both_sides([rendered_bones(h) for h in hands]),
             touching=framelog.touching_slots(f["touching"]), places=place_states(place, lit, n_places))
@@ -177,23 +182,32 @@ class KeyMoment:
     index: int
 
 
-def key_moments(track: Track, n_places: int) -> list[KeyMoment]:
+TAKEN = {PICK_AND_PLACE: "picked up", CATCH: "taken", STOP_SPIN: "taken", SEND: "picked up"}
+"""A key moment's label: the first frame a task of each kind had its object held."""
+DONE = {PICK_AND_PLACE: "released", CATCH: "caught", STOP_SPIN: "at rest", SEND: "arrived"}
+"""A key moment's label: the last frame of a completed task of each kind."""
+
+
+def key_moments(track: Track, n_places: int, kind: str = PICK_AND_PLACE) -> list[KeyMoment]:
     """The task's key moments, as in the paper's Figs. 7 and 9: the start, the pick-up (the first
-    frame held), each place just before it is done (the last frame it is lit), and the end
-    (released, timed out or cut off). Moments the run never reached are left out."""
+    frame held), each place just before it is done (the last frame it is lit), a send's last
+    release (the first frame after its last hold), and the end (released, caught, at rest or
+    arrived by the task's ``kind``; timed out or cut off). Moments the run never reached are left out."""
     frames = track.frames
     if not len(frames):
         return []
     moments = [KeyMoment("start", 0)]
     held = np.flatnonzero(frames["held"])
     if len(held):
-        moments.append(KeyMoment("picked up", int(held[0])))
+        moments.append(KeyMoment(TAKEN[kind], int(held[0])))
     for k in range(n_places):
         lit = np.flatnonzero((frames["place"] == k) & frames["place_lit"])
         if len(lit):
             moments.append(KeyMoment(f"place {k + 1}", int(lit[-1])))
+    if kind == SEND and len(held) and held[-1] + 1 < len(frames):
+        moments.append(KeyMoment("let go", int(held[-1]) + 1))
     last = len(frames) - 1
-    end = {"completed": "released", "timeout": "timed out"}.get(framelog.STAGES[frames["stage"][-1]], "last frame")
+    end = {"completed": DONE[kind], "timeout": "timed out"}.get(framelog.STAGES[frames["stage"][-1]], "last frame")
     if all(m.index != last for m in moments):
         moments.append(KeyMoment(end, last))
     return moments

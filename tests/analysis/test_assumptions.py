@@ -60,3 +60,18 @@ def test_checks_the_data_cannot_support_say_why():
     assert checks["p"].isna().all() and not checks["violated"].any()
     assert checks["consequence"].str.contains("cannot be computed").all()
     assert np.isnan(checks["statistic"]).all()
+
+
+def test_levene_with_two_participants_a_group_says_it_cannot_be_computed_without_a_warning():
+    """Two values a group are each as far from their median: the distances do not vary, so the
+    test's F would divide by zero (a study of two participants per group)."""
+    import warnings
+
+    data = pd.DataFrame({"s": list("aabbccdd"), "g": list("xxxxyyyy"), "w": list("12") * 4,
+                         "v": [1.0, 2.0, 3.0, 5.0, 2.0, 2.5, 7.0, 4.0]})  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        checks = assumption_checks(data, "v", "w", "g", "s")
+    levene = checks[checks["check"] == "Levene"]
+    assert len(levene) == 2 and levene["statistic"].isna().all()
+    assert levene["consequence"].str.contains("distances from their group's median do not vary").all()

@@ -77,8 +77,10 @@ def project(points, camera, width: int, height: int) -> np.ndarray:
     return np.column_stack([width / 2 * (1 + x / (z * tangent * width / height)), height / 2 * (1 - y / (z * tangent))])
 
 
-HUES = {"object": (15, 40), "lit": (45, 62), "done": (115, 150), "rendered": (205, 232), "highlight": (300, 335)}
-"""Hue windows (degrees) of the view's palette: object, lit place, done place, hand, contact."""
+HUES = {"object": (15, 40), "lit": (45, 62), "done": (115, 150), "target": (182, 200), "rendered": (205, 232),
+        "highlight": (300, 335)}
+"""Hue windows (degrees) of the view's palette: object, lit place, done place, a send's target zone,
+hand, contact."""
 
 
 def colour_mask(image: np.ndarray, name: str) -> np.ndarray:

@@ -274,6 +274,29 @@ def test_a_mesh_object_is_drawn_from_its_own_triangles(tmp_path):
             assert pixels_near(colour_mask(picture, "object"), project(end), 12) > 20
 
 
+@needs_browser
+def test_the_participant_sees_a_sends_target_zone_and_no_place(tmp_path):
+    from microg.paths import PROTOCOLS as SHIPPED
+    from microg.study.store import PlannedTask
+    from microg.view.scene import task_layout
+
+    protocol = load_protocol(SHIPPED / "microgravity-skills.toml")
+    layout = task_layout(protocol, "cube", "sending")
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        driver.get(display.url)
+        wait(driver, "return document.body.innerText.includes('Waiting for the session')")
+        display.get_ready(PlannedTask(3, "sending", "impulse_penetration", "cube", "C", 1))
+        scene = wait(driver, "const s = window.microg.scene; return s && s.kind === 'send' && s;")
+        picture = np.asarray(Image.open(io.BytesIO(driver.get_screenshot_as_png())).convert("RGB"))
+        project = lambda point: driver.execute_script("return window.microg.project(...arguments)", *point)
+        centre = project(layout.target)
+        side = project(layout.target + [layout.target_radius, 0, 0])
+    assert scene["places"] == [] and scene["target"]["centre"] == layout.target.tolist()
+    reach = 1.3 * np.hypot(*np.subtract(side, centre))
+    zone = colour_mask(picture, "target")
+    assert pixels_near(zone, centre, reach) > 150 and zone.sum() == pixels_near(zone, centre, reach)
+
+
 @pytest.mark.slow
 @needs_browser
 @pytest.mark.skipif(not IWER.exists(), reason=f"needs iwer (WebXR emulation: npm ci), missing at {IWER}")

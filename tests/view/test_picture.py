@@ -149,3 +149,31 @@ def test_the_renderer_draws_a_mesh_object_by_its_surface():
     beside_handle = start + [-0.05, 0.025, 0.0]  # inside the bounding box, outside the mallet
     for point, drawn in ((handle, True), (head, True), (beside_handle, False)):
         assert (pixels_near(mask, project(point, camera, *SIZE)[0], 3) > 10) == drawn, point
+
+
+def test_a_strip_of_a_send_draws_its_target_zone_no_places_and_the_sends_moments(tmp_path):
+    """A simulated skills study's send that arrived: its key moments are the send's, and the
+    picture of its end has the target zone drawn round the target and no place ring."""
+    from tests.study.conftest import PROTOCOLS
+
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path), "--participants", "2", "--seed", "1", "--jobs",
+                                       "1", "--protocol", str(PROTOCOLS / "skills-quick.toml"), "--quiet"])
+    assert result.exit_code == 0, result.output
+    with open_readonly(tmp_path / "study") as store:
+        session = find_session(store, "P01")
+        sent = next(t.index for t in store.tasks(session.id) if t.phase == "sending")
+        track = read_track(store, find_run(store, session, sent))
+        layout = task_layout(store.protocol, track.run.object, track.run.phase)
+    assert track.run.status == "completed" and layout.kind == "send" and not len(layout.places)
+    moments = key_moments(track, 0, layout.kind)
+    assert [m.label for m in moments] == ["start", "picked up", "let go", "arrived"]
+    camera = default_camera(layout, aspect=SIZE[0] / SIZE[1])
+    with Renderer(layout, camera, SIZE) as renderer:
+        image = renderer.draw(track.scene(moments[-1].index, 0))
+    centre = project(layout.target[None], camera, *SIZE)[0]
+    ring = project((layout.target + [layout.target_radius, 0, 0])[None], camera, *SIZE)[0]
+    reach = np.linalg.norm(ring - centre) * 1.3
+    zone = colour_mask(image, "target")
+    assert pixels_near(zone, centre, reach) > 200 and zone.sum() == pixels_near(zone, centre, reach)
+    for name in ("lit", "done"):  # no place ring lit or done (the grey rings of pending places have no hue)
+        assert not colour_mask(image, name).any(), name

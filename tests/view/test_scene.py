@@ -132,10 +132,31 @@ def test_the_heads_up_display_says_stage_timer_place_and_attempts():
     scene = FrameScene(t=12.345, stage="maintenance", place=1, place_lit=True, place_timer=1.25, held=True,
                        attempts=2, object_position=np.zeros(3), object_orientation=np.array([1.0, 0, 0, 0]),
                        tracked=None, rendered=None, touching=np.zeros(40, bool), places=("done", "lit", "pending"))
-    assert hud_lines(scene, 3.0, 3) == ["maintenance · 12.3 s", "place 2 lit: 1.2 / 3 s · holding",
+    layout = task_layout(load_protocol(protocol_file("paper")), "cube")
+    assert layout.hold_s == 3.0 and len(layout.places) == 3
+    assert hud_lines(scene, layout) == ["maintenance · 12.3 s", "place 2 lit: 1.2 / 3 s · holding",
                                         "attempts (drops): 2"]
     done = FrameScene(**{**scene.__dict__, "stage": "completed", "place": 3, "place_lit": False, "held": False})
-    assert hud_lines(done, 3.0, 3)[1] == "all 3 places done · not holding"
+    assert hud_lines(done, layout)[1] == "all 3 places done · not holding"
+
+
+def test_a_send_is_drawn_with_its_target_zone_and_no_places_and_the_view_stays_put():
+    """A task of another kind has no place rings; a send's has its target zone. Every task of the
+    protocol is framed alike (the start, the places and the target), so the view does not jump."""
+    protocol = load_protocol(protocol_file("microgravity-skills"))
+    send, stop = task_layout(protocol, "cube", "sending"), task_layout(protocol, "cube", "stopping")
+    assert send.kind == "send" and np.array_equal(send.target, protocol.task.send.target)
+    assert send.target_radius == protocol.task.send.radius
+    assert send.places.shape == stop.places.shape == (0, 3) and stop.target is None
+    first, second = default_camera(send), default_camera(stop)
+    assert np.array_equal(first.eye, second.eye) and np.array_equal(first.target, second.target)
+    pixels = project(np.vstack([send.start, send.target + [send.target_radius, 0, 0], protocol.task.places]), first,
+                     400, 300)
+    assert (pixels > 0).all() and (pixels[:, 0] < 400).all() and (pixels[:, 1] < 300).all()
+    scene = FrameScene(t=2.0, stage="drift", place=0, place_lit=False, place_timer=0.0, held=False, attempts=1,
+                       object_position=np.zeros(3), object_orientation=np.array([1.0, 0, 0, 0]), tracked=None,
+                       rendered=None, touching=np.zeros(40, bool), places=())
+    assert hud_lines(scene, send) == ["drift · 2.0 s", "not holding", "attempts (misses): 1"]
 
 
 def test_playback_moves_at_its_speed_stops_at_the_end_and_follows_the_live_edge():

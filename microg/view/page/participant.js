@@ -22,6 +22,13 @@ const STAGES = {
   release: "Let go of the object",
   completed: "Done",
   timeout: "Time is up",
+  approach: "Catch the object as it floats to you",
+  catch: "Hold on to it",
+  spinning: "Take hold of it and stop it turning",
+  resting: "Keep it still",
+  pick_up: "Pick up the object",
+  carry: "Let it go so that it floats into the blue rings",
+  drift: "Watch it float",
 };
 
 /** Whether WebGL runs on a graphics card, not a software rasteriser (SwiftShader, llvmpipe: a
@@ -133,7 +140,8 @@ function timeline(m) {
 
 /** The task's stage, timers and attempts, set only when what they show changes (the timers by
  *  tenths of a second): the page neither builds their text nor lays it out every frame. */
-const shownHud = { stage: null, task: null, place: null, lit: null, timer: null, places: null, attempts: null };
+const shownHud = { stage: null, task: null, place: null, lit: null, timer: null, places: null, held: null,
+                   attempts: null };
 const hudStage = document.getElementById("hud-stage");
 const hudPlace = document.getElementById("hud-place");
 const hudAttempts = document.getElementById("hud-attempts");
@@ -145,8 +153,11 @@ function showHud(frame) {
   if (frame.stage !== shown.stage || task !== shown.task) {
     hudStage.textContent = `${STAGES[frame.stage] || frame.stage} · ${(task / 10).toFixed(1)} s`;
   }
-  const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places;
-  if (place || (frame.lit && timer !== shown.timer)) {
+  const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places ||
+    frame.held !== shown.held;
+  if (workspace.layout && workspace.layout.kind !== "pick_and_place") {
+    if (place) hudPlace.textContent = frame.held ? "Holding" : "Not holding";
+  } else if (place || (frame.lit && timer !== shown.timer)) {
     hudPlace.textContent = frame.lit
       ? `Place ${frame.place + 1} lit: ${(timer / 10).toFixed(1)} / ${workspace.layout.hold_s} s`
       : frame.place < places ? `Place ${frame.place + 1} of ${places}` : `All ${places} places done`;
@@ -158,6 +169,7 @@ function showHud(frame) {
   shown.lit = frame.lit;
   shown.timer = timer;
   shown.places = places;
+  shown.held = frame.held;
   shown.attempts = frame.attempts;
 }
 

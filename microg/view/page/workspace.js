@@ -1,5 +1,5 @@
-// The task's workspace in three.js: the tracker, the table, the object, the place rings and the
-// rendered (god-object) hand, in the tracker's frame (metres; x right, y up, z toward the
+// The task's workspace in three.js: the tracker, the table, the object, the place rings (a send's
+// target zone: two crossed rings) and the rendered (god-object) hand, in the tracker's frame (metres; x right, y up, z toward the
 // participant), exactly as the session's messages describe them.
 //
 // Drawn cheaply, for a page that must keep up on a computer without a GPU: the light (from the
@@ -92,7 +92,7 @@ export class Workspace {
     this._s = new THREE.Vector3();
   }
 
-  /** A new task: rebuild what differs between tasks (the object, the places, the table). */
+  /** A new task: rebuild what differs between tasks (the object, the places or the target, the table). */
   setScene(scene) {
     for (const thing of [this.object, this.rings, ...this.fixed]) {
       if (thing) this.root.remove(thing);
@@ -115,6 +115,15 @@ export class Workspace {
     this.rings.frustumCulled = false;
     this.root.add(this.rings);
     this.fixed = [];
+    if (scene.target) {
+      const ring = new THREE.TorusGeometry(scene.target.radius, RING.tube, RING.radialSegments, RING.tubularSegments);
+      const zone = new THREE.InstancedMesh(ring, new THREE.MeshBasicMaterial({ color: this.colours.target }), 2);
+      zone.setMatrixAt(0, this._matrix.makeTranslation(...scene.target.centre));
+      zone.setMatrixAt(1, this._matrix.makeRotationY(Math.PI / 2).setPosition(...scene.target.centre));
+      zone.frustumCulled = false;
+      this.root.add(zone);
+      this.fixed.push(zone);
+    }
     if (scene.table) {
       const table = new THREE.Mesh(new THREE.BoxGeometry(...scene.table.size), material(this.colours.table));
       const [x, y, z] = scene.table.centre;
