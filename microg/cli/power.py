@@ -146,6 +146,12 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
         raise click.UsageError("give exactly one of --effects FILE, --pilot STUDY|TABLE, --effect-size, --simulated"
                                + (f" (not {' and '.join(given)})" if given else ""))
     rules = load_protocol(protocol_file(protocol))
+    if simulated:
+        from microg.insilico.engine import unplayable
+
+        why = unplayable(rules)
+        if why is not None:
+            raise click.ClickException(why)
     design = design_from_protocol(rules, within)
     if interaction is not None and interaction not in design.interactions:
         raise click.BadParameter(f"{interaction!r} is not an interaction model of protocol {rules.name!r} "

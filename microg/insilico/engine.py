@@ -81,6 +81,17 @@ class Outcome:
     frame_times: np.ndarray
 
 
+def unplayable(protocol: Protocol) -> str | None:
+    """Why an in-silico study cannot play ``protocol`` (a phase, or the training, of a task kind other
+    than the pick-and-place), naming the file and the phase; None when it can."""
+    phases = (["training"] if protocol.training is not None else []) + [p.name for p in protocol.phases]
+    other = next((name for name in phases if protocol.kind(name) != PICK_AND_PLACE), None)
+    if other is None:
+        return None
+    return (f"{protocol.where}: phase {other!r} runs {protocol.kind(other)} tasks: in-silico studies play only "
+            f"{PICK_AND_PLACE} tasks; run this protocol's sessions with --input simulated (microg demo does)")
+
+
 def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers: int = 1) -> list[Outcome]:
     """Play every task of ``units`` (a task's world is the protocol's scene of its object and
     interaction model); the outcomes in the order of ``units``. ``progress(done)`` is told the
@@ -88,12 +99,11 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     turn into ``SHARES_PER_WORKER`` shares per worker, each with a like share of every scene, which
     as many processes take as they come free (each task's outcome depends on its own seed only;
     a task's length is not known before it is played, so shares even out the load). Only
-    pick-and-place tasks play here (the compiled rules are ``microg.task.stages``'): a task of
-    another kind raises ValueError."""
-    other = next((u.plan.phase for u in units if protocol.kind(u.plan.phase) != PICK_AND_PLACE), None)
-    if other is not None:
-        raise ValueError(f"{protocol.where}: phase {other!r} runs {protocol.kind(other)} tasks: in-silico studies "
-                         f"play only {PICK_AND_PLACE} tasks; run this protocol's sessions with --input simulated")
+    pick-and-place tasks play here (the compiled rules are ``microg.task.stages``'): a protocol with
+    another kind raises ValueError (``unplayable``)."""
+    why = unplayable(protocol)
+    if why is not None:
+        raise ValueError(why)
     outcomes: list[Outcome | None] = [None] * len(units)
     if workers > 1 and len(units) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed

@@ -859,6 +859,10 @@ def _read_send(t: _Reader, task: TaskRules) -> SendRules | None:
                      arrival_s=s.number("arrival_s", unit=" (seconds)"))
     if not _inside(send.target, task):
         raise s.fail("target", list(send.target), "lies outside the workspace (task.workspace_min .. workspace_max)")
+    apart = float(np.linalg.norm(np.subtract(send.target, task.start)))
+    if apart <= send.radius:
+        raise s.fail("target", list(send.target), f"is {apart:g} m from task.start = {list(task.start)}, within its "
+                     f"radius = {send.radius:g} m: the object would start in the zone, with nothing to send")
     if send.arrival_s >= task.timeout_s:
         raise s.fail("arrival_s", send.arrival_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
                      "send could arrive in time")

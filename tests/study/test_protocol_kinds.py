@@ -169,13 +169,15 @@ def test_a_send_phase_has_its_target_zone_and_starts_the_object_at_rest(tmp_path
     ("radius = 0.03", "radius = 30", ["task.send.radius = 30", "at most 10 (m)"]),
     ("target = [0.1, 0.2, 0.05]", "target = [0.1, 0.2, 5.0]", ["task.send.target = [0.1, 0.2, 5.0]", "workspace"]),
     ("target = [0.1, 0.2, 0.05]", "target = [0.1, 0.2]", ["task.send.target = [0.1, 0.2]", "3 finite"]),
+    ("target = [0.1, 0.2, 0.05]", "target = [-0.12, 0.19, 0.0]",
+     ["task.send.target = [-0.12, 0.19, 0.0]", "0.01 m from task.start = [-0.12, 0.18, 0.0]", "start in the zone"]),
     ("arrival_s = 2.0", 'arrival_s = "soon"', ["task.send.arrival_s = 'soon'", "(seconds)"]),
     ("arrival_s = 2.0", "arrival_s = 300", ["task.send.arrival_s = 300", "shorter than task.timeout_s = 240 s"]),
     ("arrival_s = 2.0", "arrival_s = 2.0\narival = 1", ["unknown key task.send.arival"]),
     ("[task.send]\ntarget = [0.1, 0.2, 0.05]\nradius = 0.03\narrival_s = 2.0\n", "",
      ["phases[0].kind = 'send'", "add a [task.send] table"]),
-], ids=["negative radius", "radius too large", "target outside", "target of two", "arrival not a number",
-        "arrival too long", "unknown key", "no table"])
+], ids=["negative radius", "radius too large", "target outside", "target of two", "start in the zone",
+        "arrival not a number", "arrival too long", "unknown key", "no table"])
 def test_bad_send_numbers_are_refused_naming_file_key_and_value(tmp_path, old, new, expected):
     assert old in SEND, old
     assert_refused(kinds_protocol(tmp_path, SEND.replace(old, new, 1)), expected)
