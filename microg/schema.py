@@ -53,7 +53,7 @@ TRIALS = (
     Column("task_index", "Int64", "index of the task within its session"),
     Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
            "in the study itself", optional=True),
-    Column("task_kind", "string", "the task's kind: pick_and_place, catch, stop_spin or send", optional=True),
+    Column("task_kind", "string", "the task's kind: pick_and_place, catch, stop_spin, send or handover", optional=True),
     Column("time_to_catch_s", "float64", "a catch's seconds from its first frame to the grasp that caught the "
            "object; empty unless a catch was completed", optional=True),
     Column("time_to_rest_s", "float64", "a stop of a spin's seconds from its first frame to the rest that "
@@ -65,6 +65,10 @@ TRIALS = (
            "first send", optional=True),
     Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
            "arrival_s (m/s; negative: too slow); empty for other kinds and before a first send", optional=True),
+    Column("transfer_time_s", "float64", "a handover's seconds from the second hand's hold beginning to the first "
+           "hand letting go (the last handover's); empty for other kinds and before a handover", optional=True),
+    Column("both_held_s", "float64", "a handover's seconds during which both hands held the object; empty for "
+           "other kinds", optional=True),
 )
 
 QUESTIONNAIRE = (
@@ -111,12 +115,12 @@ QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
 ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
 
 KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin": ("time_to_rest_s", "flipped"),
-                 "send": ("send_error_m", "release_speed_error")}
+                 "send": ("send_error_m", "release_speed_error"), "handover": ("transfer_time_s", "both_held_s")}
 """Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
 and ``attempts``: the analysis reads a kind's tasks with them (``microg.task.kinds.MEASURES`` names
 the same columns for the export)."""
 KIND_ATTEMPTS = {"pick_and_place": "drops", "catch": "touches that did not hold", "stop_spin": "drops",
-                 "send": "misses"}
+                 "send": "misses", "handover": "drops"}
 """What a task kind's ``attempts`` count (``microg.task``'s rules)."""
 PROPORTIONS = ("flipped",)
 """Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""

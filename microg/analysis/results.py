@@ -27,7 +27,8 @@ from microg.schema import KIND_ATTEMPTS
 
 MEASURE_LABELS = {"time_s": "completion time (s)", "time_to_catch_s": "time to catch (s)",
                   "time_to_rest_s": "time to rest (s)", "flipped": "flipped (proportion of tasks)",
-                  "send_error_m": "send error (m)", "release_speed_error": "release speed error (m/s)"}
+                  "send_error_m": "send error (m)", "release_speed_error": "release speed error (m/s)",
+                  "transfer_time_s": "transfer time (s)", "both_held_s": "time both hands held it (s)"}
 ETA_P, ETA_G, EPSILON, CHI2 = "\u03b7p\u00b2", "\u03b7G\u00b2", "\u03b5", "\u03c7\u00b2"
 MINUS = " \u2212 "
 ALPHA_SIGN = "\u03b1"

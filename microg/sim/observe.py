@@ -40,20 +40,23 @@ class Snapshot(NamedTuple):
     """The module's grasp rule, for this object."""
     rendered: np.ndarray
     """(40, 3) ``rendered_phalanges``."""
+    grasped_by: np.ndarray
+    """(2,) The grasp rule per hand (left, right): which hands hold the object."""
 
 
 def snapshot(world: World, index: int = 0) -> Snapshot:
     """What a study reads of object ``index`` after a step, in one compiled call (module docstring)."""
     data = world.data
-    t, values, touching, grasped = _snapshot(data.reals, data.flags, data.counts, data.n_objects, index)
-    return Snapshot(t, values[0:3], values[3:7], values[7:10], values[10:13], touching, grasped,
-                    values[13:].reshape(-1, 3))
+    t, values, touching, by_side = _snapshot(data.reals, data.flags, data.counts, data.n_objects, index)
+    return Snapshot(t, values[0:3], values[3:7], values[7:10], values[10:13], touching, bool(by_side.any()),
+                    values[13:].reshape(-1, 3), by_side)
 
 
 @entry
 def _snapshot(reals, flags, counts, n, index):
-    """(t, [position, orientation, velocity, angular velocity, rendered phalanges], touching, grasped):
-    the numbers in one new array, as each array handed back to Python costs a microsecond."""
+    """(t, [position, orientation, velocity, angular velocity, rendered phalanges], touching, which
+    hands grasp it): the numbers in one new array, as each array handed back to Python costs a
+    microsecond."""
     s = unpack(reals, flags, counts, n)
     t = s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]
     rendered = _rendered(s.valid, s.hand_position, s.active, s.depth, s.anchor, s.radius, s.normal, s.position,
@@ -62,7 +65,7 @@ def _snapshot(reals, flags, counts, n, index):
     values[0:3], values[3:7] = s.position[index], s.orientation[index]
     values[7:10], values[10:13] = s.velocity[index], s.angular_velocity[index]
     values[13:] = rendered.ravel()
-    return t, values, s.active[:, index].copy(), _grasped(s.active, s.normal)[index]
+    return t, values, s.active[:, index].copy(), _grasped_by(s.active, s.normal)[:, index].copy()
 
 
 @entry
@@ -97,9 +100,10 @@ def grasped(world: World) -> np.ndarray:
 
 
 @entry
-def _grasped(active, normal):
+def _grasped_by(active, normal):
+    """(hands, N) True where a hand holds an object (module rule)."""
     slots, n = active.shape
-    result = np.zeros(n, dtype=np.bool_)
+    result = np.zeros((slots // BONES_PER_HAND, n), dtype=np.bool_)
     for o in range(n):
         for side in range(slots // BONES_PER_HAND):
             first = side * BONES_PER_HAND
@@ -108,7 +112,18 @@ def _grasped(active, normal):
                     continue
                 for other in range(first + N_BONES, first + BONES_PER_HAND):
                     if active[other, o] and dot(cell(normal, thumb, o), cell(normal, other, o)) < OPPOSITION:
-                        result[o] = True
+                        result[side, o] = True
+    return result
+
+
+@entry
+def _grasped(active, normal):
+    """(N,) True where either hand holds an object."""
+    by = _grasped_by(active, normal)
+    result = np.zeros(by.shape[1], dtype=np.bool_)
+    for side in range(by.shape[0]):
+        for o in range(by.shape[1]):
+            result[o] = result[o] or by[side, o]
     return result
 
 

@@ -30,12 +30,13 @@ import pyarrow as pa
 
 from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
 from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
-from microg.task import catch, send, stop_spin
+from microg.task import catch, handover, send, stop_spin
 
 from .ledger import run_name
 
 STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL + (catch.APPROACH, catch.CATCH, stop_spin.SPINNING,
-                                                          stop_spin.RESTING, send.PICK_UP, send.CARRY, send.DRIFT)
+                                                          stop_spin.RESTING, send.PICK_UP, send.CARRY, send.DRIFT,
+                                                          handover.TAKE, handover.PASS, handover.PLACE)
 """A frame's ``stage`` is stored as its index here (the other kinds' stages after the pick-and-place's,
 whose indices stay as they were)."""
 JOINTS = N_DIGITS * (N_BONES + 1)

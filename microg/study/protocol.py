@@ -47,7 +47,9 @@ from microg.paths import OBJECTS, POPULATIONS
 from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters, compose_scene
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
-from microg.task.rules import CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, SendRules, StopSpinRules, TaskRules
+from microg.skeleton import SIDES
+from microg.task.rules import (CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, HandoverRules, SendRules,
+                               StopSpinRules, TaskRules)
 
 if TYPE_CHECKING:
     from microg.participant import Population, SkillProfile
@@ -291,11 +293,19 @@ class Protocol:
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
         value): a group's skill profile that does not exist, an instrument the rating model does not
-        answer. Empty when simulated sessions can run it."""
+        answer, a task kind the simulated participant does not play (it has one hand: no handover).
+        Empty when simulated sessions can run it."""
+        from microg.participant.actions import KIND_CODES
         from microg.participant.ratings import unanswered
         from microg.participant.skill import PROFILES
 
         problems = []
+        kinds = [(f"phases[{i}].kind", p.kind) for i, p in enumerate(self.phases)]
+        if self.training is not None:
+            kinds.append(("training.kind", self.training.kind))
+        for key, kind in kinds:
+            if kind not in KIND_CODES:
+                problems.append(f"{self.where}: {key} = {kind!r}: simulated participants play {list(KIND_CODES)}")
         profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
         for i, group in enumerate(self.groups):
             if group.player is None:
@@ -787,7 +797,7 @@ def _read_task(top: _Reader) -> TaskRules:
         if not _inside(point, task):
             raise t.fail(key, list(point), "lies outside the workspace (workspace_min .. workspace_max)")
     task = replace(task, kind=kind, catch=_read_catch(t, task), stop_spin=_read_stop_spin(t, task),
-                   send=_read_send(t, task))
+                   send=_read_send(t, task), handover=_read_handover(t, task))
     if kind != PICK_AND_PLACE:
         _needs_numbers(t, "kind", kind, task)
     t.done()
@@ -870,9 +880,27 @@ def _read_send(t: _Reader, task: TaskRules) -> SendRules | None:
     return send
 
 
+def _read_handover(t: _Reader, task: TaskRules) -> HandoverRules | None:
+    """``[task.handover]``: the hand that takes the object first (``first_hand``) and the place zone
+    the other hand holds it in (``place``, its ``radius``) for ``hold_s``."""
+    h = t.table("handover", None)
+    if h is None:
+        return None
+    handover = HandoverRules(first_hand=h.text("first_hand", "right", choices=SIDES), place=h.vector("place"),
+                             radius=h.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
+                             hold_s=h.number("hold_s", 1.0, unit=" (seconds)"))
+    if not _inside(handover.place, task):
+        raise h.fail("place", list(handover.place), "lies outside the workspace (task.workspace_min .. workspace_max)")
+    if handover.hold_s >= task.timeout_s:
+        raise h.fail("hold_s", handover.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
+                     "handover could be completed")
+    h.done()
+    return handover
+
+
 def _needs_numbers(reader: _Reader, key: str, kind: str, task: TaskRules) -> None:
     """Refuse a task kind whose numbers the ``task`` table lacks (``[task.catch]``, ``[task.stop_spin]``,
-    ``[task.send]``)."""
+    ``[task.send]``, ``[task.handover]``)."""
     if getattr(task, kind, True) is None:
         raise reader.fail(key, kind, f"a {kind} task needs its numbers: add a [task.{kind}] table")
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import Callable, NamedTuple
 
-from . import catch, send, stages, stop_spin
-from .rules import CATCH, PICK_AND_PLACE, SEND, STOP_SPIN
+from . import catch, handover, send, stages, stop_spin
+from .rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
 
 
 class Kind(NamedTuple):
@@ -36,8 +36,10 @@ KIND = {
     STOP_SPIN: Kind(stop_spin.StopSpinState, stop_spin.advance, stop_spin.displayed, stop_spin.measures,
                     stop_spin.STAGES),
     SEND: Kind(send.SendState, send.advance, send.displayed, send.measures, send.STAGES),
+    HANDOVER: Kind(handover.HandoverState, handover.advance, handover.displayed, handover.measures,
+                   handover.STAGES),
 }
 """Each kind by its name (``microg.task.rules.KINDS``)."""
 MEASURES = {"time_to_catch_s": CATCH, "time_to_rest_s": STOP_SPIN, "flipped": STOP_SPIN, "send_error_m": SEND,
-            "release_speed_error": SEND}
+            "release_speed_error": SEND, "transfer_time_s": HANDOVER, "both_held_s": HANDOVER}
 """Each kind's own measures and the kind that has it."""

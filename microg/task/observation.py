@@ -40,6 +40,9 @@ class Observation(NamedTuple):
     """The object's centre's velocity (m/s)."""
     angular_velocity: np.ndarray = STILL
     """(rad/s, tracker frame): what a stop of a spin judges."""
+    grasped_by: np.ndarray | None = None
+    """(2,) which hands hold it (left, right: ``microg.skeleton.SIDES``), what a handover judges;
+    None where the source does not say (only ``grasped``)."""
 
 
 def observe(world: World, index: int = 0, display: TaskDisplay | None = None) -> Observation:
@@ -50,4 +53,4 @@ def observe(world: World, index: int = 0, display: TaskDisplay | None = None) ->
 def seen_in(after: Snapshot, display: TaskDisplay | None = None) -> Observation:
     """The observation a world's ``snapshot`` holds."""
     return Observation(after.t, after.grasped, after.position, after.orientation, after.touching, display,
-                       after.velocity, after.angular_velocity)
+                       after.velocity, after.angular_velocity, after.grasped_by)

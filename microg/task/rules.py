@@ -1,18 +1,18 @@
 """A task's numbers: where the object starts, the limits every kind shares, and each kind's own.
 
 A task is of one *kind*: ``pick_and_place`` (the paper's, ``microg.task.stages``), ``catch``
-(``microg.task.catch``), ``stop_spin`` (``microg.task.stop_spin``) or ``send``
-(``microg.task.send``). Every kind reads the start, the timeout, the holding's settle and grace
-times and the workspace; the places and their holds are the pick-and-place's; ``CatchRules``,
-``StopSpinRules`` and ``SendRules`` hold the other kinds' numbers.
+(``microg.task.catch``), ``stop_spin`` (``microg.task.stop_spin``), ``send`` (``microg.task.send``)
+or ``handover`` (``microg.task.handover``). Every kind reads the start, the timeout, the holding's
+settle and grace times and the workspace; the places and their holds are the pick-and-place's;
+``CatchRules``, ``StopSpinRules``, ``SendRules`` and ``HandoverRules`` hold the other kinds' numbers.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-PICK_AND_PLACE, CATCH, STOP_SPIN, SEND = "pick_and_place", "catch", "stop_spin", "send"
-KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND)
+PICK_AND_PLACE, CATCH, STOP_SPIN, SEND, HANDOVER = "pick_and_place", "catch", "stop_spin", "send", "handover"
+KINDS = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND, HANDOVER)
 """The task kinds a protocol may choose (``kind = ...``)."""
 
 
@@ -54,6 +54,18 @@ class SendRules:
 
 
 @dataclass(frozen=True)
+class HandoverRules:
+    """A handover: the object taken by the ``first_hand`` (``left`` or ``right``), passed to the other
+    hand, and held by that hand alone inside the place zone, a sphere of ``radius`` (m) about
+    ``place`` (tracker frame), for ``hold_s`` (s)."""
+
+    first_hand: str
+    place: tuple[float, float, float]
+    radius: float
+    hold_s: float
+
+
+@dataclass(frozen=True)
 class TaskRules:
     """A task's numbers (a protocol's ``task`` table sets them): the pick-and-place's (``stages``
     applies them), shared by every kind but the places, and the other kinds' own."""
@@ -76,3 +88,5 @@ class TaskRules:
     """The stop of a spin's numbers (``task.stop_spin``); None when the protocol has none."""
     send: SendRules | None = None
     """The send's numbers (``task.send``); None when the protocol has none."""
+    handover: HandoverRules | None = None
+    """The handover's numbers (``task.handover``); None when the protocol has none."""

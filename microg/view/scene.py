@@ -11,8 +11,9 @@ colour (the paper's highlighted hand avatar, Fig. 1).
 
 Places are rings of the protocol's ``place_radius`` around each place: grey until they are the
 current target, white while the object is on its way there, yellow while lit (the object is held
-inside and the place's timer runs), green once done (Fig. 9). Only a pick-and-place has places; a
-send's target zone is two crossed rings of its radius about its centre, in its own colour.
+inside and the place's timer runs), green once done (Fig. 9). Only a pick-and-place has places; the
+zone a send's object must reach (its target) or a handover's (its place) is two crossed rings of
+its radius about its centre, in its own colour.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import numpy as np
 from microg.schema import KIND_ATTEMPTS
 from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Protocol
-from microg.task.rules import PICK_AND_PLACE, SEND
+from microg.task.rules import HANDOVER, PICK_AND_PLACE, SEND
 
 HAND_MODES = ("rendered", "tracked", "both")
 """Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
@@ -223,12 +224,13 @@ class TaskLayout:
     kind: str = PICK_AND_PLACE
     """The task's kind (``microg.task.rules.KINDS``): only a pick-and-place has ``places``."""
     target: np.ndarray | None = None
-    """A send's target zone's centre (m); None for the other kinds."""
+    """The centre (m) of the zone the object must reach: a send's target, a handover's place; None
+    for the other kinds."""
     target_radius: float = 0.0
     workspace: np.ndarray | None = None
     """(P, 3) what a view frames (None: the start and the places): the start, the protocol's places,
-    its send's target zone's sides and the start of its catch's path, so that the view stays put
-    from one task to the next."""
+    the sides of its send's target zone and its handover's place zone, and the start of its catch's
+    path, so that the view stays put from one task to the next."""
 
 
 TABLE_MARGIN = 0.12
@@ -246,26 +248,27 @@ RING_TUBE = 0.003
 
 def task_layout(protocol: Protocol, object_name: str, phase: str | None = None) -> TaskLayout:
     """The layout of a task with ``object_name`` in ``phase`` (None: a pick-and-place): its start
-    pose and its kind's marks (the protocol's places, or a send's target zone), with a table under
-    the start and the places when the protocol has one."""
-    spec = protocol.object(object_name).spec
+    pose and its kind's marks (the protocol's places, or a send's or a handover's zone), with a
+    table under the start and the places when the protocol has one."""
+    spec, task = protocol.object(object_name).spec, protocol.task
     kind = protocol.kind(phase) if phase is not None else PICK_AND_PLACE
     start = np.asarray(protocol.start_pose(object_name)[0], dtype=np.float64)
-    places = np.asarray(protocol.task.places, dtype=np.float64)
-    send, catch = protocol.task.send, protocol.task.catch
-    zone = [] if send is None else [np.asarray(send.target) + offset
-                                    for offset in send.radius * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])]
-    path = [] if catch is None else [start + CATCH_PATH_VIEWED * np.asarray(catch.direction)]
-    workspace = np.vstack([start, places, *zone, *path])
+    places = np.asarray(task.places, dtype=np.float64)
+    zones = {SEND: None if task.send is None else (task.send.target, task.send.radius),
+             HANDOVER: None if task.handover is None else (task.handover.place, task.handover.radius)}
+    sides = [np.asarray(centre) + offset for centre, radius in filter(None, zones.values())
+             for offset in radius * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])]
+    path = [] if task.catch is None else [start + CATCH_PATH_VIEWED * np.asarray(task.catch.direction)]
+    workspace = np.vstack([start, places, *sides, *path])
     xs = np.concatenate([[start[0]], places[:, 0]])
     height = protocol.table_height
     centre = np.array([0.5 * (xs.min() + xs.max()), height if height is not None else np.nan, start[2]])
     size = np.array([xs.max() - xs.min() + 2 * TABLE_MARGIN, TABLE_THICKNESS, TABLE_DEPTH])
+    zone = zones.get(kind)
     return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start,
-                      places if kind == PICK_AND_PLACE else np.empty((0, 3)), protocol.task.place_radius,
-                      protocol.task.hold_s, height, centre, size, surface_of(spec), kind,
-                      np.asarray(send.target, dtype=np.float64) if kind == SEND else None,
-                      send.radius if kind == SEND else 0.0, workspace)
+                      places if kind == PICK_AND_PLACE else np.empty((0, 3)), task.place_radius, task.hold_s, height,
+                      centre, size, surface_of(spec), kind, None if zone is None else np.asarray(zone[0], dtype=float),
+                      0.0 if zone is None else zone[1], workspace)
 
 
 def surface_of(spec) -> tuple[np.ndarray, np.ndarray] | None:

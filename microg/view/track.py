@@ -19,7 +19,7 @@ import numpy as np
 from microg.skeleton import SIDES
 from microg.study import framelog
 from microg.study.store import SessionRecord, Store, StoreError, open_study
-from microg.task.rules import CATCH, PICK_AND_PLACE, SEND, STOP_SPIN
+from microg.task.rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
 
 from .scene import FrameScene, both_sides, hand_values, place_states, rendered_bones, tracked_bones
 
@@ -182,9 +182,9 @@ class KeyMoment:
     index: int
 
 
-TAKEN = {PICK_AND_PLACE: "picked up", CATCH: "taken", STOP_SPIN: "taken", SEND: "picked up"}
+TAKEN = {PICK_AND_PLACE: "picked up", CATCH: "taken", STOP_SPIN: "taken", SEND: "picked up", HANDOVER: "taken"}
 """A key moment's label: the first frame a task of each kind had its object held."""
-DONE = {PICK_AND_PLACE: "released", CATCH: "caught", STOP_SPIN: "at rest", SEND: "arrived"}
+DONE = {PICK_AND_PLACE: "released", CATCH: "caught", STOP_SPIN: "at rest", SEND: "arrived", HANDOVER: "placed"}
 """A key moment's label: the last frame of a completed task of each kind."""
 
 

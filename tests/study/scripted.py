@@ -1,5 +1,6 @@
 """A scripted participant for the study tests: a thumb and an index phalanx that pinch the task's
-object from both sides along x, carry it through the places and let go, on a fixed timetable."""
+object from both sides along x, carry it through the places and let go, on a fixed timetable (and
+two such pinches, one per hand, that hand the object over)."""
 
 from __future__ import annotations
 
@@ -67,6 +68,38 @@ class ScriptedPinch:
         hand = probe_hand({"thumb.proximal": centre + [gap, 0, 0], "index.proximal": centre - [gap, 0, 0]},
                           width=2 * RADIUS)
         return HandFrame(self.t0 + t, (hand,))
+
+    def close(self):
+        pass
+
+
+class TwoPinches:
+    """A right pinch (thumb and index along x) that takes the cube at its start, a left one (along z)
+    that takes it too, the right opening, and the left carrying it into ``place`` and holding it
+    there; a HandSource of both hands, ending after 5 s."""
+
+    description = "scripted handover"
+    END_S = 5.0
+
+    def __init__(self, start, place, half):
+        opened, closed = half + RADIUS + 0.02, half + RADIUS - 0.006
+        self.right = ScriptedPinch([(0.0, start, opened), (0.3, start, closed), (1.6, start, closed),
+                                    (1.7, start, opened), (self.END_S, start, opened)])
+        self.left = ScriptedPinch([(0.0, start, opened + 0.03), (0.8, start, opened), (1.1, start, closed),
+                                   (1.9, start, closed), (2.9, place, closed), (self.END_S, place, closed)])
+        self.index = 0
+
+    def next_frame(self, observation=None):
+        t = self.index / RATE
+        if t > self.END_S:
+            return None
+        self.index += 1
+        (right, gap), (left, left_gap) = self.right.position(t), self.left.position(t)
+        hands = (probe_hand({"thumb.proximal": left + [0, 0, left_gap], "index.proximal": left - [0, 0, left_gap]},
+                            "left", 2 * RADIUS, track_id=1),
+                 probe_hand({"thumb.proximal": right + [gap, 0, 0], "index.proximal": right - [gap, 0, 0]},
+                            "right", 2 * RADIUS))
+        return HandFrame(t, hands)
 
     def close(self):
         pass

@@ -11,7 +11,7 @@ from microg.study import SimulationClock, run_session
 from microg.study.export import trials_table
 from microg.study.inputs import ScriptedInputs, open_inputs
 
-from .scripted import RADIUS, ScriptedPinch, pinch_keyframes
+from .scripted import RADIUS, ScriptedPinch, TwoPinches, pinch_keyframes
 
 MEET = 0.05
 """m along the launch from the start where the still pinch waits."""
@@ -117,3 +117,25 @@ def test_a_session_runs_a_send_and_the_trials_table_has_its_measures(make_study)
     assert release["position"][2] - store.protocol.task.start[2] > 0.03  # let go on the way, 4 cm along z
     assert 0 <= sent.send_error_m < send.radius
     assert trials.loc["placing"][["send_error_m", "release_speed_error"]].isna().all()
+
+
+def handover_hands(plan, seed):
+    """Two pinches that hand the cube over from the right hand to the left (the passing phase of
+    protocols/handover.toml); the pick-and-place pinch for the other phases."""
+    if plan.phase != "passing":
+        return ScriptedPinch(pinch_keyframes(plan))
+    return TwoPinches(np.asarray(plan.start), np.asarray(plan.rules.handover.place), float(plan.object.half_extents[0]))
+
+
+def test_a_session_runs_a_handover_of_two_hands_and_the_trials_table_has_its_measures(make_study):
+    store, record = make_study("handover")
+    session = store.create_session(record.id, input_spec="scripted", simulated=True, clock="simulation")
+    run_session(store, session.id, ScriptedInputs(handover_hands), clock=SimulationClock())
+    trials = trials_table(store).set_index("phase")
+    passed = trials.loc["passing"]
+    assert passed.task_kind == "handover" and passed.status == "completed" and passed.attempts == 0
+    handover = next(e.data for e in store.events(session.id) if e.kind == "handover")
+    assert passed.transfer_time_s == pytest.approx(handover["transfer_time_s"], abs=1e-12)
+    assert 0 < passed.transfer_time_s < passed.both_held_s < passed.time_s
+    assert {e.data.get("hand") for e in store.events(session.id) if e.kind == "hold"} >= {"left", "right"}
+    assert trials.loc["placing"][["transfer_time_s", "both_held_s"]].isna().all()

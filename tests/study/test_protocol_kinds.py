@@ -98,7 +98,7 @@ def test_a_protocol_without_kinds_is_a_pick_and_place_as_before():
 
 @pytest.mark.parametrize("old, new, expected", [
     ('kind = "catch"', 'kind = "juggle"', ["phases[0].kind = 'juggle'",
-                                           "['pick_and_place', 'catch', 'stop_spin', 'send']"]),
+                                           "['pick_and_place', 'catch', 'stop_spin', 'send', 'handover']"]),
     ("launch_speed = 0.4", "launch_speed = -0.4", ["task.catch.launch_speed = -0.4", "positive number (m/s)"]),
     ("launch_speed = 0.4", 'launch_speed = "fast"', ["task.catch.launch_speed = 'fast'", "(m/s)"]),
     ("launch_speed = 0.4", "launch_speed = 40", ["task.catch.launch_speed = 40", "at most 10 (m/s)"]),
@@ -209,3 +209,39 @@ TWO_KINDS = KINDS.replace('interaction = "soft_hand"', 'interaction = "impulse_p
 ])
 def test_phases_of_one_interaction_model_need_different_kinds_and_one_label(tmp_path, text, expected):
     assert_refused(kinds_protocol(tmp_path, text), expected)
+
+
+HANDOVER = SEND.replace('''[task.send]
+target = [0.1, 0.2, 0.05]
+radius = 0.03
+arrival_s = 2.0''', '''[task.handover]
+first_hand = "left"
+place = [0.1, 0.2, 0.05]
+radius = 0.04
+hold_s = 1.5''').replace("sending", "passing").replace('kind = "send"', 'kind = "handover"')
+
+
+def test_a_handover_phase_has_its_hand_and_place_and_simulated_participants_do_not_play_it(tmp_path):
+    """A simulated participant has one hand: a protocol with a handover is refused for simulated
+    sessions (people, with both hands tracked, run it)."""
+    p = load_protocol(kinds_protocol(tmp_path, HANDOVER))
+    assert p.kind("passing") == "handover" and p.rules("passing").kind == "handover"
+    h = p.task.handover
+    assert (h.first_hand, h.place, h.radius, h.hold_s) == ("left", (0.1, 0.2, 0.05), 0.04, 1.5)
+    assert p.start_motion("handover") == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+    assert protocol_from_resolved(p.resolved, "study.db").task == p.task
+    problems = p.simulation_problems()
+    assert any("phases[0].kind = 'handover'" in problem and "simulated participants play" in problem
+               for problem in problems)
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ('first_hand = "left"', 'first_hand = "both"', ["task.handover.first_hand = 'both'", "['left', 'right']"]),
+    ("place = [0.1, 0.2, 0.05]", "place = [0.1, 0.2, 5.0]", ["task.handover.place = [0.1, 0.2, 5.0]", "workspace"]),
+    ("radius = 0.04", "radius = 0", ["task.handover.radius = 0", "positive number (m)"]),
+    ("hold_s = 1.5", "hold_s = 500", ["task.handover.hold_s = 500", "shorter than task.timeout_s = 240 s"]),
+    ("hold_s = 1.5", "hold_s = 1.5\nhand = 1", ["unknown key task.handover.hand"]),
+], ids=["no such hand", "place outside", "zero radius", "hold too long", "unknown key"])
+def test_bad_handover_numbers_are_refused_naming_file_key_and_value(tmp_path, old, new, expected):
+    assert old in HANDOVER, old
+    assert_refused(kinds_protocol(tmp_path, HANDOVER.replace(old, new, 1)), expected)

@@ -29,6 +29,9 @@ const STAGES = {
   pick_up: "Pick up the object",
   carry: "Let it go so that it floats into the blue rings",
   drift: "Watch it float",
+  take: "Pick up the object with the hand the task names",
+  pass: "Pass it to your other hand",
+  place: "Hold it in the place with that hand",
 };
 
 /** Whether WebGL runs on a graphics card, not a software rasteriser (SwiftShader, llvmpipe: a
