@@ -269,9 +269,9 @@ class _Batch:
         self.widths[slot] = np.nan
         self.widths[slot, side] = WIDTHS
         self.count[slot], self.newest[slot] = 0, -1
-        t, values, touching, grasped = _snapshot(*self.initial, data.n_objects, 0)
+        t, values, touching, grasped_by = _snapshot(*self.initial, data.n_objects, 0)
         self.observed[slot], self.position[slot], self.orientation[slot] = t, values[0:3], values[3:7]
-        self.touching[slot], self.grasped[slot] = touching, grasped
+        self.touching[slot], self.grasped[slot] = touching, grasped_by.any()
         self.frames[slot] = 0
         self.active[slot] = True
 
