@@ -36,7 +36,7 @@ PANEL_FRAME = "0.35"
 CENTRE_DOT = 0.005
 """Radius (m) of the dot at each place's centre."""
 QUARTER_TURN_ABOUT_Y = (0.0, np.sqrt(0.5), 0.0, np.sqrt(0.5))
-"""(x, y, z, w): the second of a target zone's crossed rings, facing x."""
+"""(x, y, z, w): the second of a zone's crossed rings (a send's target, a handover's place), facing x."""
 LETTERS = "abcdefghijklmnopqrstuvwxyz"
 """The panels' letters, as in the paper's figures: (a), (b), ..."""
 

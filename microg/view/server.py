@@ -119,7 +119,8 @@ class HandLayer:
 
 
 class SceneDrawer:
-    """The 3D scene of a task: tracker, table, object, place rings or a send's target zone, the two hands."""
+    """The 3D scene of a task: tracker, table, object, place rings or a send's or a handover's zone, the two
+    hands."""
 
     def __init__(self, server):
         self.server = server
@@ -132,7 +133,7 @@ class SceneDrawer:
         self.rendered = HandLayer(server, "rendered", None)
 
     def set_layout(self, layout: TaskLayout) -> None:
-        """Rebuild what differs between tasks: the object, the places or the target zone, the table."""
+        """Rebuild what differs between tasks: the object, the places or the zone, the table."""
         for handle in [self.object, *self.places, *self.fixed]:
             if handle is not None:
                 handle.remove()

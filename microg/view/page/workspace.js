@@ -1,6 +1,6 @@
-// The task's workspace in three.js: the tracker, the table, the object, the place rings (a send's
-// target zone: two crossed rings) and the rendered (god-object) hand, in the tracker's frame (metres; x right, y up, z toward the
-// participant), exactly as the session's messages describe them.
+// The task's workspace in three.js: the tracker, the table, the object, the place rings (a send's or
+// a handover's zone: two crossed rings) and the rendered (god-object) hand, in the tracker's frame
+// (metres; x right, y up, z toward the participant), exactly as the session's messages describe them.
 //
 // Drawn cheaply, for a page that must keep up on a computer without a GPU: the light (from the
 // sky and the sun) is worked out per vertex, so a pixel costs what a plain colour costs (per-pixel
@@ -92,7 +92,7 @@ export class Workspace {
     this._s = new THREE.Vector3();
   }
 
-  /** A new task: rebuild what differs between tasks (the object, the places or the target, the table). */
+  /** A new task: rebuild what differs between tasks (the object, the places or the zone, the table). */
   setScene(scene) {
     for (const thing of [this.object, this.rings, ...this.fixed]) {
       if (thing) this.root.remove(thing);
