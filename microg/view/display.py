@@ -183,6 +183,7 @@ class ParticipantDisplay:
             "surface": None if layout.surface is None else {"vertices": layout.surface[0].ravel().tolist(),
                                                             "faces": layout.surface[1].ravel().tolist()},
             "place_radius": layout.place_radius, "hold_s": layout.hold_s, "kind": layout.kind,
+            "first_hand": handover.first_hand if (handover := self.protocol.rules(task.phase).handover) else None,
             "target": None if layout.target is None else {"centre": layout.target.tolist(),
                                                           "radius": layout.target_radius},
             "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),

@@ -297,6 +297,20 @@ def test_the_participant_sees_a_sends_target_zone_and_no_place(tmp_path):
     assert pixels_near(zone, centre, reach) > 150 and zone.sum() == pixels_near(zone, centre, reach)
 
 
+@needs_browser
+def test_the_participant_page_of_a_handover_knows_which_hand_takes_the_object(tmp_path):
+    from microg.study.store import PlannedTask
+
+    protocol = load_protocol(PROTOCOLS / "handover.toml")
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        driver.get(display.url)
+        wait(driver, "return document.body.innerText.includes('Waiting for the session')")
+        display.get_ready(PlannedTask(0, "passing", "impulse_penetration", "cube", "C", 1))
+        scene = wait(driver, "const s = window.microg.scene; return s && s.kind === 'handover' && s;")
+    assert scene["first_hand"] == protocol.task.handover.first_hand == "right"
+    assert scene["target"]["centre"] == list(protocol.task.handover.place) and scene["places"] == []
+
+
 @pytest.mark.slow
 @needs_browser
 @pytest.mark.skipif(not IWER.exists(), reason=f"needs iwer (WebXR emulation: npm ci), missing at {IWER}")

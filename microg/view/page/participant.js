@@ -29,10 +29,18 @@ const STAGES = {
   pick_up: "Pick up the object",
   carry: "Let it go so that it floats into the blue rings",
   drift: "Watch it float",
-  take: "Pick up the object with the hand the task names",
-  pass: "Pass it to your other hand",
-  place: "Hold it in the place with that hand",
+  take: "Pick up the object with your {first} hand",
+  pass: "Pass it to your {other} hand",
+  place: "Hold it in the blue rings with your {other} hand",
 };
+const OTHER_HAND = { left: "right", right: "left" };
+
+/** A stage's words, with the hands a handover names filled in. */
+function stageText(stage) {
+  const text = STAGES[stage] || stage;
+  const first = workspace.layout && workspace.layout.first_hand;
+  return first ? text.replace("{first}", first).replace("{other}", OTHER_HAND[first]) : text;
+}
 
 /** Whether WebGL runs on a graphics card, not a software rasteriser (SwiftShader, llvmpipe: a
  *  computer without a usable GPU), where the page never multisamples (quality.js). */
@@ -154,7 +162,7 @@ function showHud(frame) {
   const places = workspace.layout ? workspace.layout.places.length : 0;
   const task = Math.round(frame.task_timer * 10), timer = Math.round(frame.place_timer * 10);
   if (frame.stage !== shown.stage || task !== shown.task) {
-    hudStage.textContent = `${STAGES[frame.stage] || frame.stage} · ${(task / 10).toFixed(1)} s`;
+    hudStage.textContent = `${stageText(frame.stage)} · ${(task / 10).toFixed(1)} s`;
   }
   const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places ||
     frame.held !== shown.held;
