@@ -19,7 +19,7 @@ import numpy as np
 from microg.skeleton import BONES_PER_HAND, N_BONES
 from .rotation import quat_to_matrix
 from .state import CLOCK_FRAME, CLOCK_TIME, COUNT_FRAMES, unpack
-from .vec import add, cell, dot, entry, mat_vec, rotation, row, scale, set_row
+from .vec import add, cell, dot, entry, kernel, mat_vec, rotation, row, scale, set_row
 from .world import World
 
 OPPOSITION = -0.5
@@ -36,20 +36,23 @@ class Snapshot(NamedTuple):
     angular_velocity: np.ndarray
     touching: np.ndarray
     """(40,) True where a phalanx slot touches the object (``touching``)."""
-    grasped: bool
-    """The module's grasp rule, for this object."""
-    rendered: np.ndarray
-    """(40, 3) ``rendered_phalanges``."""
     grasped_by: np.ndarray
     """(2,) The grasp rule per hand (left, right): which hands hold the object."""
+    rendered: np.ndarray
+    """(40, 3) ``rendered_phalanges``."""
+
+    @property
+    def grasped(self) -> bool:
+        """The module's grasp rule, for this object: either hand holds it."""
+        return bool(self.grasped_by.any())
 
 
 def snapshot(world: World, index: int = 0) -> Snapshot:
     """What a study reads of object ``index`` after a step, in one compiled call (module docstring)."""
     data = world.data
     t, values, touching, by_side = _snapshot(data.reals, data.flags, data.counts, data.n_objects, index)
-    return Snapshot(t, values[0:3], values[3:7], values[7:10], values[10:13], touching, bool(by_side.any()),
-                    values[13:].reshape(-1, 3), by_side)
+    return Snapshot(t, values[0:3], values[3:7], values[7:10], values[10:13], touching, by_side,
+                    values[13:].reshape(-1, 3))
 
 
 @entry
@@ -99,6 +102,20 @@ def grasped(world: World) -> np.ndarray:
     return _grasped(data.active, data.normal)
 
 
+@kernel
+def _hand_grasps(active, normal, side, o):
+    """Whether hand ``side`` holds object ``o``: a thumb phalanx and one of another digit in contact
+    with opposing normals (module rule)."""
+    first = side * BONES_PER_HAND
+    for thumb in range(first, first + N_BONES):
+        if not active[thumb, o]:
+            continue
+        for other in range(first + N_BONES, first + BONES_PER_HAND):
+            if active[other, o] and dot(cell(normal, thumb, o), cell(normal, other, o)) < OPPOSITION:
+                return True
+    return False
+
+
 @entry
 def _grasped_by(active, normal):
     """(hands, N) True where a hand holds an object (module rule)."""
@@ -106,24 +123,18 @@ def _grasped_by(active, normal):
     result = np.zeros((slots // BONES_PER_HAND, n), dtype=np.bool_)
     for o in range(n):
         for side in range(slots // BONES_PER_HAND):
-            first = side * BONES_PER_HAND
-            for thumb in range(first, first + N_BONES):
-                if not active[thumb, o]:
-                    continue
-                for other in range(first + N_BONES, first + BONES_PER_HAND):
-                    if active[other, o] and dot(cell(normal, thumb, o), cell(normal, other, o)) < OPPOSITION:
-                        result[side, o] = True
+            result[side, o] = _hand_grasps(active, normal, side, o)
     return result
 
 
 @entry
 def _grasped(active, normal):
     """(N,) True where either hand holds an object."""
-    by = _grasped_by(active, normal)
-    result = np.zeros(by.shape[1], dtype=np.bool_)
-    for side in range(by.shape[0]):
-        for o in range(by.shape[1]):
-            result[o] = result[o] or by[side, o]
+    slots, n = active.shape
+    result = np.zeros(n, dtype=np.bool_)
+    for o in range(n):
+        for side in range(slots // BONES_PER_HAND):
+            result[o] = result[o] or _hand_grasps(active, normal, side, o)
     return result
 
 

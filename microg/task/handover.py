@@ -52,8 +52,7 @@ class _HandoverFields(NamedTuple):
     in_place_since: float | None = None
     """When the other hand, alone, last came to hold the object inside the place zone."""
     last_t: float | None = None
-    both: bool = False
-    """Both hands held the object at the frame before."""
+    """The frame before's time."""
     both_held: float = 0.0
     attempts: int = 0
     """Drops."""
@@ -82,7 +81,7 @@ def advance(state: HandoverState, obs: Observation, rules: TaskRules) -> tuple[H
     if state.started is None:
         state = state._replace(started=t)
         events.append(TaskEvent(t, "stage", {"stage": TAKE}))
-    if state.both and state.last_t is not None:
+    if all(h.held for h in state.hands):  # both held the object over the interval since the frame before
         state = state._replace(both_held=state.both_held + t - state.last_t)
     if t - state.started >= rules.timeout_s - EPS:
         events.append(TaskEvent(t, "timeout", {"stage": state.stage}))
@@ -120,8 +119,8 @@ def advance(state: HandoverState, obs: Observation, rules: TaskRules) -> tuple[H
             events.append(TaskEvent(t, "completed", {"time_s": t - state.started, "attempts": state.attempts,
                                                      "transfer_time_s": state.transfer_time,
                                                      "both_held_s": state.both_held}))
-            return state._replace(stage=COMPLETED, ended=t, both=False), events
-    return state._replace(last_t=t, both=all(h.held for h in hands)), events
+            return state._replace(stage=COMPLETED, ended=t), events
+    return state._replace(last_t=t), events
 
 
 def displayed(state: HandoverState, t: float) -> TaskDisplay:

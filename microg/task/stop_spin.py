@@ -15,13 +15,13 @@ Rules (times are the observations' clock; omega is the object's angular velocity
 - *Completed* once the object has been at rest ``hold_s``. **Completion time** runs from the task's
   first frame to then; **time to rest** to when that rest began.
 - *Flipped*: the object's spin axis, in the object's own frame, turned more than 90 degrees while
-  it turned freely at ``rest_omega`` or faster (the intermediate-axis flip): nothing touched it at
-  the frame's end and its centre's velocity changed less than ``FREE_DV`` since the frame before
-  (a touch within the frame, over by its end, changes it; a falling object is never free, so flips
-  are judged in weightlessness),
-  from the axis it turned about when that free spell began (the first spell's: ``spin_axis``, as
-  the task starts it), so that a grip that brakes the spin and makes it turn back, or a touch that
-  knocks it into another spin, is no flip.
+  it turned freely at ``rest_omega`` or faster (the intermediate-axis flip), from the axis it
+  turned about when that free spell began (the first spell's: ``spin_axis``, as the task starts
+  it). It turns freely while nothing touches it at the frame's end and its centre's velocity
+  changes less than ``FREE_DV`` from the frame before (a touch within the frame, over by its end,
+  changes it; a falling object is never free, so flips are judged in weightlessness). So a grip
+  that brakes the spin and makes it turn back, or a touch that knocks it into another spin, is no
+  flip.
 - *Attempts* are drops: holds that ended before the task was completed.
 - *Timeout*: a task still unfinished ``timeout_s`` after its first frame ends as not completed
   (the object never came to rest).

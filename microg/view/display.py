@@ -56,6 +56,7 @@ from microg.study.protocol import Phase, Protocol, Viewpoint
 from microg.study.questionnaire import Answer, Question, RatingError, parse_answer
 from microg.study.store import PlannedTask
 from microg.task import Moment
+from microg.task.rules import HANDOVER
 
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
 from .tls import LOCALHOST, Certificate
@@ -183,7 +184,7 @@ class ParticipantDisplay:
             "surface": None if layout.surface is None else {"vertices": layout.surface[0].ravel().tolist(),
                                                             "faces": layout.surface[1].ravel().tolist()},
             "place_radius": layout.place_radius, "hold_s": layout.hold_s, "kind": layout.kind,
-            "first_hand": handover.first_hand if (handover := self.protocol.rules(task.phase).handover) else None,
+            "first_hand": self.protocol.task.handover.first_hand if layout.kind == HANDOVER else None,
             "target": None if layout.target is None else {"centre": layout.target.tolist(),
                                                           "radius": layout.target_radius},
             "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),
