@@ -1,9 +1,9 @@
-"""The simulated participant: a seeded motor model that plays the pick-and-place task in closed
-loop with the physics and delivers Leap-shaped hand frames (see ``participant``); the population
+"""The simulated participant: a seeded motor model that plays every task kind in closed loop with
+the physics and delivers Leap-shaped hand frames (see ``participant``); the population
 each participant's parameters are drawn from (``population``); the rating model that answers the
 questionnaire for it (``ratings``)."""
 
-from .participant import SimulatedParticipant
+from .participant import HandingParticipant, SimulatedParticipant
 from .plan import TaskPlan
 from .population import Population, PopulationError, default_population, read_population
 from .skill import BEGINNER, PROFILES, VETERAN, SkillProfile, person_skill, skill_profile
@@ -14,6 +14,7 @@ __all__ = [
     "Population",
     "PopulationError",
     "VETERAN",
+    "HandingParticipant",
     "SimulatedParticipant",
     "SkillProfile",
     "TaskPlan",

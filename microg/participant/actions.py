@@ -15,12 +15,21 @@ a clean run goes through them:
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
 open, back off, reach again). The catch and the stop of a spin (``PLAYER.kind``) take the object
-and keep it; the send takes it and pushes it off toward the target:
+and keep it; the send takes it and pushes it off toward the target; a handover is played by two
+hands (``PLAYER.role``), each a participant of its own that sees what the other does
+(``SEEN.other_action``, ``SEEN.other_grasped``):
 
     catch:     wait -> intercept -> descend -> close -> squeeze -> keep -> done
     stop_spin: wait -> reach -> descend -> close -> squeeze -> keep -> done
     send:      wait -> reach -> descend -> close -> squeeze -> push -> open -> retreat (braking) -> watch
                -> done (the send missed: wait -> reach ... again)
+    handover, the hand that takes the object (role ``GIVING``):
+               wait -> reach -> descend -> close -> squeeze -> lift -> carry (to the meeting point)
+               -> offer -> open -> retreat -> watch -> done (a drop: wait -> reach ... again)
+    handover, the hand it is passed to (role ``TAKING_OVER``):
+               wait_for_hand -> wait -> reach (from below, palm up) -> descend -> close -> squeeze
+               -> take_over -> carry (to the place zone) -> hold -> open -> retreat -> watch -> done
+               (a drop: back to wait_for_hand)
 
 A catch's ``intercept`` moves the pre-shaped hand into the launched object's path, above the point
 where it will be once the hand is there (zero gravity: x + v t, from the velocity it is seen moving
@@ -31,7 +40,11 @@ A catch's object that moves slower than ``MOVING_SPEED`` is reached for as it li
 drifts there in ``arrival_s`` as the participant's own clock runs (``clock_cv``), its speed rising
 smoothly over ``PUSH_S``; the hand opens coasting on at that speed, then brakes as it withdraws
 (in ``BRAKE_S``). A send that the task shows missed (back to its pick-up stage) is fetched and sent
-again. Random draws
+again. A handover's giving hand carries the object to the meeting point and offers it there,
+keeping its grip, until it sees the other hand hold it, then lets go; the other hand waits until the
+object is offered, takes it from below, palm up, squeezing across the giving grip (so that the
+digits of the two hands press different faces), keeps it until the giving hand has let go, and
+carries it into the place zone. Random draws
 come from the participant's ``decisions`` generator. Everything is compiled (numba): a session
 calls ``participant.next_frame`` once a frame, and an in-silico study steps many participants and
 their worlds in one compiled loop, with the same code.
@@ -45,7 +58,7 @@ import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
-from microg.task.rules import CATCH, PICK_AND_PLACE, SEND, STOP_SPIN
+from microg.task.rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
 from .anatomy import REST
 from .grasp import CLOSURES, choose_grasp
 from .motion import minimum_jerk_at, movement_time
@@ -95,36 +108,44 @@ MOVING_SPEED = 0.02
 BRAKE_S = 0.3
 """s: a catching hand, moving with the object it took, slows to a stop in this time (evenly); so does
 a sending hand as it withdraws from the object it let go."""
+HANDOVER_SIDE = np.array([0.15, -0.08, 0.06])
+"""Where the hand a handover passes the object to waits (m), from the meeting point: out to its own
+side (x, mirrored for a left hand), below and nearer the user."""
 PUSH_S = 0.4
 """s: a send brings the held object up to its release speed in this time (the speed rising as a
 minimum-jerk movement's position does, so that the push starts and ends without a jolt)."""
 
 ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "lift", "carry", "hold", "retry",
-           "open", "retreat", "watch", "done", "intercept", "keep", "push")
+           "open", "retreat", "watch", "done", "intercept", "keep", "push", "offer", "wait_for_hand", "take_over")
 """The participant's actions ("phase" is the study's timeline, "stage" the task's): ``STATE.action``
 is an index into this tuple."""
 (WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
- DONE, INTERCEPT, KEEP, PUSH) = range(len(ACTIONS))
-KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND)
+ DONE, INTERCEPT, KEEP, PUSH, OFFER, WAIT_FOR_HAND, TAKE_OVER) = range(len(ACTIONS))
+KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND, HANDOVER)
 """The task kinds a participant plays, as ``PLAYER.kind`` gives them (``microg.task.rules.KINDS``)."""
-PLACING, CATCHING, SENDING = (KIND_CODES.index(kind) for kind in (PICK_AND_PLACE, CATCH, SEND))
-"""``PLAYER.kind`` codes: the pick-and-place, the catch, the send."""
+PLACING, CATCHING, SENDING, HANDING = (KIND_CODES.index(kind) for kind in (PICK_AND_PLACE, CATCH, SEND, HANDOVER))
+"""``PLAYER.kind`` codes: the pick-and-place, the catch, the send, the handover."""
+ALONE, GIVING, TAKING_OVER = 0, 1, 2
+"""``PLAYER.role`` codes: the one hand of every kind but the handover; a handover's hand that takes the
+object first and gives it, and the hand it is passed to."""
 STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout", "approach", "catch", "spinning",
-               "resting", "pick_up", "carry", "drift")
-"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch``, ``stop_spin``
-and ``send``)."""
-MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP = 0, 2, 3, 4, 5, 9
+               "resting", "pick_up", "carry", "drift", "take", "pass", "place")
+"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch``, ``stop_spin``,
+``send`` and ``handover``)."""
+MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP, TAKE = 0, 2, 3, 4, 5, 9, 12
 """``SEEN.stage`` codes: manipulation, release, the two that end the task, a catch's approach, a
-send's pick-up."""
+send's pick-up, a handover's take."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
          "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s")
 """The skill's numbers in a ``PLAYER`` record (``skill.SkillProfile``'s fields)."""
 
 _POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8", (5, 4))]
+POSE = np.dtype(_POSE, align=True)
+"""A hand's intended pose: its palm's position and orientation and its joint angles."""
 PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
     ("time_limit", "f8"), ("kind", "i8"), ("toward", "f8", (3,)), ("home", "f8", (3,)), ("first_slot", "i8"),
-    ("mirror", "f8"), ("caution", "f8"),
+    ("mirror", "f8"), ("role", "i8"), ("palm_up", "?"), ("caution", "f8"),
     ("round_object", "?"), ("half", "f8", (3,)), ("mass", "f8"), ("static_friction", "f8"), ("gravity", "f8", (3,)),
     ("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8"),
     ("release", "f8", (3,)), ("has_release", "?"), ("target", "f8", (3,)), ("arrival_s", "f8"),
@@ -134,7 +155,8 @@ PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
 """What stays the same through a task: the skill (``SKILL``), the participant's clock limit, the
 task's kind (``KIND_CODES``), the direction its grip squeezes most along (``grasp.choose_grasp``),
 where the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
-caution with this object, the object (ball or box, half extents, mass, friction), the gravity, the
+role in the task (``ALONE``, ``GIVING``, ``TAKING_OVER``), whether it grasps palm up, its caution
+with this object, the object (ball or box, half extents, mass, friction), the gravity, the
 places and the hold (a place's, a catch's or a rest's), where to let go, a send's target and drift
 time, the frame timing and the tremor and noise constants."""
 STATE = np.dtype([
@@ -144,6 +166,7 @@ STATE = np.dtype([
     ("closure", "f8"), ("grip", "f8"), ("place", "i8"), ("attempts", "i8"),
     ("in_hand", "f8", (3,)), ("close_origin", "f8", (3,)), ("released_since", "f8"),
     ("hold_clock", "f8"), ("clock_rate", "f8"), ("dark_since", "f8"), ("catch_at", "f8", (3,)), ("drift", "f8", (3,)),
+    ("other_held_since", "f8"),
     ("tremor", "f8", (7,)), ("noise", "f8", (2, 16)),
 ], align=True)
 """The participant at one frame. ``time`` is its own clock (NaN before the first frame); the
@@ -156,15 +179,19 @@ hand when the grip settled (hand frame), ``close_origin`` where it was when clos
 catching hand's: where it should be, moving on at ``drift``); ``released_since``, ``dark_since``:
 NaN for none; ``catch_at``: where the intercepting hand waits for the object's centre; ``drift``:
 the velocity a catching hand moves on at with the object, and brakes from, or a send's release
-velocity, which the sending hand coasts on at and brakes from (zero otherwise)."""
+velocity, which the sending hand coasts on at and brakes from (zero otherwise);
+``other_held_since``: since when a handover's offering hand has seen the other hand hold the
+object (NaN for not)."""
 SEEN = np.dtype([
     ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
     ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"), ("velocity", "f8", (3,)),
+    ("other_action", "i8"), ("other_grasped", "?"),
 ], align=True)
 """One frame as the participant perceives it: its own clock and the time since the last frame,
 the object's pose, its own phalanges touching the object (1: touching), whether the physics reports the object
 grasped with its own thumb and another digit on it, what the task displays, if anything, and the
-object's velocity (zero in silico, which plays only the pick-and-place and never reads it)."""
+object's velocity (zero in silico, which plays only the pick-and-place and never reads it); in a
+handover, what the participant's other hand is doing (``ACTIONS``) and whether it holds the object."""
 
 
 # -- helpers every action shares ------------------------------------------------------------
@@ -228,7 +255,7 @@ def _grasp_pose(p, s, grasps, closure, position, orientation, approach, out):
     ball has no faces: the hand keeps the world's axes however it has rolled (``choose_grasp``)."""
     grasp = grasps[s.grasp]
     if p.round_object:
-        choose_grasp(True, p.half, orientation, s.hand_in_object, p.toward)
+        choose_grasp(True, p.half, orientation, s.hand_in_object, p.toward, p.palm_up)
         s.grasp_orientation[:] = quat_from_matrix(s.hand_in_object)
     rotation = quat_to_matrix(orientation) @ s.hand_in_object
     for i in range(3):
@@ -274,14 +301,14 @@ def _follow(p, s, grasps, seen, approach):
     object put back at its start), or that turned more than half a turn from where the movement
     began (a tumbling object: the arc to its quaternion would be ill-defined and swing the hand
     round in one frame), is reached by a new movement from where the hand is."""
-    target = np.empty(1, STATE)[0]
-    _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, approach, target.end)
-    if _dot4(target.end.orientation, s.end.orientation) < 0.0:
+    aimed = np.empty(1, POSE)  # indexed at each use: a record taken out of it once would outlive the array
+    _grasp_pose(p, s, grasps, s.closure, seen.position, seen.orientation, approach, aimed[0])
+    if _dot4(aimed[0].orientation, s.end.orientation) < 0.0:
         for i in range(4):
-            target.end.orientation[i] = -target.end.orientation[i]
-    replan = _distance(target.end.position, s.end.position) >= REPLAN_DISTANCE \
-        or _dot4(target.end.orientation, s.start.orientation) < 0.0
-    _copy_pose(target.end, s.end)
+            aimed[0].orientation[i] = -aimed[0].orientation[i]
+    replan = _distance(aimed[0].position, s.end.position) >= REPLAN_DISTANCE \
+        or _dot4(aimed[0].orientation, s.start.orientation) < 0.0
+    _copy_pose(aimed[0], s.end)
     if replan:
         _begin_movement(s, seen.t, _fitts(p, _distance(s.end.position, s.pose.position), p.preshape_margin))
 
@@ -325,7 +352,7 @@ def _squeeze_depth(p, s, seen, draws):
                 others += 1
     thumb, others = max(thumb, 1), max(others, 1)
     gravity = math.sqrt(p.gravity[0] ** 2 + p.gravity[1] ** 2 + p.gravity[2] ** 2)
-    if p.kind == PLACING:
+    if p.kind == PLACING or p.kind == HANDING:  # carried to a place (a handover's: the meeting point, the zone)
         distance = _distance(p.places[min(s.place, p.n_places - 1)], seen.position)
         load = p.mass * (gravity + PEAK_ACCELERATION * distance / _carry_time(p, distance) ** 2)
     else:  # kept where it was taken: a catch's brakes it to a stop
@@ -397,7 +424,7 @@ def _begin_reach(p, s, seen, grasps, draws):
     """Plan a grasp of the object as it lies now and reach for its pre-grasp pose (the object out
     of reach, or lying so that the hand cannot grip it: wait for it)."""
     t = seen.t
-    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward, p.palm_up)
     if _distance(seen.position, p.home) > REACH_RADIUS or not grasps[key].valid:
         _enter(s, WAIT_FOR_OBJECT, t)
         return
@@ -444,7 +471,7 @@ def _begin_intercept(p, s, seen, grasps, draws):
     """Plan a grasp across the moving object's path and move the pre-shaped hand to its pre-grasp
     pose where the object will be (``_ahead``; none within reach: wait for it)."""
     t = seen.t
-    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward)
+    key = choose_grasp(p.round_object, p.half, seen.orientation, s.hand_in_object, p.toward, p.palm_up)
     ahead = _ahead(p, s, seen, grasps, key) if grasps[key].valid else -1.0
     if ahead < 0.0:
         _enter(s, WAIT_FOR_OBJECT, t)
@@ -541,7 +568,7 @@ def wait_for_object(p, s, seen, grasps, draws):
     """The object is out of reach (or lies so the hand cannot grip it): wait until that changes (a
     task puts a lost object back)."""
     frame = np.empty((3, 3))
-    key = choose_grasp(p.round_object, p.half, seen.orientation, frame, p.toward)
+    key = choose_grasp(p.round_object, p.half, seen.orientation, frame, p.toward, p.palm_up)
     if p.kind == CATCHING and _length(seen.velocity) >= MOVING_SPEED:
         s.hand_in_object[:] = frame
         reachable = grasps[key].valid and _ahead(p, s, seen, grasps, key) >= 0.0
@@ -599,7 +626,11 @@ def squeeze(p, s, seen, grasps, draws):
     if p.kind == SENDING:
         _begin_push(p, s, seen, draws)
         return
-    if p.kind != PLACING:
+    if p.role == TAKING_OVER:
+        _object_in_hand(s, seen, s.in_hand)
+        _enter(s, TAKE_OVER, seen.t)
+        return
+    if p.kind != PLACING and p.kind != HANDING:
         _begin_keep(p, s, seen, draws)
         return
     _copy_pose(s.pose, s.end)
@@ -623,7 +654,9 @@ def carry(p, s, seen, grasps, draws):
     correct; after the last place let go (with a display: once it shows the release stage)."""
     if not _move_holding(p, s, seen, grasps, draws):
         return
-    if s.place == p.n_places:
+    if p.role == GIVING:
+        _enter(s, OFFER, seen.t)
+    elif s.place == p.n_places:
         if not seen.has_display or seen.stage == RELEASE:
             _begin_open(p, s, grasps, seen.t)
         else:
@@ -646,7 +679,7 @@ def hold(p, s, seen, grasps, draws):
     if _distance(seen.position, _destination(p, s)) > p.place_radius:
         _begin_carry(p, s, seen, draws, p.reaction_s)
         return
-    dark = seen.has_display and not seen.lit
+    dark = seen.has_display and not seen.lit and p.kind != HANDING  # (a handover's zone has no mark to light)
     if dark != (not math.isnan(s.dark_since)):
         s.dark_since = t if dark else math.nan
     if dark and t - s.dark_since > p.reaction_s:
@@ -668,8 +701,13 @@ def hold(p, s, seen, grasps, draws):
 
 @njit(cache=True)
 def retry(p, s, seen, grasps, draws):
-    """Open and back off, then go for the object again where it is now."""
-    if _move(s, seen.t) >= 1.0:
+    """Open and back off, then go for the object again where it is now (a handover's hand that takes
+    it over: wait for it to be offered again)."""
+    if _move(s, seen.t) < 1.0:
+        return
+    if p.role == TAKING_OVER:
+        _enter(s, WAIT_FOR_HAND, seen.t)
+    else:
         _begin_take(p, s, seen, grasps, draws)
 
 
@@ -787,9 +825,9 @@ def retreat(p, s, seen, grasps, draws):
 @njit(cache=True)
 def watch(p, s, seen, grasps, draws):
     """Stay until the object is seen away from the hand (with a display: until the task shows it
-    is over, or that a send missed: fetch it again); if it still clings after ``WATCH_S``, open and
+    is over, or that a send missed or a handed-over object was dropped: fetch it again); if it still clings after ``WATCH_S``, open and
     back off again."""
-    if p.kind == SENDING and seen.has_display and seen.stage == PICK_UP:
+    if seen.has_display and ((p.kind == SENDING and seen.stage == PICK_UP) or (p.role == GIVING and seen.stage == TAKE)):
         s.attempts += 1
         s.go_at = seen.t + pause(p, draws, p.drop_pause_s)
         _enter(s, WAIT, seen.t)
@@ -802,16 +840,49 @@ def watch(p, s, seen, grasps, draws):
 
 
 @njit(cache=True)
+def offer(p, s, seen, grasps, draws):
+    """A handover's giving hand keeps the object still at the meeting point, gripped, until it sees
+    the other hand hold it for a reaction time; then lets go."""
+    _closing(s, grasps, seen, p, s.grip)
+    if _keep_grip(p, s, seen, grasps, draws):
+        return
+    if not seen.other_grasped:
+        s.other_held_since = math.nan
+    elif math.isnan(s.other_held_since):
+        s.other_held_since = seen.t
+    elif seen.t - s.other_held_since >= p.reaction_s:
+        _begin_open(p, s, grasps, seen.t)
+
+
+@njit(cache=True)
+def wait_for_hand(p, s, seen, grasps, draws):
+    """A handover's hand that takes the object over waits until the other hand offers it."""
+    if seen.other_action == OFFER:
+        s.go_at = seen.t + pause(p, draws, 0.0)
+        _enter(s, WAIT, seen.t)
+
+
+@njit(cache=True)
+def take_over(p, s, seen, grasps, draws):
+    """A handover's hand that took the object over keeps it, gripped, until the giving hand has let
+    go of it; then carries it into the place zone."""
+    _closing(s, grasps, seen, p, s.grip)
+    if not _keep_grip(p, s, seen, grasps, draws) and not seen.other_grasped:
+        _begin_carry(p, s, seen, draws, p.reaction_s)
+
+
+@njit(cache=True)
 def follow_display(p, s, seen, grasps, draws):
     """React to what the task display shows, before the action does; False if it changes nothing.
     The task is over: done. The task shows the object not held (a pick-and-place's manipulation, a
-    catch's approach, a send's pick-up) while the hand thinks it holds it: go back for it (after a
+    catch's approach, a send's pick-up, a handover's take) while the hand thinks it holds it: go back for it (after a
     reaction time in the action)."""
     if seen.stage == COMPLETED or seen.stage == TIMEOUT:
         _enter(s, DONE, seen.t)
         return True
-    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP or s.action == PUSH
-    loose = seen.stage == MANIPULATION or seen.stage == APPROACH or seen.stage == PICK_UP
+    holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP or s.action == PUSH \
+        or s.action == OFFER or s.action == TAKE_OVER
+    loose = seen.stage == MANIPULATION or seen.stage == APPROACH or seen.stage == PICK_UP or seen.stage == TAKE
     if loose and holding and seen.t - s.since > p.reaction_s:
         s.attempts += 1
         _begin_retry(p, s, grasps, draws, seen.t, True)
@@ -862,3 +933,9 @@ def decide(p, s, seen, grasps, draws):
         keep(p, s, seen, grasps, draws)
     elif action == PUSH:
         push(p, s, seen, grasps, draws)
+    elif action == OFFER:
+        offer(p, s, seen, grasps, draws)
+    elif action == WAIT_FOR_HAND:
+        wait_for_hand(p, s, seen, grasps, draws)
+    elif action == TAKE_OVER:
+        take_over(p, s, seen, grasps, draws)

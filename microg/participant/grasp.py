@@ -231,19 +231,21 @@ TOWARD_USER = np.array([0.3, 0.0, 1.0])
 
 
 @njit(cache=True)
-def choose_grasp(round_object, half_extents, orientation, hand_in_object, toward):
+def choose_grasp(round_object, half_extents, orientation, hand_in_object, toward, palm_up):
     """Which grasp the hand takes of an object lying as ``orientation`` says: its key (0 for a
     ball) and the hand's axes in the object's frame (into ``hand_in_object``, columns).
 
     The hand's y axis follows the object's most vertical body axis (palm down for a side grasp,
-    palm up under a clamped plate), its z axis the squeezed axis (side) or the plate's axis that
-    points most along ``toward`` (``TOWARD_USER``; a catch's squeezes across the launch's path),
-    signed so the fingers point away from it. A ball has no faces to align with: the hand keeps
-    the world's axes (palm down, fingers ahead)."""
+    palm up under a clamped plate; turned over with ``palm_up``: a handover's hand that takes the
+    object from below), its z axis the squeezed axis (side) or the plate's axis that points most
+    along ``toward`` (``TOWARD_USER``; a catch's squeezes across the launch's path), signed so the
+    fingers point away from it. A ball has no faces to align with: the hand keeps the world's axes
+    (palm down, fingers ahead; palm up turned over about the fingers' axis)."""
     axes = quat_to_matrix(orientation)
+    flip = -1.0 if palm_up else 1.0
     if round_object:
         for i in range(3):
-            hand_in_object[i, 1], hand_in_object[i, 2] = axes[1, i], axes[2, i]
+            hand_in_object[i, 1], hand_in_object[i, 2] = flip * axes[1, i], axes[2, i]
         _complete_frame(hand_in_object)
         return 0
     up_axis, best = 0, -1.0
@@ -262,7 +264,7 @@ def choose_grasp(round_object, half_extents, orientation, hand_in_object, toward
             if along_toward > best:
                 slot, best = k, along_toward
     along = others[slot]
-    up_sign = 1.0 if axes[1, up_axis] >= 0 else -1.0
+    up_sign = flip * (1.0 if axes[1, up_axis] >= 0 else -1.0)
     along_dot = axes[0, along] * toward[0] + axes[1, along] * toward[1] + axes[2, along] * toward[2]
     along_sign = 1.0 if along_dot >= 0 else -1.0
     return _grasp_frame(up_axis, up_sign, slot, along_sign, flat, hand_in_object)
@@ -332,7 +334,7 @@ def plan_grasp(shape: str, half_extents: np.ndarray, orientation: np.ndarray, si
     half_extents = tuple(float(v) for v in np.asarray(half_extents, dtype=np.float64))
     frame = np.empty((3, 3))
     key = choose_grasp(shape == "sphere", np.asarray(half_extents), np.asarray(orientation, dtype=np.float64), frame,
-                       TOWARD_USER)
+                       TOWARD_USER, False)
     grasp = grasps(shape, half_extents, side)[key]
     if not grasp["valid"]:
         raise ValueError(f"plan_grasp: the {shape} of half extents {half_extents} is wider across the grip than "

@@ -1,5 +1,5 @@
 """The simulated participant: a closed-loop motor model that plays a task (a pick-and-place, a
-catch, a stop of a spin, a send).
+catch, a stop of a spin, a send; a handover with both hands: ``HandingParticipant``).
 
     participant = SimulatedParticipant(plan, "veteran", seed=7)
     for moment in play(world, Tracking(participant), plan.rules):   # microg.task.play
@@ -35,6 +35,7 @@ over. Without one it judges everything from the scene and its own clock.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numba import njit
@@ -43,8 +44,9 @@ from numba.typed import List
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.skeleton import BONES_PER_HAND, SIDES, HandFrame, side_slots
 from microg.task import Observation
-from microg.task.rules import CATCH, SEND, STOP_SPIN, TaskRules
-from .actions import ACTIONS, DONE, KIND_CODES, MAX_PLACES, PLAYER, SEEN, SKILL, STAGE_CODES, STATE, decide, pause
+from microg.task.rules import CATCH, HANDOVER, SEND, STOP_SPIN, TaskRules
+from .actions import (ACTIONS, ALONE, DONE, GIVING, HANDOVER_SIDE, KIND_CODES, LIFT_OFFSET, MAX_PLACES, PLAYER, SEEN,
+                      SKILL, STAGE_CODES, STATE, TAKING_OVER, WAIT_FOR_HAND, decide, pause)
 from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .grasp import TOWARD_USER, UP, grasps
 from .noise import (NOISE_SIZE, FrameTiming, TrackingNoiseLevels, advance_noise, advance_tremor, frame_interval,
@@ -62,15 +64,18 @@ STREAMS = ("timing", "decisions", "tremor", "noise")
 
 
 def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = MEASURED_TIMING,
-          noise: TrackingNoiseLevels = MEASURED_NOISE, time_limit_s: float = 300.0, *, player=None, state=None):
+          noise: TrackingNoiseLevels = MEASURED_NOISE, time_limit_s: float = 300.0, *, player=None, state=None,
+          role: int = ALONE):
     """The participant before its first frame, into ``player`` and ``state`` (a ``PLAYER`` and a
     ``STATE`` record; new ones when None): the hand waiting at its start, open and relaxed. Returns
     the records, the random streams (``STREAMS``, a typed list of generators) and the grasps it can
-    take of the object (``grasp.grasps``)."""
+    take of the object (``grasp.grasps``). A handover's two hands each start with their ``role``
+    (``handover_hand``)."""
     if len(plan.rules.places) > MAX_PLACES:
         raise ValueError(f"TaskPlan.rules.places has {len(plan.rules.places)} places: a simulated participant "
                          f"plays at most {MAX_PLACES}")
-    streams = List([np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(len(STREAMS))])
+    entropy = seed if role == ALONE else (seed, role)  # each hand of a handover draws on its own
+    streams = List([np.random.default_rng(s) for s in np.random.SeedSequence(entropy).spawn(len(STREAMS))])
     player = np.zeros(1, PLAYER)[0] if player is None else player
     state = np.zeros(1, STATE)[0] if state is None else state
     for name in SKILL:
@@ -106,7 +111,34 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
         (1.0, 0.0, 0.0, 0.0), REST
     state["released_since"], state["dark_since"], state["clock_rate"] = math.nan, math.nan, 1.0
     state["go_at"] = pause(player, streams[1], skill.new_object_pause_s if plan.first_with_object else 0.0)
+    state["other_held_since"] = math.nan
+    if role != ALONE:
+        handover_hand(plan, role, player, state)
     return player, state, streams, grasps(spec.shape, tuple(float(v) for v in half), plan.hand)
+
+
+def meeting_point(plan: TaskPlan) -> np.ndarray:
+    """Where a handover's giving hand offers the object: halfway from its start to the place zone,
+    raised by the lift (``actions.LIFT_OFFSET``)."""
+    return (np.asarray(plan.start, dtype=np.float64) + np.asarray(plan.rules.handover.place)) / 2.0 + LIFT_OFFSET
+
+
+def handover_hand(plan: TaskPlan, role: int, player, state) -> None:
+    """One hand of a handover (``plan.hand`` is that hand): the giving hand carries to the meeting
+    point (its one place); the hand it passes the object to waits beside it, below and out to its
+    own side (``actions.HANDOVER_SIDE``), takes the object from below, palm up, squeezing across the
+    giving grip, carries it into the place zone and holds it there for the handover's ``hold_s``."""
+    meeting, handover = meeting_point(plan), plan.rules.handover
+    player["role"], player["n_places"] = role, 1
+    if role == GIVING:
+        player["places"][0] = meeting
+        return
+    side = -1.0 if plan.hand == "left" else 1.0
+    player["places"][0], player["place_radius"], player["hold_s"] = handover.place, handover.radius, handover.hold_s
+    player["home"] = meeting + HANDOVER_SIDE * np.array([side, 1.0, 1.0])
+    player["toward"], player["palm_up"] = (side, 0.0, 0.3), True
+    state["action"] = WAIT_FOR_HAND
+    state["pose"]["position"] = player["home"]
 
 
 def squeezed_toward(rules: TaskRules) -> np.ndarray:
@@ -166,15 +198,56 @@ def step_participant(p, s, seen, streams, grasps, joints, palm, palm_orientation
         _track(p, s, streams, 0.0, joints, palm, palm_orientation)
         s.time = 0.0
         return 0.0
+    if math.isnan(_next_time(p, s, seen, streams)):
+        s.action = DONE
+        return math.nan
+    _act(p, s, seen, streams, grasps, joints, palm, palm_orientation)
+    return seen.t
+
+
+@njit(cache=True)
+def step_hands(p, s, seen, streams, grasps, joints, palm, palm_orientation,
+               q, r, other_seen, other_streams, other_grasps, other_joints, other_palm, other_orientation):
+    """One frame of a handover's two hands, as ``step_participant`` (``p``, ``s``: the giving hand,
+    whose frame interval sets the clock; ``q``, ``r``: the hand it passes the object to). A hand that
+    is done stays where it is until the other is. Returns the frame's time, or NaN once both are
+    done or out of time."""
+    if s.action == DONE and r.action == DONE:
+        return math.nan
+    if math.isnan(s.time):  # the first frame shows the hands where they wait
+        _track(p, s, streams, 0.0, joints, palm, palm_orientation)
+        _track(q, r, other_streams, 0.0, other_joints, other_palm, other_orientation)
+        s.time = r.time = 0.0
+        return 0.0
+    if math.isnan(_next_time(p, s, seen, streams)):
+        s.action = r.action = DONE
+        return math.nan
+    other_seen.t, other_seen.dt = seen.t, seen.dt
+    _act(p, s, seen, streams, grasps, joints, palm, palm_orientation)
+    _act(q, r, other_seen, other_streams, other_grasps, other_joints, other_palm, other_orientation)
+    return seen.t
+
+
+@njit(cache=True)
+def _next_time(p, s, seen, streams):
+    """The next frame's time and interval, into ``seen``: a frame interval after the last frame; NaN
+    past the participant's time limit."""
     seen.dt = frame_interval(p.period, p.jitter_sd, p.p_one_missing, p.p_two_missing, streams[0])
     seen.t = s.time + seen.dt
     if seen.t > p.time_limit:
-        s.time, s.action = seen.t, DONE
+        s.time = seen.t
         return math.nan
-    decide(p, s, seen, grasps, streams[1])
+    return seen.t
+
+
+@njit(cache=True)
+def _act(p, s, seen, streams, grasps, joints, palm, palm_orientation):
+    """The participant decides at ``seen``'s time (unless it is done: its hand stays where it is) and
+    its hand is tracked there."""
+    if s.action != DONE:
+        decide(p, s, seen, grasps, streams[1])
     _track(p, s, streams, seen.dt, joints, palm, palm_orientation)
     s.time = seen.t
-    return seen.t
 
 
 @njit(cache=True)
@@ -228,16 +301,7 @@ class SimulatedParticipant:
         """The next frame, or None once the participant has finished (or run out of time)."""
         if self.closed:
             return None
-        if observation is None:
-            raise ValueError(f"{self.description}: a simulated participant is closed-loop; "
-                             "next_frame needs the observation of the last frame (microg.task.observe)")
-        o, display = observation, observation.display
-        touching = np.zeros(2 * BONES_PER_HAND, dtype=np.bool_) if o.touching is None else np.asarray(o.touching)
-        perceive(self.player, self._seen, 0.0, 0.0, np.asarray(o.position, dtype=np.float64),
-                 np.asarray(o.orientation, dtype=np.float64), touching, bool(o.grasped), display is not None,
-                 STAGE_CODES.index(display.stage) if display is not None else 0,
-                 display.place if display is not None else 0, bool(display.lit) if display is not None else False)
-        self._seen["velocity"] = o.velocity
+        _perceive(self.description, self.player, self._seen, observation, self.plan.hand)
         joints, palm, orientation = np.empty((5, 5, 3)), np.empty(3), np.empty(4)
         t = step_participant(self.player, self.state, self._seen, self._streams, self._grasps, joints, palm,
                              orientation)
@@ -247,4 +311,71 @@ class SimulatedParticipant:
 
     def close(self) -> None:
         self.closed = True
+
+
+class HandingParticipant:
+    """A ``HandSource`` that plays a handover with both hands: the ``first_hand`` takes the object
+    and gives it (``actions.GIVING``), the other takes it over and puts it in the place zone
+    (``actions.TAKING_OVER``). Each hand is a participant of its own (its own ``PLAYER`` and
+    ``STATE``, its own random streams, the same skill) that sees what the other is doing; the frame
+    times are the giving hand's. The frames end once both hands are done (or out of time)."""
+
+    def __init__(self, plan: TaskPlan, skill: str | SkillProfile = "veteran", seed: int = 0, *,
+                 timing: FrameTiming = MEASURED_TIMING, noise: TrackingNoiseLevels = MEASURED_NOISE,
+                 time_limit_s: float = 300.0):
+        if not isinstance(plan, TaskPlan) or plan.rules.kind != HANDOVER:
+            raise TypeError(f"plan = {plan!r}: must be a TaskPlan of a {HANDOVER}")
+        first = plan.rules.handover.first_hand
+        self.sides = (first, SIDES[1 - SIDES.index(first)])
+        self.plans = tuple(replace(plan, hand=side) for side in self.sides)
+        self.skill = skill_profile(skill) if isinstance(skill, str) else skill
+        self.seed = int(seed)
+        self.description = f"simulated:{self.skill.name}:seed={self.seed}"
+        self.hands = [start(hand_plan, self.skill, self.seed, timing, noise, time_limit_s, role=role)
+                      for hand_plan, role in zip(self.plans, (GIVING, TAKING_OVER))]
+        self._seen = [np.zeros(1, SEEN)[0] for _ in self.hands]
+        self.closed = False
+
+    @property
+    def action(self) -> tuple[str, str]:
+        """What each hand is doing (``actions.ACTIONS``): the giving hand's, then the other's."""
+        return tuple(ACTIONS[int(state["action"])] for _, state, _, _ in self.hands)
+
+    def next_frame(self, observation: Observation | None = None) -> HandFrame | None:
+        """The next frame of both hands (left first), or None once both are done (or out of time)."""
+        if self.closed:
+            return None
+        for k, ((player, state, _, _), seen, side) in enumerate(zip(self.hands, self._seen, self.sides)):
+            other = self.hands[1 - k][1]
+            _perceive(self.description, player, seen, observation, side)
+            seen["other_action"] = other["action"]
+            grasped_by = observation.grasped_by
+            seen["other_grasped"] = grasped_by is not None and bool(grasped_by[SIDES.index(self.sides[1 - k])])
+        out = [(np.empty((5, 5, 3)), np.empty(3), np.empty(4)) for _ in self.hands]
+        (p, s, streams, grasps), (q, r, other_streams, other_grasps) = self.hands
+        t = step_hands(p, s, self._seen[0], streams, grasps, *out[0], q, r, self._seen[1], other_streams, other_grasps,
+                       *out[1])
+        if math.isnan(t):
+            return None
+        hands = [posed_hand(*pose, side, track_id=k + 1) for k, (pose, side) in enumerate(zip(out, self.sides))]
+        return HandFrame.made(t, tuple(sorted(hands, key=lambda hand: SIDES.index(hand.side))))
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def _perceive(description: str, player, seen, observation: Observation | None, side: str) -> None:
+    """What one hand takes in of the observation of the last frame, into ``seen`` (``perceive``): its
+    own grasp of the object (the physics' per hand, when the observation has it)."""
+    if observation is None:
+        raise ValueError(f"{description}: a simulated participant is closed-loop; "
+                         "next_frame needs the observation of the last frame (microg.task.observe)")
+    o, display = observation, observation.display
+    touching = np.zeros(2 * BONES_PER_HAND, dtype=np.bool_) if o.touching is None else np.asarray(o.touching)
+    grasped = bool(o.grasped) if o.grasped_by is None else bool(o.grasped_by[SIDES.index(side)])
+    perceive(player, seen, 0.0, 0.0, np.asarray(o.position, dtype=np.float64),
+             np.asarray(o.orientation, dtype=np.float64), touching, grasped, display is not None,
+             STAGE_CODES.index(display.stage) if display is not None else 0,
+             display.place if display is not None else 0, bool(display.lit) if display is not None else False)
+    seen["velocity"] = o.velocity
 

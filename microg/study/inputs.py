@@ -93,9 +93,11 @@ class SimulatedInputs:
         return plan.rules.timeout_s + 10.0
 
     def open(self, plan: TaskPlan, seed: int) -> HandSource:
-        from microg.participant import SimulatedParticipant
+        from microg.participant import HandingParticipant, SimulatedParticipant
+        from microg.task.rules import HANDOVER
 
-        return SimulatedParticipant(plan, self.skill(plan), seed, time_limit_s=self.time_limit_s(plan))
+        play = HandingParticipant if plan.rules.kind == HANDOVER else SimulatedParticipant  # a handover takes both hands
+        return play(plan, self.skill(plan), seed, time_limit_s=self.time_limit_s(plan))
 
     def close(self) -> None:
         pass

@@ -293,19 +293,11 @@ class Protocol:
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
         value): a group's skill profile that does not exist, an instrument the rating model does not
-        answer, a task kind the simulated participant does not play (it has one hand: no handover).
-        Empty when simulated sessions can run it."""
-        from microg.participant.actions import KIND_CODES
+        answer. Empty when simulated sessions can run it (it plays every task kind)."""
         from microg.participant.ratings import unanswered
         from microg.participant.skill import PROFILES
 
         problems = []
-        kinds = [(f"phases[{i}].kind", p.kind) for i, p in enumerate(self.phases)]
-        if self.training is not None:
-            kinds.append(("training.kind", self.training.kind))
-        for key, kind in kinds:
-            if kind not in KIND_CODES:
-                problems.append(f"{self.where}: {key} = {kind!r}: simulated participants play {list(KIND_CODES)}")
         profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
         for i, group in enumerate(self.groups):
             if group.player is None:

@@ -130,7 +130,7 @@ def test_any_request_to_the_participant_page_gets_an_answer_and_no_traceback(pag
 
     lines = ([("Host", f"127.0.0.1:{page_server.port}")] if own_host else []) + headers
     request = (b"GET /" + path + b" HTTP/1.1\r\n" + "".join(f"{k}: {v}\r\n" for k, v in lines).encode() + b"\r\n")
-    with caplog.at_level(logging.DEBUG, logger="websockets"), \
+    with caplog.at_level(logging.ERROR, logger="websockets"), \
             socket.create_connection(("127.0.0.1", page_server.port), timeout=WAIT_S) as sock:
         sock.sendall(request)
         status = sock.recv(64).split(b"\r\n", 1)[0]

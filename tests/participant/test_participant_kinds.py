@@ -13,6 +13,7 @@ import pytest
 from microg.hands import Tracking
 from microg.participant import SimulatedParticipant
 from microg.sim import PlacedObject, compose_scene, grasped, make_world
+from microg.sim.rotation import quat_to_matrix
 from microg.study.inputs import participant_plan
 from microg.study.protocol import load_protocol
 from microg.study.session import task_world
@@ -150,3 +151,41 @@ def test_a_veteran_sends_the_cube_misses_once_and_sends_it_again_into_the_target
     last = releases[1]
     due = np.linalg.norm(np.subtract(last.data["position"], send.target)) / send.arrival_s
     assert state.release_speed_error == pytest.approx(last.data["speed"] - due, abs=1e-12)
+
+
+def _run_through(grasped, index):
+    """The first frame of the run of grasped frames that goes on at ``index``."""
+    return index - np.argmin(grasped[index::-1]) + 1 if not grasped[:index + 1].all() else 0
+
+
+def test_a_veterans_two_hands_hand_the_cube_over_and_the_measures_follow_their_grasps():
+    """The right hand takes the cube and offers it; the left takes it from below, palm up; the right
+    lets go and the left holds it in the zone. The transfer time runs from the left hand's grasp to
+    the right hand's letting go and both held it from that grasp's settling to the right hold's end,
+    by the grasps the physics reports for each hand."""
+    from microg.participant import HandingParticipant
+
+    protocol = load_protocol(PROTOCOLS / "handover.toml")
+    plan, world = plan_and_world("passing", protocol)
+    handover = protocol.task.handover
+    participant = HandingParticipant(plan, "veteran", 1, time_limit_s=plan.rules.timeout_s + 10.0)
+    moments = list(play(world, Tracking(participant, protocol.guard), plan.rules))
+    state = moments[-1].state
+    assert state.stage == COMPLETED
+    t = np.array([m.after.t for m in moments])
+    left, right = np.array([m.after.grasped_by for m in moments]).T
+    assert np.argmax(right) < np.argmax(left)  # the first hand took it first
+    let_go = np.flatnonzero(right)[-1] + 1
+    took = _run_through(left, let_go - 1)
+    assert state.transfer_time == pytest.approx(t[let_go] - t[took], abs=1e-9)
+    assert state.both_held == pytest.approx((t[let_go] + plan.rules.drop_grace_s) - (t[took] + plan.rules.grasp_settle_s),
+                                            abs=0.02)
+    # Taken from below, palm up: the left palm under the cube, facing up, as the right let go.
+    at = moments[let_go]
+    left_hand = at.frame.hand("left")
+    assert left_hand.palm_position[1] < at.after.position[1] - plan.object.half_extents[1]
+    assert quat_to_matrix(left_hand.palm_orientation)[1, 1] < -0.9  # the back of the hand (its y) faces down
+    # It ends held by the left hand alone, in the zone, for the hold.
+    last = t >= t[-1] - handover.hold_s + 0.02
+    assert left[last].all() and not right[last].any()
+    assert np.linalg.norm(moments[-1].after.position - np.asarray(handover.place)) <= handover.radius

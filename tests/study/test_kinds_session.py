@@ -61,6 +61,20 @@ def test_a_simulated_participant_catches_and_stops_a_spin_in_a_session(make_stud
     assert stop.status == "completed" and 0 < stop.time_to_rest_s < stop.time_s
 
 
+def test_a_simulated_participant_hands_the_cube_over_with_both_hands_in_a_session(make_study):
+    """``--input simulated:veteran`` plays a handover with both hands, each hand's holds logged (study
+    seed 3: its first hand takes the floating cube within the protocol's 15 s; in others a failed
+    grasp may knock it away until the timeout, as in the pick-and-place)."""
+    store, record = make_study("handover", seed=3)
+    session = store.create_session(record.id, input_spec="simulated:veteran", simulated=True, clock="simulation")
+    run_session(store, session.id, open_inputs("simulated:veteran"), clock=SimulationClock())
+    passed = trials_table(store).set_index("phase").loc["passing"]
+    assert passed.task_kind == "handover" and passed.status == "completed"
+    assert 0 < passed.transfer_time_s <= passed.both_held_s < passed.time_s
+    holds = [e.data["hand"] for e in store.events(session.id) if e.kind == "hold" and "hand" in e.data]
+    assert holds.index("right") < holds.index("left")  # the protocol's first_hand took it first
+
+
 def test_in_silico_studies_refuse_a_kind_they_do_not_play():
     from microg.insilico.engine import TaskUnit, play_tasks
     from microg.participant.skill import PROFILES

@@ -221,18 +221,15 @@ radius = 0.04
 hold_s = 1.5''').replace("sending", "passing").replace('kind = "send"', 'kind = "handover"')
 
 
-def test_a_handover_phase_has_its_hand_and_place_and_simulated_participants_do_not_play_it(tmp_path):
-    """A simulated participant has one hand: a protocol with a handover is refused for simulated
-    sessions (people, with both hands tracked, run it)."""
+def test_a_handover_phase_has_its_hand_and_place_and_simulated_participants_play_it(tmp_path):
+    """A handover phase reads its hand and place; simulated participants play it with both hands."""
     p = load_protocol(kinds_protocol(tmp_path, HANDOVER))
     assert p.kind("passing") == "handover" and p.rules("passing").kind == "handover"
     h = p.task.handover
     assert (h.first_hand, h.place, h.radius, h.hold_s) == ("left", (0.1, 0.2, 0.05), 0.04, 1.5)
     assert p.start_motion("handover") == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     assert protocol_from_resolved(p.resolved, "study.db").task == p.task
-    problems = p.simulation_problems()
-    assert any("phases[0].kind = 'handover'" in problem and "simulated participants play" in problem
-               for problem in problems)
+    assert p.simulation_problems() == []
 
 
 @pytest.mark.parametrize("old, new, expected", [

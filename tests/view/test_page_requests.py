@@ -55,7 +55,7 @@ UPGRADE = ("Upgrade: websocket", "Connection: Upgrade", "Sec-WebSocket-Key: dGhl
     (b"/", ("Host: 127.0.0.1:{port}",), b"403"),  # Host twice
 ])
 def test_every_request_gets_an_answer_and_none_a_traceback(display, caplog, path, headers, status):
-    with caplog.at_level(logging.DEBUG, logger="websockets"):
+    with caplog.at_level(logging.ERROR, logger="websockets"):
         assert get(display, path, *(h.format(port=display.port) for h in headers)).split()[1] == status
     assert not [r for r in caplog.records if r.levelno >= logging.ERROR], caplog.text
 
