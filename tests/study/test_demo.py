@@ -114,10 +114,11 @@ def test_a_study_of_task_kinds_runs_to_a_report_of_each_kinds_measures(tmp_path)
         assert flips.between(0, 1).all()
 
 
-def test_a_simulated_skills_study_trains_a_catch_then_stops_a_spin_and_sends_to_a_report(tmp_path):
+def test_a_simulated_skills_study_trains_a_catch_then_stops_a_spin_sends_and_hands_over_to_a_report(tmp_path):
     """The microgravity-skills protocol (the cube only, a short timeout) end to end: the veterans'
-    training catch, then everyone's stop of a spin and send with one interaction model, logged,
-    exported and reported per kind, and that interaction model rated once by each participant."""
+    training catch, then everyone's stop of a spin, send and handover (with both hands) with one
+    interaction model, logged, exported and reported per kind, and that interaction model rated once
+    by each participant."""
     protocol = PROTOCOLS / "skills-quick.toml"
     result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path), "--participants", "2", "--seed", "1", "--jobs",
                                        "1", "--protocol", str(protocol), "--quiet"])
@@ -125,14 +126,18 @@ def test_a_simulated_skills_study_trains_a_catch_then_stops_a_spin_and_sends_to_
     trials = pd.read_csv(tmp_path / "tables" / "trials.csv")
     played = set(trials[["group", "phase", "task_kind"]].itertuples(index=False, name=None))
     assert played == {("V", "training", "catch"), ("V", "stopping", "stop_spin"), ("B", "stopping", "stop_spin"),
-                      ("V", "sending", "send"), ("B", "sending", "send")}
+                      ("V", "sending", "send"), ("B", "sending", "send"), ("V", "passing", "handover"),
+                      ("B", "passing", "handover")}
     arrived = trials[(trials["task_kind"] == "send") & (trials["status"] == "completed")]
     radius = load_protocol(protocol).task.send.radius
     assert len(arrived) and (arrived["send_error_m"] < radius).all()  # an arrival's line passes through the zone
     markdown = (tmp_path / "report" / "report.md").read_text()
-    for text in ("### Stop of a spin", "### Send", "send error (m)", "release speed error (m/s)", "time to rest (s)"):
+    handovers = trials.loc[trials["task_kind"] == "handover", "transfer_time_s"]  # (the 30 s may end one before
+    assert (handovers.dropna() > 0).any()                                        # the place: a handover happened)
+    for text in ("### Stop of a spin", "### Send", "### Handover", "send error (m)", "release speed error (m/s)",
+                 "time to rest (s)", "transfer time (s)"):
         assert text in markdown, text
-    for kind in ("stop_spin", "send"):
+    for kind in ("stop_spin", "send", "handover"):
         assert (tmp_path / "report" / kind / "description.csv").exists()
     answers = pd.read_csv(tmp_path / "tables" / "answers.csv")
     assert set(answers["interaction"]) == {"impulse_penetration"}
