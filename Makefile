@@ -20,5 +20,6 @@ demo: setup
 system-deps:
 	scripts/install-system-deps.sh
 
+# Two test processes, each module in one of them (its module-scoped fixtures are built once).
 test: setup system-deps
-	$(BIN)/pytest
+	$(BIN)/pytest -n 2 --dist loadscope
