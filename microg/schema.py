@@ -66,7 +66,8 @@ TRIALS = (
     Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
            "arrival_s (m/s; negative: too slow); empty for other kinds and before a first send", optional=True),
     Column("transfer_time_s", "float64", "a handover's seconds from the second hand's hold beginning to the first "
-           "hand letting go (the last handover's); empty for other kinds and before a handover", optional=True),
+           "hand letting go (the last handover's; negative: the first let go that long before the second took "
+           "it, within drop_grace_s); empty for other kinds and before a handover", optional=True),
     Column("both_held_s", "float64", "a handover's seconds during which both hands held the object; empty for "
            "other kinds", optional=True),
 )
@@ -124,5 +125,6 @@ KIND_ATTEMPTS = {"pick_and_place": "drops", "catch": "touches that did not hold"
 """What a task kind's ``attempts`` count (``microg.task``'s rules)."""
 PROPORTIONS = ("flipped",)
 """Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""
-SIGNED = ("release_speed_error",)
-"""Measures that may be negative (a difference from the right value)."""
+SIGNED = ("release_speed_error", "transfer_time_s")
+"""Measures that may be negative: a difference from the right value; a handover whose first hand let
+go before the other's grasp began (within ``drop_grace_s``: the object floated free between them)."""

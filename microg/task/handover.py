@@ -13,7 +13,9 @@ Rules (times are the observations' clock, places the tracker frame):
 - *Take* (the first stage): ends when the ``first_hand`` holds the object; then *pass*.
 - *Pass*: ends when the other hand holds the object and the first hand's hold has ended (the
   first hand let go of it): the handover; then *place*. Its **transfer time**
-  (``transfer_time_s``) runs from the other hand's hold beginning to the first hand's ending.
+  (``transfer_time_s``) runs from the other hand's hold beginning to the first hand's ending; it is
+  negative when the first hand's grasp ended before the other's began, within ``drop_grace_s`` (a
+  toss the holds' grace joins).
 - *Place*: completed once the other hand alone has held the object inside the place zone (a sphere
   of ``radius`` about ``place``) for ``hold_s``. **Completion time** runs from the task's first
   frame to then.

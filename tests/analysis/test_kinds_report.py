@@ -101,3 +101,18 @@ def test_a_sends_release_speed_error_may_be_negative_and_is_analysed(kinds_trial
     assert (send.table("cells", "soft_hand", "release_speed_error")["value"] < 0).any()
     with pytest.raises(AnalysisInputError, match="is negative"):
         analyse_study(trials.assign(time_s=-trials["time_s"]), kind="send")  # other measures stay non-negative
+
+
+def test_a_handovers_transfer_time_may_be_negative_and_is_analysed(kinds_trials):
+    """A toss within the drop grace has a negative transfer time (the first hand let go first)."""
+    rng = np.random.default_rng(6)
+    passes = kinds_trials["task_kind"] == "stop_spin"
+    trials = kinds_trials.assign(
+        task_kind=kinds_trials["task_kind"].where(~passes, "handover"),
+        transfer_time_s=pd.Series(rng.normal(0.1, 0.2, len(kinds_trials))).where(passes),
+        both_held_s=pd.Series(rng.uniform(0.2, 1.0, len(kinds_trials))).where(passes),
+    )
+    handover = analyse_study(trials, kind="handover")
+    assert (handover.table("cells", "soft_hand", "transfer_time_s")["value"] < 0).any()
+    with pytest.raises(AnalysisInputError, match="is negative"):
+        analyse_study(trials.assign(both_held_s=-trials["both_held_s"]), kind="handover")

@@ -123,3 +123,18 @@ def test_two_hands_hand_the_cube_over_in_the_physics_and_the_measures_follow_the
     held = round(handover.hold_s / frame_s)
     assert left[-held:].all() and not right[-held:].any()
     assert np.linalg.norm(moments[-1].after.position - np.asarray(handover.place)) <= handover.radius
+
+
+def test_a_toss_within_the_drop_grace_is_a_handover_with_a_negative_transfer_time():
+    """The right hand lets go 0.1 s before the left takes the object (less than the drop grace): the
+    holds' grace joins them, no drop, and the transfer time is -0.1 s."""
+    gap = 0.1
+
+    def tossed(t):
+        right = RIGHT_TAKES <= t < LEFT_TAKES - gap
+        left = t >= LEFT_TAKES
+        return left, right, PLACE_AT if t >= IN_PLACE else START
+
+    state, events = play(tossed)
+    assert state.stage == COMPLETED and state.attempts == 0
+    assert state.transfer_time == pytest.approx(-gap, abs=1e-9)
