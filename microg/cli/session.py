@@ -128,7 +128,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
     if problems:
         raise ProtocolError("a simulated participant cannot run this study's protocol:\n  " + "\n  ".join(problems))
     with contextlib.ExitStack() as stack:
-        stack.enter_context(_pause_on_signals())
+        pause = stack.enter_context(_pause_on_signals())
         display = stack.enter_context(_display(store, options, kind)) if shown else None
         inputs = open_inputs(spec, store.protocol.group(record.group),
                              webxr=None if display is None else display.hands, align=options.align)
@@ -148,7 +148,9 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         clock = make_clock(inputs.clock, store.last_time(session_record.id))
         log = EventLog(store, session_record.id, clock)
         rater = _rater(rating, log, session_record.seed, display)
-        markers, sinks = None, []
+        if rater is not None:
+            rater = _Checked(rater, pause, waits=rating == "ask")
+        markers, sinks = None, [pause]  # first: a frame after a signal feeds nothing more
         if options.lsl:
             from microg.study.lsl import NETWORK_NOTICE, MarkerOutlet, MocapOutlet, session_tags
 
@@ -167,6 +169,9 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             sinks.append(display)
             announce_page(display, options.qr)
         outputs = Outputs(sinks=tuple(sinks), markers=markers, progress=not options.quiet)
+        operator = _Checked(operator, pause, waits=kind in LIVE)  # live: the researcher's prompts
+        if kind in LIVE:
+            inputs = _LiveInputs(inputs, pause)
         go_on = resume_session if resume else run_session
         try:
             return go_on(store, session_record.id, inputs, clock=clock, operator=operator, rater=rater,
@@ -177,23 +182,111 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
                                        f"{store.dir} --participant {participant_id}") from None
 
 
+class _Pause:
+    """Ctrl-C (SIGINT), SIGTERM (a process manager stopping the session) and SIGHUP (its terminal
+    closed) pause the session: a KeyboardInterrupt in the session's thread, so the task in progress is
+    marked interrupted and the session says how to resume it.
+
+    The handler does not raise wherever the signal lands: Python runs it between any two bytecodes
+    of the main thread, callbacks from C code included, where a KeyboardInterrupt turns into another
+    error and a traceback (numba unboxing the simulated participant's typed list: "TypeError: can't
+    unbox a <class 'numba.typed.typedlist.List'> as a <NULL>"). It notes the signal, and the session
+    raises it at its next safe point: each frame (``take``, a ``FrameSink``) and each call of its
+    operator, rater and live hand source (``_Checked``). Only while such a call waits for a person,
+    the page or a tracker (``waiting``) does the handler raise at once, as Ctrl-C does there: a
+    session waiting for an answer, or for frames that no longer come, stops too; and a second signal
+    raises at once (someone insists: the session is stuck between safe points)."""
+
+    def __init__(self) -> None:
+        self.signal: str | None = None
+        self._waiting = False
+        self.raised = False
+        """Whether the signal has been raised (as KeyboardInterrupt)."""
+
+    def handle(self, number, frame) -> None:
+        first = self.signal is None
+        if first:
+            self.signal = signal.Signals(number).name
+        if self._waiting or not first:
+            self._raise()
+
+    def check(self) -> None:
+        """A safe point: KeyboardInterrupt once a signal came."""
+        if self.signal is not None:
+            self._raise()
+
+    def _raise(self) -> None:
+        self.raised = True
+        raise KeyboardInterrupt(self.signal)
+
+    def take(self, moment) -> None:
+        self.check()
+
+    @contextlib.contextmanager
+    def waiting(self):
+        """A wait a signal interrupts where it is (checked once the handler would raise: none is missed)."""
+        before, self._waiting = self._waiting, True
+        try:
+            self.check()
+            yield
+        finally:
+            self._waiting = before
+
+
+class _Checked:
+    """``inner`` (an operator, a rater, a live hand source) with ``pause``'s safe point at each of its
+    calls but ``close`` (how a stopping session cleans up); ``waits``: its calls wait for a person, the
+    page or a tracker, and a signal stops them there."""
+
+    def __init__(self, inner, pause: _Pause, waits: bool):
+        self._inner, self._pause, self._waits = inner, pause, waits
+
+    def __getattr__(self, name: str):
+        value = getattr(self._inner, name)
+        if not callable(value) or name == "close":
+            return value
+
+        def call(*args, **kwargs):
+            if not self._waits:
+                self._pause.check()
+                return value(*args, **kwargs)
+            with self._pause.waiting():
+                return value(*args, **kwargs)
+        return call
+
+
+class _LiveInputs:
+    """Live ``inputs`` whose hand sources wait for frames as ``_Checked`` waits."""
+
+    def __init__(self, inputs, pause: _Pause):
+        self.inputs, self.pause = inputs, pause
+        self.spec, self.simulated, self.clock = inputs.spec, inputs.simulated, inputs.clock
+
+    def open(self, plan, seed: int):
+        return _Checked(self.inputs.open(plan, seed), self.pause, waits=True)
+
+    def close(self) -> None:
+        self.inputs.close()
+
+
 @contextlib.contextmanager
 def _pause_on_signals():
-    """SIGTERM (a process manager stopping the session) and SIGHUP (its terminal closed) pause the
-    session as Ctrl-C does: each raises KeyboardInterrupt in the session's thread."""
-    def interrupt(number, frame):
-        raise KeyboardInterrupt(signal.Signals(number).name)
-
-    numbers = [getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)]
+    """While a session runs, Ctrl-C (SIGINT), SIGTERM and SIGHUP pause it (``_Pause``); yields the pause.
+    A signal after the session's last safe point stops the process as it leaves (``run --all`` does not
+    go on to the next participant)."""
+    pause = _Pause()
+    numbers = [getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)]
     if threading.current_thread() is not threading.main_thread():  # only the main thread may handle signals
-        yield
+        yield pause
         return
-    previous = {number: signal.signal(number, interrupt) for number in numbers}
+    previous = {number: signal.signal(number, pause.handle) for number in numbers}
     try:
-        yield
+        yield pause
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+    if pause.signal is not None and not pause.raised:  # it came after the last safe point
+        pause.check()
 
 
 def _outcome(store: Store, participant_id: str, status: str) -> str:

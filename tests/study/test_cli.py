@@ -24,7 +24,7 @@ from microg.study.inputs import participant_plan
 from microg.study.protocol import load_protocol
 from microg.study.store import PlannedTask, open_study
 
-from tests.waiting import ended, joined, wait_until
+from tests.waiting import WAIT_S, ended, joined, wait_until
 
 from .conftest import PROTOCOLS
 from .scripted import ScriptedPinch, pinch_keyframes
@@ -289,13 +289,54 @@ def test_sigterm_and_sighup_pause_a_session_as_ctrl_c_does(tmp_path, name):
             session.kill()
             session.wait()
     joined(reader, "the reader of the session's messages")
-    message = said.decode(errors="replace").rsplit("\r", 1)[-1]
-    assert status == 1 and "Traceback" not in message
-    assert (f"Error: session 1 of P01 paused; the task in progress will run again from its start on: microg session "
-            f"resume {study} --participant P01") in message
+    told = said.decode(errors="replace")
+    shown = told[-6000:]  # on failure: the end of what the session said, the whole traceback if any
+    assert status == 1 and "Traceback" not in told, shown
+    assert told.rsplit("\r", 1)[-1].rstrip().endswith(
+        f"Error: session 1 of P01 paused; the task in progress will run again from its start on: microg session "
+        f"resume {study} --participant P01"), shown
     with open_study(study, readonly=True) as store:
         session_record = store.session_of("P01")
-        assert session_record.status == "running" and store.runs(session_record.id)[-1].status == "interrupted"
+        run = store.runs(session_record.id)[-1]
+        ended_by = [e.data["reason"] for e in store.events(session_record.id, run.id) if e.kind == "task_end"]
+    assert session_record.status == "running" and run.status == "interrupted"
+    assert ended_by == [f"KeyboardInterrupt: {name}"], ended_by
+
+
+def test_a_signal_stops_a_session_at_its_next_safe_point_or_where_it_waits():
+    """Ctrl-C, SIGTERM or SIGHUP while the session computes is noted and raised at its next safe
+    point (here a frame), never inside what it computes, or as the session ends when none came after
+    it; while it waits (a prompt, the page, a tracker) it stops the wait at once."""
+    from microg.cli.session import _Checked, _pause_on_signals
+
+    with pytest.raises(KeyboardInterrupt, match="SIGTERM"):
+        with _pause_on_signals() as pause:
+            signal.raise_signal(signal.SIGTERM)
+            wait_until(lambda: pause.signal, "the handler to note SIGTERM")  # it ran, and raised nothing
+            pause.take(None)
+    with pytest.raises(KeyboardInterrupt, match="SIGINT"):
+        with _pause_on_signals() as pause:
+            signal.raise_signal(signal.SIGINT)
+            wait_until(lambda: pause.signal, "the handler to note SIGINT")  # no safe point after it
+
+    class Researcher:
+        def __init__(self):
+            self.asked = threading.Event()
+
+        def ready(self, task):
+            self.asked.set()
+            return threading.Event().wait(WAIT_S)  # no answer comes
+
+    researcher = Researcher()
+
+    def hang_up() -> None:
+        if researcher.asked.wait(WAIT_S):
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGHUP)
+
+    with _pause_on_signals() as pause:
+        threading.Thread(target=hang_up, daemon=True).start()
+        with pytest.raises(KeyboardInterrupt, match="SIGHUP"):
+            _Checked(researcher, pause, waits=True).ready(None)
 
 
 def test_session_run_help_lists_every_input_the_readme_documents():

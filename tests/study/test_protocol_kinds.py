@@ -183,7 +183,7 @@ def test_bad_send_numbers_are_refused_naming_file_key_and_value(tmp_path, old, n
     assert_refused(kinds_protocol(tmp_path, SEND.replace(old, new, 1)), expected)
 
 
-def test_the_skills_protocol_trains_catching_and_tests_two_kinds_with_one_interaction_model():
+def test_the_skills_protocol_trains_catching_and_tests_three_kinds_with_one_interaction_model():
     """Two phases may run one interaction model with different task kinds (the report compares
     interaction models within a kind); they share its label, and ``about = "each"`` asks about the
     model once."""
@@ -191,7 +191,8 @@ def test_the_skills_protocol_trains_catching_and_tests_two_kinds_with_one_intera
     assert p.training.kind == "catch" and [o.name for o in p.training.objects] == ["cube"]
     assert [(ph.name, ph.interaction, ph.kind, ph.label) for ph in p.phases] == [
         ("stopping", "impulse_penetration", "stop_spin", "System 1"),
-        ("sending", "impulse_penetration", "send", "System 1")]
+        ("sending", "impulse_penetration", "send", "System 1"),
+        ("passing", "impulse_penetration", "handover", "System 1")]
     asked = next(ph for ph in p.timeline if ph.instruments)
     assert [a.interaction for a in p.about(asked)] == ["impulse_penetration"]
     assert p.simulation_problems() == [] and sum(ph.minutes for ph in p.timeline) <= p.duration_minutes
