@@ -655,6 +655,7 @@ def carry(p, s, seen, grasps, draws):
     if not _move_holding(p, s, seen, grasps, draws):
         return
     if p.role == GIVING:
+        s.other_held_since = math.nan  # (an offer again after a drop starts its own reaction time)
         _enter(s, OFFER, seen.t)
     elif s.place == p.n_places:
         if not seen.has_display or seen.stage == RELEASE:
@@ -825,9 +826,10 @@ def retreat(p, s, seen, grasps, draws):
 @njit(cache=True)
 def watch(p, s, seen, grasps, draws):
     """Stay until the object is seen away from the hand (with a display: until the task shows it
-    is over, or that a send missed or a handed-over object was dropped: fetch it again); if it still clings after ``WATCH_S``, open and
-    back off again."""
-    if seen.has_display and ((p.kind == SENDING and seen.stage == PICK_UP) or (p.role == GIVING and seen.stage == TAKE)):
+    is over, or that a send missed or a handed-over object was dropped: fetch it again); if it
+    still clings after ``WATCH_S``, open and back off again."""
+    again = (p.kind == SENDING and seen.stage == PICK_UP) or (p.role == GIVING and seen.stage == TAKE)
+    if seen.has_display and again:
         s.attempts += 1
         s.go_at = seen.t + pause(p, draws, p.drop_pause_s)
         _enter(s, WAIT, seen.t)
@@ -875,8 +877,8 @@ def take_over(p, s, seen, grasps, draws):
 def follow_display(p, s, seen, grasps, draws):
     """React to what the task display shows, before the action does; False if it changes nothing.
     The task is over: done. The task shows the object not held (a pick-and-place's manipulation, a
-    catch's approach, a send's pick-up, a handover's take) while the hand thinks it holds it: go back for it (after a
-    reaction time in the action)."""
+    catch's approach, a send's pick-up, a handover's take) while the hand thinks it holds it: go
+    back for it (after a reaction time in the action)."""
     if seen.stage == COMPLETED or seen.stage == TIMEOUT:
         _enter(s, DONE, seen.t)
         return True

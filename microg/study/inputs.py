@@ -96,7 +96,7 @@ class SimulatedInputs:
         from microg.participant import HandingParticipant, SimulatedParticipant
         from microg.task.rules import HANDOVER
 
-        play = HandingParticipant if plan.rules.kind == HANDOVER else SimulatedParticipant  # a handover takes both hands
+        play = HandingParticipant if plan.rules.kind == HANDOVER else SimulatedParticipant  # (both hands)
         return play(plan, self.skill(plan), seed, time_limit_s=self.time_limit_s(plan))
 
     def close(self) -> None:

@@ -87,14 +87,18 @@ def test_the_report_has_each_kind_and_says_there_is_no_questionnaire(kinds_trial
     assert not (tmp_path / "anova_time.csv").exists()  # no pick-and-place task is analysed
 
 
+def _as_kind(trials, kind, **measures):
+    """The stop-of-a-spin rows of ``trials`` as tasks of ``kind``, with ``measures`` (values for every
+    row, kept on those rows only)."""
+    rows = trials["task_kind"] == "stop_spin"
+    return trials.assign(task_kind=trials["task_kind"].where(~rows, kind),
+                         **{name: pd.Series(values).where(rows) for name, values in measures.items()})
+
+
 def test_a_sends_release_speed_error_may_be_negative_and_is_analysed(kinds_trials):
-    rng = np.random.default_rng(5)
-    sends = kinds_trials["task_kind"] == "stop_spin"
-    trials = kinds_trials.assign(
-        task_kind=kinds_trials["task_kind"].where(~sends, "send"),
-        send_error_m=pd.Series(rng.uniform(0.0, 0.05, len(kinds_trials))).where(sends),
-        release_speed_error=pd.Series(rng.normal(-0.02, 0.03, len(kinds_trials))).where(sends),
-    )
+    rng, n = np.random.default_rng(5), len(kinds_trials)
+    trials = _as_kind(kinds_trials, "send", send_error_m=rng.uniform(0.0, 0.05, n),
+                      release_speed_error=rng.normal(-0.02, 0.03, n))
     send = analyse_study(trials, kind="send")
     assert send.measures == ("time_s", "attempts", "send_error_m", "release_speed_error")
     assert ("soft_hand", "release_speed_error") in send.analysed()
@@ -105,13 +109,9 @@ def test_a_sends_release_speed_error_may_be_negative_and_is_analysed(kinds_trial
 
 def test_a_handovers_transfer_time_may_be_negative_and_is_analysed(kinds_trials):
     """A toss within the drop grace has a negative transfer time (the first hand let go first)."""
-    rng = np.random.default_rng(6)
-    passes = kinds_trials["task_kind"] == "stop_spin"
-    trials = kinds_trials.assign(
-        task_kind=kinds_trials["task_kind"].where(~passes, "handover"),
-        transfer_time_s=pd.Series(rng.normal(0.1, 0.2, len(kinds_trials))).where(passes),
-        both_held_s=pd.Series(rng.uniform(0.2, 1.0, len(kinds_trials))).where(passes),
-    )
+    rng, n = np.random.default_rng(6), len(kinds_trials)
+    trials = _as_kind(kinds_trials, "handover", transfer_time_s=rng.normal(0.1, 0.2, n),
+                      both_held_s=rng.uniform(0.2, 1.0, n))
     handover = analyse_study(trials, kind="handover")
     assert (handover.table("cells", "soft_hand", "transfer_time_s")["value"] < 0).any()
     with pytest.raises(AnalysisInputError, match="is negative"):

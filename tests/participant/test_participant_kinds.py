@@ -178,8 +178,8 @@ def test_a_veterans_two_hands_hand_the_cube_over_and_the_measures_follow_their_g
     let_go = np.flatnonzero(right)[-1] + 1
     took = _run_through(left, let_go - 1)
     assert state.transfer_time == pytest.approx(t[let_go] - t[took], abs=1e-9)
-    assert state.both_held == pytest.approx((t[let_go] + plan.rules.drop_grace_s) - (t[took] + plan.rules.grasp_settle_s),
-                                            abs=0.02)
+    rules = plan.rules
+    assert state.both_held == pytest.approx((t[let_go] + rules.drop_grace_s) - (t[took] + rules.grasp_settle_s), abs=0.02)
     # Taken from below, palm up: the left palm under the cube, facing up, as the right let go.
     at = moments[let_go]
     left_hand = at.frame.hand("left")
