@@ -23,11 +23,12 @@ session clock is rebuilt exactly as a session advances it (``frame_times``).
 from __future__ import annotations
 
 import math
+import multiprocessing
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from numba import njit
+from numba import njit, typeof
 from numba.typed import List
 
 from microg.hands.filter import window_mean
@@ -108,6 +109,8 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     if workers > 1 and len(units) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
+        if multiprocessing.get_start_method() == "fork":
+            _load_compiled(protocol, units)
         parts = min(SHARES_PER_WORKER * workers, len(units))
         shares = [list(range(len(units)))[w::parts] for w in range(parts)]  # a like share of every scene in each
         with ProcessPoolExecutor(min(workers, parts)) as pool:
@@ -135,25 +138,15 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
 
 def _play_scene(protocol: Protocol, scene, units: list[TaskUnit]):
     """The tasks of one scene, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
-    world = make_world(scene)
-    model, data = world.model, world.data
     size = min(BATCH, len(units))
-    places, _ = layout(model.n_objects)
-    offsets = np.array([places[name][1] for name in ("position", "orientation", "velocity", "angular_velocity")])
-    rules = rules_record(protocol.task)
-    window = protocol.filter_window
-    limit = max(int(u.time_limit_s * FRAMES_PER_SECOND) + 2 for u in units)
-    batch = _Batch(size, data, window, limit)
+    data, batch, frames_until_an_end, arguments = _scene_batch(protocol, scene, units, size)
     queue = list(range(len(units)))
     slots = [-1] * size
     for slot in range(size):
         slots[slot] = queue.pop(0)
         batch.load(slot, units[slots[slot]], data)
-    frames_until_an_end = _runner(scene.effects, scene.has_meshes)
-    tracking = (1.0 / protocol.tracking_rate, protocol.guard.jump_distance, protocol.guard.max_gap)
     while any(index >= 0 for index in slots):
-        ended = frames_until_an_end(model.params, model.ints, batch.arrays(), *tracking, rules, model.n_objects,
-                                    offsets)
+        ended = frames_until_an_end(*arguments())
         if np.isfinite(batch.refused).any():
             slot = int(np.flatnonzero(np.isfinite(batch.refused))[0])
             unit, value = units[slots[slot]], float(batch.refused[slot])
@@ -171,6 +164,33 @@ def _play_scene(protocol: Protocol, scene, units: list[TaskUnit]):
             else:
                 slots[slot] = -1
                 batch.active[slot] = False
+
+
+def _scene_batch(protocol: Protocol, scene, units: list[TaskUnit], size: int):
+    """A batch of ``size`` tasks of ``scene`` (none loaded yet): the world's data, the ``_Batch``, the
+    compiled loop over frames and a function giving its arguments."""
+    world = make_world(scene)
+    model, data = world.model, world.data
+    places, _ = layout(model.n_objects)
+    offsets = np.array([places[name][1] for name in ("position", "orientation", "velocity", "angular_velocity")])
+    rules = rules_record(protocol.task)
+    limit = max(int(u.time_limit_s * FRAMES_PER_SECOND) + 2 for u in units)
+    batch = _Batch(size, data, protocol.filter_window, limit)
+    tracking = (1.0 / protocol.tracking_rate, protocol.guard.jump_distance, protocol.guard.max_gap)
+    return data, batch, _runner(scene.effects, scene.has_meshes), lambda: (
+        model.params, model.ints, batch.arrays(), *tracking, rules, model.n_objects, offsets)
+
+
+def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:
+    """Load the compiled code of ``units``' scenes into this process (compiled, or read from numba's
+    cache, for the argument types of a batch): worker processes forked after it inherit it instead
+    of each reading it again (about 3 s a process, on every multi-process study, before this)."""
+    for name, interaction in dict.fromkeys((u.object_name, u.interaction) for u in units):
+        unit = next(u for u in units if (u.object_name, u.interaction) == (name, interaction))
+        data, batch, frames_until_an_end, arguments = _scene_batch(protocol, protocol.scene(name, interaction),
+                                                                   [unit], 1)
+        batch.load(0, unit, data)
+        frames_until_an_end.compile(tuple(typeof(value) for value in arguments()))
 
 
 _RUNNER = """

@@ -111,8 +111,7 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
             outcome = next(outcomes)
             run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
             times = outcome.frame_times
-            for i in range(1, len(times)):
-                clock.elapse(float(times[i] - times[i - 1]))
+            clock.elapse_frames(times)
             reason = {"completed": None, "timeout": f"not completed within task.timeout_s = {protocol.task.timeout_s:g} s",
                       "aborted": f"the hand source ({source}) ended before the task did"}[outcome.status]
             store.end_run(run_id, outcome.status, clock.now(), time_s=outcome.time_s, attempts=outcome.attempts,

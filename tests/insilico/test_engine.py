@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microg.insilico.studies import play_sessions, sized_protocol
+from microg.insilico.studies import play_sessions, simulate_trials, sized_protocol
 from microg.paths import protocol_file
 from microg.study import Participant, SimulationClock, create_study, open_inputs, run_session, trials_table
 from microg.study.protocol import load_protocol
@@ -46,3 +46,14 @@ def test_a_batched_in_silico_study_gives_the_trials_table_of_the_logged_sessions
     batched = study_trials(tmp_path / "batched", sized, 7, batched=True)
     assert logged["completed"].any()
     pd.testing.assert_frame_equal(batched, logged, check_exact=True)
+
+
+@pytest.mark.slow
+def test_a_study_shared_out_to_worker_processes_gives_the_table_of_one_process():
+    """Tasks dealt out to two forked workers (after the compiled code is loaded in this process, which
+    they inherit) come back to the same table as when one process plays them all."""
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    one = simulate_trials(protocol, 2, 11, workers=1)
+    two = simulate_trials(protocol, 2, 11, workers=2)
+    assert len(one) > 4 and one["completed"].any()
+    pd.testing.assert_frame_equal(two.drop(columns=["study"]), one.drop(columns=["study"]), check_exact=True)
