@@ -8,6 +8,7 @@ what was waited for and what was seen instead.
 from __future__ import annotations
 
 import queue
+import signal
 import subprocess
 import threading
 import time
@@ -49,14 +50,24 @@ def joined(thread: threading.Thread, what: str, timeout: float = WAIT_S) -> None
         raise AssertionError(f"waited {timeout:g} s for {what} to end")
 
 
-def ended(process: subprocess.Popen, what: str, timeout: float = WAIT_S) -> int:
-    """``process``'s exit status once it ends; killed, and AssertionError naming it, after ``timeout`` s."""
+def ended(process: subprocess.Popen, what: str, timeout: float = WAIT_S, stacks: bool = False) -> int:
+    """``process``'s exit status once it ends; killed, and AssertionError naming it, after ``timeout`` s.
+    With ``stacks`` (a child run with ``PYTHONFAULTHANDLER=1`` whose stderr is a pipe nobody else
+    reads), it is stopped with SIGABRT first, and the error shows where each of its threads was."""
     try:
         return process.wait(timeout)
     except subprocess.TimeoutExpired:
-        process.kill()
-        process.wait()
-        raise AssertionError(f"waited {timeout:g} s for {what} to end; killed it") from None
+        if stacks:
+            process.send_signal(signal.SIGABRT)  # faulthandler prints every thread's stack, then aborts
+            try:
+                process.wait(timeout / 4)
+            except subprocess.TimeoutExpired:
+                pass
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+        where = f"; its threads when stopped:\n{process.stderr.read()[-12000:]}" if stacks else ""
+        raise AssertionError(f"waited {timeout:g} s for {what} to end; killed it{where}") from None
 
 
 def line_reader(stream) -> queue.Queue:

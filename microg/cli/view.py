@@ -65,8 +65,9 @@ def view(*, study_dir: str, session: str | None, task_index: int | None, run: in
     try:
         serve(study_dir, spec=session, port=port, hands=hands, task_index=task_index,
               seconds=seconds[0] if seconds else None, announce=click.echo)
-    except KeyboardInterrupt:
-        click.echo("view stopped")
+    except KeyboardInterrupt:  # a second Ctrl-C, or one before the view was up
+        pass
+    click.echo("view stopped")
 
 
 COMMANDS = [view]

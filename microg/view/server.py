@@ -17,6 +17,7 @@ import asyncio
 import collections
 import contextlib
 import io
+import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -425,7 +426,8 @@ class View:
 
 def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, hands: str = "rendered",
           task_index: int | None = None, seconds: float | None = None, announce=print) -> None:
-    """Serve the view of ``study_dir`` until Ctrl-C; ``announce`` gets the address and what is shown."""
+    """Serve the view of ``study_dir`` until Ctrl-C, SIGTERM or SIGHUP (``_Stopping``); ``announce``
+    gets the address and what is shown."""
     if hands not in HAND_MODES:
         raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
     store = open_readonly(study_dir)
@@ -435,17 +437,49 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
         session = find_session(store, spec)
         view = View(store, session, spec, port=port, hands=hands)
         try:
-            if task_index is not None or seconds is not None:
-                view.start_at(task_index, seconds)
-            announce(f"microg view: open {view.url} in a browser (this machine only)")
-            announce(f"  {view.describe()}; Ctrl-C to stop")
-            last = time.monotonic()
-            while True:
-                time.sleep(FRAME_INTERVAL)
-                now = time.monotonic()
-                view.tick(now - last)
-                last = now
+            with _Stopping() as stopping:  # before the announcement: from then on a signal stops it cleanly
+                if task_index is not None or seconds is not None:
+                    view.start_at(task_index, seconds)
+                announce(f"microg view: open {view.url} in a browser (this machine only)")
+                announce(f"  {view.describe()}; Ctrl-C to stop")
+                last = time.monotonic()
+                while not stopping.wait(FRAME_INTERVAL):
+                    now = time.monotonic()
+                    view.tick(now - last)
+                    last = now
         finally:
             view.close()
     finally:
         store.close()
+
+
+class _Stopping:
+    """Ctrl-C (SIGINT), SIGTERM and SIGHUP end the view between two frames: the handler only notes
+    the signal and wakes the loop's wait. Raised wherever it lands, a KeyboardInterrupt can cut a
+    call into the view server in the middle, and once (one fresh-clone test run in many) the process
+    then did not end at all after Ctrl-C. A second signal raises at once (the loop is stuck). Outside
+    the main thread, which alone may handle signals, nothing is installed."""
+
+    SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self._previous: dict = {}
+
+    def wait(self, seconds: float) -> bool:
+        """Whether a signal came, waiting up to ``seconds`` for one."""
+        return self._event.wait(seconds)
+
+    def _handle(self, number, frame) -> None:
+        if self._event.is_set():
+            raise KeyboardInterrupt
+        self._event.set()
+
+    def __enter__(self) -> _Stopping:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {number: signal.signal(number, self._handle) for number in self.SIGNALS}
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)

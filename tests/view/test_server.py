@@ -3,6 +3,7 @@ that a live view follows a session that another thread is writing."""
 
 from __future__ import annotations
 
+import os
 import queue
 import re
 import signal
@@ -36,7 +37,8 @@ def start_view(*arguments: str) -> tuple[subprocess.Popen, str]:
     """``microg view ARGUMENTS`` in its own process, and what it announces (the address first):
     read line by line until the announcement, or until the process ends without one."""
     process = subprocess.Popen([sys.executable, "-c", "from microg.cli import main; main()", "view",
-                                *arguments], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                *arguments], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               env=dict(os.environ, PYTHONFAULTHANDLER="1"))  # its stacks if it hangs
     lines: queue.Queue[str | None] = queue.Queue()
 
     def read() -> None:
@@ -56,15 +58,24 @@ def start_view(*arguments: str) -> tuple[subprocess.Popen, str]:
     return process, announced
 
 
-def stop_view(process: subprocess.Popen) -> str:
-    """Ctrl-C for the view; what it printed after its announcement (all of it: read to the end)."""
-    process.send_signal(signal.SIGINT)
-    ended(process, "microg view after Ctrl-C")
+def stop_view(process: subprocess.Popen, number: int = signal.SIGINT) -> str:
+    """Ctrl-C (or another signal) for the view; what it printed after its announcement (all of it:
+    read to the end)."""
+    process.send_signal(number)
+    ended(process, f"microg view after {signal.Signals(number).name}", stacks=True)
     joined(process.reader, "the reader of microg view's output")
     printed = []
     while (line := next_item(process.announced_lines, "the end of microg view's output")) is not None:
         printed.append(line)
     return "".join(printed)
+
+
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+def test_sigterm_and_sighup_stop_the_view_as_ctrl_c_does(logged_study, number):
+    """What a process manager or a closed terminal sends ends the view between two frames, cleanly."""
+    process, _ = start_view(str(logged_study), "--session", "P01", "--port", str(free_port()))
+    output = stop_view(process, number)
+    assert (process.returncode, output.strip()) == (0, "view stopped"), process.stderr.read()
 
 
 @pytest.mark.skipif(bool(MISSING), reason=f"needs {MISSING} (apt-get install chromium chromium-driver; "
