@@ -455,25 +455,28 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
 
 class _Stopping:
     """Ctrl-C (SIGINT), SIGTERM and SIGHUP end the view between two frames: the handler only notes
-    the signal and wakes the loop's wait. Raised wherever it lands, a KeyboardInterrupt can cut a
-    call into the view server in the middle, and once (one fresh-clone test run in many) the process
-    then did not end at all after Ctrl-C. A second signal raises at once (the loop is stuck). Outside
-    the main thread, which alone may handle signals, nothing is installed."""
+    the signal, and the loop sees it after its next sleep (a frame interval at most). Raised wherever
+    it lands, a KeyboardInterrupt can cut a call into the view server in the middle, and once (one
+    fresh-clone test run in many) the process then did not end at all after Ctrl-C. The note is a
+    plain attribute: a lock taken in the handler (an Event's) could be the one the interrupted code
+    holds. A second signal raises at once (the loop is stuck). Outside the main thread, which alone
+    may handle signals, nothing is installed."""
 
     SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
 
     def __init__(self) -> None:
-        self._event = threading.Event()
+        self.signal: str | None = None
         self._previous: dict = {}
 
     def wait(self, seconds: float) -> bool:
-        """Whether a signal came, waiting up to ``seconds`` for one."""
-        return self._event.wait(seconds)
+        """Sleep ``seconds``; whether a signal came."""
+        time.sleep(seconds)
+        return self.signal is not None
 
     def _handle(self, number, frame) -> None:
-        if self._event.is_set():
+        if self.signal is not None:
             raise KeyboardInterrupt
-        self._event.set()
+        self.signal = signal.Signals(number).name
 
     def __enter__(self) -> _Stopping:
         if threading.current_thread() is threading.main_thread():
