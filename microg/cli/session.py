@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import signal
-import threading
 from dataclasses import dataclass
 
 import click
@@ -16,7 +15,8 @@ from microg.study.inputs import PacedInputs, open_inputs, parse_input, participa
 from microg.study.protocol import FOV_RANGE, Phase
 from microg.study.simulated_rater import SimulatedRater
 from microg.study.questionnaire import TerminalRater
-from microg.study.session import EventLog, Outputs, Unattended, make_clock, resume_session, run_session
+from microg.study.session import (EventLog, Outputs, Unattended, handling_stop_signals, make_clock, resume_session,
+                                  run_session)
 from microg.study.protocol import ProtocolError
 from microg.study.replay import ReplayError, ReplayInputs
 from microg.study.store import PlannedTask, Store, describe_counts, open_study, plan_tasks
@@ -275,16 +275,8 @@ def _pause_on_signals():
     A signal after the session's last safe point stops the process as it leaves (``run --all`` does not
     go on to the next participant)."""
     pause = _Pause()
-    numbers = [getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)]
-    if threading.current_thread() is not threading.main_thread():  # only the main thread may handle signals
+    with handling_stop_signals(pause.handle):
         yield pause
-        return
-    previous = {number: signal.signal(number, pause.handle) for number in numbers}
-    try:
-        yield pause
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
     if pause.signal is not None and not pause.raised:  # it came after the last safe point
         pause.check()
 

@@ -185,8 +185,10 @@ def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:
     """Load the compiled code of ``units``' scenes into this process (compiled, or read from numba's
     cache, for the argument types of a batch): worker processes forked after it inherit it instead
     of each reading it again (about 3 s a process, on every multi-process study, before this)."""
-    for name, interaction in dict.fromkeys((u.object_name, u.interaction) for u in units):
-        unit = next(u for u in units if (u.object_name, u.interaction) == (name, interaction))
+    firsts: dict[tuple[str, str], TaskUnit] = {}
+    for unit in units:
+        firsts.setdefault((unit.object_name, unit.interaction), unit)
+    for (name, interaction), unit in firsts.items():
         data, batch, frames_until_an_end, arguments = _scene_batch(protocol, protocol.scene(name, interaction),
                                                                    [unit], 1)
         batch.load(0, unit, data)

@@ -25,6 +25,9 @@ the frames' timestamps) otherwise. Task times always come from the frames' times
 
 from __future__ import annotations
 
+import contextlib
+import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Protocol as Interface, Sequence
@@ -92,6 +95,26 @@ class SimulationClock:
         in one pass for the in-silico study's many frames."""
         if len(times) > 1:
             self.t = float(np.add.accumulate(np.concatenate(([self.t], np.diff(times))))[-1])
+
+
+STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""What stops a long-running command (a session, the view): Ctrl-C, a process manager (SIGTERM), a
+closed terminal (SIGHUP)."""
+
+
+@contextlib.contextmanager
+def handling_stop_signals(handler):
+    """While inside, ``STOP_SIGNALS`` call ``handler(number, frame)``; the handlers before come back
+    after. Only the main thread may handle signals: elsewhere nothing is installed."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {number: signal.signal(number, handler) for number in STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for number, before in previous.items():
+            signal.signal(number, before)
 
 
 def make_clock(kind: str, start: float = 0.0) -> Clock:

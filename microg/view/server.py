@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from microg.skeleton import SLOTS
+from microg.study.session import handling_stop_signals
 from microg.study.store import SessionRecord, Store, StoreError
 
 from .scene import HAND_MODES, PALETTE, TRACKED_OPACITY, TRACKED_THINNER, Capsules, FrameScene, TaskLayout, \
@@ -437,7 +438,8 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
         session = find_session(store, spec)
         view = View(store, session, spec, port=port, hands=hands)
         try:
-            with _Stopping() as stopping:  # before the announcement: from then on a signal stops it cleanly
+            stopping = _Stopping()
+            with handling_stop_signals(stopping.handle):  # before the announcement: a signal then stops it cleanly
                 if task_index is not None or seconds is not None:
                     view.start_at(task_index, seconds)
                 announce(f"microg view: open {view.url} in a browser (this machine only)")
@@ -459,30 +461,17 @@ class _Stopping:
     it lands, a KeyboardInterrupt can cut a call into the view server in the middle, and once (one
     fresh-clone test run in many) the process then did not end at all after Ctrl-C. The note is a
     plain attribute: a lock taken in the handler (an Event's) could be the one the interrupted code
-    holds. A second signal raises at once (the loop is stuck). Outside the main thread, which alone
-    may handle signals, nothing is installed."""
-
-    SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
+    holds. A second signal raises at once (the loop is stuck)."""
 
     def __init__(self) -> None:
         self.signal: str | None = None
-        self._previous: dict = {}
 
     def wait(self, seconds: float) -> bool:
         """Sleep ``seconds``; whether a signal came."""
         time.sleep(seconds)
         return self.signal is not None
 
-    def _handle(self, number, frame) -> None:
+    def handle(self, number, frame) -> None:
         if self.signal is not None:
             raise KeyboardInterrupt
         self.signal = signal.Signals(number).name
-
-    def __enter__(self) -> _Stopping:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {number: signal.signal(number, self._handle) for number in self.SIGNALS}
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for number, handler in self._previous.items():
-            signal.signal(number, handler)
