@@ -109,7 +109,7 @@ def _calibration_errors(command):
 @click.option("--fit", "fit", default=None, metavar="NAME[:sd],...",
               help="The free values: NAME fits a parameter's population mean, NAME:sd its spread between people "
                    "[default: hesitation_s, hesitation_s:sd, movement_slope, carry_slowdown, shape_caution, "
-                   "learning_rate, aim_sd].")
+                   "learning_rate, aim_sd, grip_lapse].")
 @click.option("--hold-out", "held_out", multiple=True, metavar="PATTERN",
               help="Numbers to report in the check but not fit (shell pattern on their names, e.g. 'attempts.*'); "
                    "repeatable.")  # fmt: skip

@@ -54,11 +54,11 @@ CV_HIGH = 1.0
 PRIOR_FACTOR = 5.0
 """A fitted mean's prior spans from the base's mean over this to the base's mean times this."""
 DEFAULT_FIT = ("hesitation_s", "hesitation_s:sd", "movement_slope", "carry_slowdown", "shape_caution",
-               "learning_rate", "aim_sd")
+               "learning_rate", "aim_sd", "grip_lapse")
 """What ``--fit`` frees by default: the means of the parameters that move time (pauses, movements,
-carrying), the object effect (caution with elongated objects), practice and precision (drops),
-and the spread between people of the largest source of time differences. (``hold_margin_s`` does
-not move time in a session: the task's display shows when a hold is done.)"""
+carrying), the object effect (caution with elongated objects), practice, precision and the grip's
+lapses (drops), and the spread between people of the largest source of time differences.
+(``hold_margin_s`` does not move time in a session: the task's display shows when a hold is done.)"""
 LEVEL = 0.90
 """The credible and predictive intervals' level."""
 

@@ -137,7 +137,7 @@ MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP, TAKE = 0, 2, 3, 4,
 send's pick-up, a handover's take."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
-         "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s")
+         "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s", "grip_lapse")
 """The skill's numbers in a ``PLAYER`` record (``skill.SkillProfile``'s fields)."""
 
 _POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8", (5, 4))]
@@ -166,7 +166,7 @@ STATE = np.dtype([
     ("closure", "f8"), ("grip", "f8"), ("place", "i8"), ("attempts", "i8"),
     ("in_hand", "f8", (3,)), ("close_origin", "f8", (3,)), ("released_since", "f8"),
     ("hold_clock", "f8"), ("clock_rate", "f8"), ("dark_since", "f8"), ("catch_at", "f8", (3,)), ("drift", "f8", (3,)),
-    ("other_held_since", "f8"),
+    ("other_held_since", "f8"), ("lapse_at", "f8"),
     ("tremor", "f8", (7,)), ("noise", "f8", (2, 16)),
 ], align=True)
 """The participant at one frame. ``time`` is its own clock (NaN before the first frame); the
@@ -181,7 +181,7 @@ NaN for none; ``catch_at``: where the intercepting hand waits for the object's c
 the velocity a catching hand moves on at with the object, and brakes from, or a send's release
 velocity, which the sending hand coasts on at and brakes from (zero otherwise);
 ``other_held_since``: since when a handover's offering hand has seen the other hand hold the
-object (NaN for not)."""
+object (NaN for not); ``lapse_at``: when the grip lapses open during this carry (NaN for never)."""
 SEEN = np.dtype([
     ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
     ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"), ("velocity", "f8", (3,)),
@@ -396,9 +396,11 @@ def _keep_grip(p, s, seen, grasps, draws):
 
 @njit(cache=True)
 def _move_holding(p, s, seen, grasps, draws):
-    """Carry the hand along its movement with the object in it; True when the movement ended
-    with the object held."""
+    """Carry the hand along its movement with the object in it (its grip opening at a lapse);
+    True when the movement ended with the object held."""
     progress = _move(s, seen.t)
+    if seen.t >= s.lapse_at:
+        s.grip, s.lapse_at = -p.preshape_margin, math.nan
     _closing(s, grasps, seen, p, s.grip)
     return not _keep_grip(p, s, seen, grasps, draws) and progress >= 1.0
 
@@ -519,6 +521,9 @@ def _begin_carry(p, s, seen, draws, delay):
     for i in range(3):
         s.end.position[i] = goal[i] - (seen.position[i] - s.pose.position[i])
     _begin_movement(s, seen.t + delay, duration)
+    s.lapse_at = math.nan
+    if p.grip_lapse > 0 and s.attempts == 0 and draws.random() < p.grip_lapse:
+        s.lapse_at = seen.t + delay + draws.random() * duration
     _enter(s, CARRY, seen.t)
 
 
@@ -533,7 +538,7 @@ def _begin_retry(p, s, grasps, draws, t, dropped):
         for k in range(3):
             s.end.position[i] += rotation[i, k] * grasp.approach[k]
     posture_at(grasp, -p.preshape_margin, s.end.posture)
-    s.closure = -p.preshape_margin
+    s.closure, s.lapse_at = -p.preshape_margin, math.nan
     wait = pause(p, draws, p.drop_pause_s) - p.reaction_s if dropped else 0.0
     _begin_movement(s, t + wait, OPEN_S + p.reaction_s)
     _enter(s, RETRY, t)

@@ -111,7 +111,7 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
         (1.0, 0.0, 0.0, 0.0), REST
     state["released_since"], state["dark_since"], state["clock_rate"] = math.nan, math.nan, 1.0
     state["go_at"] = pause(player, streams[1], skill.new_object_pause_s if plan.first_with_object else 0.0)
-    state["other_held_since"] = math.nan
+    state["other_held_since"], state["lapse_at"] = math.nan, math.nan
     if role != ALONE:
         handover_hand(plan, role, player, state)
     return player, state, streams, grasps(spec.shape, tuple(float(v) for v in half), plan.hand)

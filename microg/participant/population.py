@@ -87,6 +87,9 @@ PARAMETERS: tuple[Parameter, ...] = (
               "shrinks as (1 + n)^-rate after n tasks", 0.0, 3.0),
     Parameter("trained_fraction", "fraction", "practice: the trained value of each practised parameter, as a "
               "fraction of the untrained one", 0.05, 0.999, scale="logit"),
+    Parameter("grip_lapse", "probability", "chance that the grip lapses open during a carry, until a drop in the "
+              "task has made the participant mind its grip (a bare hand feels no grip loosening)", 0.0, 0.95,
+              practised=True),
 )
 """Every parameter of the motor model, in the order the participant's code reads them."""
 NAMES = tuple(p.name for p in PARAMETERS)

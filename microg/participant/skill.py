@@ -21,6 +21,9 @@ interaction model look good: every model is played with the same numbers.
   Johansson and Westling 1984), through the participant's belief of how stiff a pressed phalanx is.
 - Holding: the participant times the hold on its own clock (Weber fraction of interval timing
   about 0.05-0.15, Grondin 2010) and holds ``hold_margin_s`` longer than required.
+- Grip lapses: a bare hand feels no grip, so during a carry its grip may open by itself
+  (``grip_lapse``, the chance per carry); once a drop in the task has shown it, the participant
+  minds its grip and no longer lapses in that task. Practice makes lapses rarer.
 - Placement: the object must be within ``place_accept`` of the place radius before the
   participant starts holding; otherwise it makes a corrective sub-movement.
 """
@@ -72,6 +75,9 @@ class SkillProfile:
     """Mean of an extra pause before the first reach for an object not handled before (s)."""
     drop_pause_s: float = 0.0
     """Mean of an extra pause before reaching again after a drop (s)."""
+    grip_lapse: float = 0.0
+    """Chance that the grip lapses open during a carry, until a drop in the task (then the
+    participant minds its grip)."""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -81,6 +87,8 @@ class SkillProfile:
                     raise ValueError(f"SkillProfile.name = {value!r}: must be a non-empty string")
             elif not isinstance(value, (int, float)) or isinstance(value, bool) or not value >= 0:
                 raise ValueError(f"SkillProfile({self.name}).{f.name} = {value!r}: must be a number >= 0")
+        if not self.grip_lapse <= 1:
+            raise ValueError(f"SkillProfile({self.name}).grip_lapse = {self.grip_lapse}: must be a probability")
         if not 0 < self.place_accept <= 1:
             raise ValueError(f"SkillProfile({self.name}).place_accept = {self.place_accept}: must lie in (0, 1]")
 

@@ -180,6 +180,28 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
     assert participant.action == "done" and participant.next_frame(moment.observation) is None
 
 
+@pytest.mark.parametrize("gravity", [ZERO_G, EARTH], ids=["zero_g", "earth"])
+def test_a_grip_that_lapses_drops_the_object_in_its_carry_once_and_the_task_is_done_after_it(gravity):
+    """A lapse near certain on every carry (``grip_lapse``): the grip opens on the way to the first
+    place, the task counts the drop, and the participant takes the object again and, minding its
+    grip from then on, completes the task without another; the same participant without lapses
+    drops nothing."""
+    plan = bench_plan("cube", gravity)
+    results = {}
+    for lapse in (0.0, 0.95):
+        participant = SimulatedParticipant(plan, dataclasses.replace(VETERAN, grip_lapse=lapse), 2)
+        world = bench_world(plan, "impulse_penetration")
+        drops = []
+        for moment in play(world, Tracking(participant, GuardConfig(nominal_rate=world.model.scene.tracking_rate)),
+                           plan.rules):
+            drops += [e.data for e in moment.events if e.kind == "drop"]
+        results[lapse] = moment.state.stage, moment.state.attempts, drops
+    assert results[0.0][:2] == (COMPLETED, 0)
+    stage, attempts, drops = results[0.95]
+    assert (stage, attempts) == (COMPLETED, 1), results[0.95]
+    assert drops[0]["stage"] == "maintenance" and drops[0]["place"] == 0, "dropped on the way to the first place"
+
+
 def test_the_bench_plays_the_task_by_its_rules():
     plan = bench_plan("cube", ZERO_G, time_limit_s=60.0)
     result = run_once(SimulatedParticipant(plan, "veteran", 4, time_limit_s=70.0), "impulse_penetration")
