@@ -45,7 +45,7 @@ from microg.sim.state import POINTS, layout
 from microg.skeleton import N_BONES, N_DIGITS, SIDES
 from microg.study.protocol import Protocol
 from microg.task.respawn import lost
-from microg.task.rules import PICK_AND_PLACE
+from microg.task.rules import PICK_AND_PLACE, TaskRules
 from microg.task.stages import EVENT, MAX_EVENTS, STAGES, TASK, judge, rules_record
 
 BATCH = 32
@@ -123,11 +123,11 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
                 if progress is not None:
                     progress(done)
         return outcomes
-    scenes: dict[tuple[str, str], list[int]] = {}
+    scenes: dict[tuple[str, str, TaskRules], list[int]] = {}
     for i, unit in enumerate(units):
-        scenes.setdefault((unit.object_name, unit.interaction), []).append(i)
+        scenes.setdefault(_batch_key(unit), []).append(i)
     done = 0
-    for (name, interaction), indices in scenes.items():
+    for (name, interaction, _), indices in scenes.items():
         for i, outcome in _play_scene(protocol, protocol.scene(name, interaction), [units[i] for i in indices]):
             outcomes[indices[i]] = outcome
             done += 1
@@ -136,8 +136,14 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
     return outcomes
 
 
+def _batch_key(unit: TaskUnit) -> tuple[str, str, TaskRules]:
+    """What the tasks stepped together share: the scene (object and interaction model) and the rules
+    (a training may have a time limit of its own)."""
+    return unit.object_name, unit.interaction, unit.plan.rules
+
+
 def _play_scene(protocol: Protocol, scene, units: list[TaskUnit]):
-    """The tasks of one scene, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
+    """The tasks of one scene and rules, ``BATCH`` at a time; yields (index in ``units``, outcome) as each ends."""
     size = min(BATCH, len(units))
     data, batch, frames_until_an_end, arguments = _scene_batch(protocol, scene, units, size)
     queue = list(range(len(units)))
@@ -173,7 +179,7 @@ def _scene_batch(protocol: Protocol, scene, units: list[TaskUnit], size: int):
     model, data = world.model, world.data
     places, _ = layout(model.n_objects)
     offsets = np.array([places[name][1] for name in ("position", "orientation", "velocity", "angular_velocity")])
-    rules = rules_record(protocol.task)
+    rules = rules_record(units[0].plan.rules)
     limit = max(int(u.time_limit_s * FRAMES_PER_SECOND) + 2 for u in units)
     batch = _Batch(size, data, protocol.filter_window, limit)
     tracking = (1.0 / protocol.tracking_rate, protocol.guard.jump_distance, protocol.guard.max_gap)
@@ -187,7 +193,7 @@ def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:
     of each reading it again (about 3 s a process, on every multi-process study, before this)."""
     firsts: dict[tuple[str, str], TaskUnit] = {}
     for unit in units:
-        firsts.setdefault((unit.object_name, unit.interaction), unit)
+        firsts.setdefault((unit.object_name, unit.interaction), unit)  # the rules do not change the code
     for (name, interaction), unit in firsts.items():
         data, batch, frames_until_an_end, arguments = _scene_batch(protocol, protocol.scene(name, interaction),
                                                                    [unit], 1)

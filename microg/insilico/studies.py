@@ -19,6 +19,7 @@ import pandas as pd
 
 from microg.participant import Population
 from microg.study.protocol import Protocol, protocol_from_resolved
+from microg.task.rules import timeout_reason
 
 from .engine import TaskUnit, play_tasks
 
@@ -112,7 +113,7 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
             run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
             times = outcome.frame_times
             clock.elapse_frames(times)
-            reason = {"completed": None, "timeout": f"not completed within task.timeout_s = {protocol.task.timeout_s:g} s",
+            reason = {"completed": None, "timeout": timeout_reason(protocol.rules(task.phase)),
                       "aborted": f"the hand source ({source}) ended before the task did"}[outcome.status]
             store.end_run(run_id, outcome.status, clock.now(), time_s=outcome.time_s, attempts=outcome.attempts,
                           reason=reason, events=[Event(clock.now(), "in_silico", {"frames": len(times)})])

@@ -101,6 +101,14 @@ REPLAN_DISTANCE = 0.02
 replaced (the object was put back): the hand starts a new movement toward it."""
 PEAK_ACCELERATION = 5.77
 """Peak acceleration of a minimum-jerk movement over D / T^2."""
+PEAK_SPEED = 1.875
+"""Peak speed of a minimum-jerk movement over D / T."""
+MAX_POINT_SPEED = 3.0
+"""m/s: the fastest any point of the hand moves at a movement's peak, about a fast reach's: a
+movement takes at least as long as that allows (a much practised participant's Fitts time can be
+shorter; the hand would then jump further between two frames than a hand can)."""
+HAND_LENGTH = 0.2
+"""m: how far a fingertip may be from the hand's position, the lever arm of the hand's turn."""
 MAX_PLACES = 8
 """The most places a task may have (the paper's has three)."""
 MOVING_SPEED = 0.02
@@ -279,13 +287,17 @@ def _move(s, t):
 
 @njit(cache=True)
 def _begin_movement(s, t, duration):
-    """A new movement from the intended hand to ``s.end`` (already set), from ``t``; the end's
-    quaternion on the start's side, so the hand turns the short way."""
+    """A new movement from the intended hand to ``s.end`` (already set), from ``t``, lasting
+    ``duration`` or as long as ``MAX_POINT_SPEED`` needs for its farthest point's path (the
+    translation and the turn at ``HAND_LENGTH``); the end's quaternion on the start's side, so the
+    hand turns the short way."""
     _copy_pose(s.pose, s.start)
     if _dot4(s.start.orientation, s.end.orientation) < 0.0:
         for i in range(4):
             s.end.orientation[i] = -s.end.orientation[i]
-    s.begin, s.duration = t, duration
+    turn = 2.0 * math.acos(min(1.0, _dot4(s.start.orientation, s.end.orientation)))
+    path = _distance(s.start.position, s.end.position) + turn * HAND_LENGTH
+    s.begin, s.duration = t, max(duration, PEAK_SPEED * path / MAX_POINT_SPEED)
 
 
 @njit(cache=True)
@@ -523,7 +535,7 @@ def _begin_carry(p, s, seen, draws, delay):
     _begin_movement(s, seen.t + delay, duration)
     s.lapse_at = math.nan
     if p.grip_lapse > 0 and s.attempts == 0 and draws.random() < p.grip_lapse:
-        s.lapse_at = seen.t + delay + draws.random() * duration
+        s.lapse_at = seen.t + delay + draws.random() * s.duration
     _enter(s, CARRY, seen.t)
 
 

@@ -56,6 +56,9 @@ class Parameter:
     """``log`` (log-normal between people) or ``logit`` (a fraction, logit-normal)."""
     practised: bool = False
     """Whether practice improves it (``practise``)."""
+    error: bool = False
+    """A practised chance of an error: practice takes it toward none rather than toward
+    ``trained_fraction`` of it (a skill's speed has a floor; a slip of attention need not)."""
 
 
 PARAMETERS: tuple[Parameter, ...] = (
@@ -89,7 +92,7 @@ PARAMETERS: tuple[Parameter, ...] = (
               "fraction of the untrained one", 0.05, 0.999, scale="logit"),
     Parameter("grip_lapse", "probability", "chance that the grip lapses open during a carry, until a drop in the "
               "task has made the participant mind its grip (a bare hand feels no grip loosening)", 0.0, 0.95,
-              practised=True),
+              practised=True, error=True),
 )
 """Every parameter of the motor model, in the order the participant's code reads them."""
 NAMES = tuple(p.name for p in PARAMETERS)
@@ -255,12 +258,15 @@ _DEFAULT: Population | None = None
 
 def practise(person: np.ndarray, tasks_done: int) -> dict[str, float]:
     """A person's parameters after ``tasks_done`` tasks (power law of practice): each practised
-    parameter moves from the person's drawn, untrained value toward ``trained_fraction`` of it as
-    (1 + n)^-learning_rate; the others stay as drawn. ``person`` is ``Population.draw``'s."""
+    parameter moves from the person's drawn, untrained value toward ``trained_fraction`` of it (an
+    error's chance toward none) as (1 + n)^-learning_rate, and no lower than the smallest value a
+    person can have (``low``: a movement faster than that would jump further in a frame than a hand
+    can); the others stay as drawn. ``person`` is ``Population.draw``'s."""
     values = dict(zip(NAMES, (float(v) for v in person)))
     remaining = (1.0 + tasks_done) ** -values["learning_rate"]
     trained = values["trained_fraction"]
     for spec in PARAMETERS:
         if spec.practised:
-            values[spec.name] *= trained + (1.0 - trained) * remaining
+            floor = 0.0 if spec.error else trained
+            values[spec.name] = max(spec.low, values[spec.name] * (floor + (1.0 - floor) * remaining))
     return values

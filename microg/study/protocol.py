@@ -48,8 +48,8 @@ from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, Scen
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
 from microg.skeleton import SIDES
-from microg.task.rules import (CATCH, KINDS, PICK_AND_PLACE, STOP_SPIN, CatchRules, HandoverRules, SendRules,
-                               StopSpinRules, TaskRules)
+from microg.task.rules import (CATCH, HANDOVER, KINDS, PICK_AND_PLACE, SEND, STOP_SPIN, CatchRules, HandoverRules,
+                               SendRules, StopSpinRules, TaskRules)
 
 if TYPE_CHECKING:
     from microg.participant import Population, SkillProfile
@@ -162,8 +162,17 @@ class Training:
     groups: tuple[str, ...]
     interaction: str
     objects: tuple[StudyObject, ...]
+    tasks: int
+    """How many tasks training runs, going through ``objects`` in turn (default: one per object)."""
+    timeout_s: float
+    """A training task's time limit (s; default: the ``task`` table's ``timeout_s``)."""
     kind: str = PICK_AND_PLACE
     """The task kind training runs (default: the ``task`` table's ``kind``)."""
+
+    @property
+    def object_names(self) -> tuple[str, ...]:
+        """The object of each training task, in order."""
+        return tuple(self.objects[i % len(self.objects)].name for i in range(self.tasks))
 
 
 @dataclass(frozen=True)
@@ -227,8 +236,8 @@ class Protocol:
     resolved: dict = field(repr=False, compare=False)
     """The merged protocol as plain data, with object file texts: what the study database keeps."""
     dataset: Dataset = Dataset()
-    _rules: dict[str, TaskRules] = field(default_factory=dict, repr=False, compare=False)
-    """``rules`` of each kind but the ``task`` table's, made once."""
+    _rules: dict[tuple[str, float], TaskRules] = field(default_factory=dict, repr=False, compare=False)
+    """``rules`` of each kind and time limit but the ``task`` table's, made once."""
 
     def group(self, code: str) -> Group:
         return next(g for g in self.groups if g.code == code)
@@ -280,15 +289,17 @@ class Protocol:
         return next((p.kind for p in self.phases if p.name == phase), self.task.kind)
 
     def rules(self, phase: str) -> TaskRules:
-        """The rules a phase's tasks are judged by: the ``task`` table's, of the phase's kind (the
-        same object for every task of a kind, as ``microg.task.stages.rules_of`` keeps one record per
-        ``TaskRules``)."""
+        """The rules a phase's tasks are judged by: the ``task`` table's, of the phase's kind and, for
+        the training, with its own time limit (the same object for every task of a kind and limit, as
+        ``microg.task.stages.rules_of`` keeps one record per ``TaskRules``)."""
         kind = self.kind(phase)
-        if kind == self.task.kind:
+        timeout_s = self.training.timeout_s if phase == "training" and self.training is not None else \
+            self.task.timeout_s
+        if kind == self.task.kind and timeout_s == self.task.timeout_s:
             return self.task
-        if kind not in self._rules:
-            self._rules[kind] = replace(self.task, kind=kind)
-        return self._rules[kind]
+        if (kind, timeout_s) not in self._rules:
+            self._rules[kind, timeout_s] = replace(self.task, kind=kind, timeout_s=timeout_s)
+        return self._rules[kind, timeout_s]
 
     def simulation_problems(self) -> list[str]:
         """What a simulated participant could not do with this protocol (each names file, key and
@@ -962,14 +973,40 @@ def _read_training(top: _Reader, *, groups: tuple[Group, ...], task: TaskRules, 
                         interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
                         objects=tuple(_study_object(tr, f"objects[{i}]", name=n, sources=sources, files=files,
                                                     meshes=meshes) for i, n in enumerate(names)),
-                        kind=tr.text("kind", task.kind, KINDS))
+                        kind=tr.text("kind", task.kind, KINDS),
+                        tasks=tr.integer("tasks", len(names)),
+                        timeout_s=tr.number("timeout_s", task.timeout_s, unit=" (seconds)"))
     _needs_numbers(tr, "kind", training.kind, task)
+    need, seconds = _least_time(task, training.kind)
+    if seconds >= training.timeout_s:
+        raise tr.fail("timeout_s", training.timeout_s, f"must exceed {need} = {seconds:g} s: no training task "
+                      "could be completed")
     tr.done()
     flagged = tuple(g.code for g in groups if g.training)
     if set(flagged) != set(training_groups):
         raise tr.fail("groups", list(training_groups), f"differs from the groups marked training = true "
                       f"({list(flagged)})")
     return training
+
+
+def _least_time(task: TaskRules, kind: str) -> tuple[str, float]:
+    """What a task of ``kind`` needs at least (its key) and how long (s): the holds at the places, the
+    hold of a catch, of a stop or of a handover, a send's flight."""
+    if kind == CATCH:
+        return "task.catch.hold_s", task.catch.hold_s
+    if kind == STOP_SPIN:
+        return "task.stop_spin.hold_s", task.stop_spin.hold_s
+    if kind == SEND:
+        return "task.send.arrival_s", task.send.arrival_s
+    if kind == HANDOVER:
+        return "task.handover.hold_s", task.handover.hold_s
+    return f"the {len(task.places)} holds of task.hold_s", len(task.places) * task.hold_s
+
+
+def _timeout_key(protocol: Protocol, phase: str) -> str:
+    """The protocol key that sets a phase's time limit per task."""
+    own = protocol.training is not None and protocol.training.timeout_s != protocol.task.timeout_s
+    return "training.timeout_s" if phase == "training" and own else "task.timeout_s"
 
 
 def _read_instruments(top: _Reader, resolved: dict, files: dict) -> dict[str, Instrument]:
@@ -1098,12 +1135,13 @@ def _check_timeline_fits(top: _Reader, protocol: Protocol) -> None:
         raise top.fail("duration_minutes", protocol.duration_minutes, f"the timeline's phases take {total:g} minutes")
     task_phases = [p.name for p in protocol.phases]
     for phase in protocol.timeline:
-        count = len(protocol.training.objects) if phase.name == "training" else \
+        count = protocol.training.tasks if phase.name == "training" else \
             len(protocol.objects) if phase.name in task_phases else 0
-        if count * protocol.task.timeout_s > phase.minutes * 60 + 1e-9:
+        limit, key = protocol.rules(phase.name).timeout_s, _timeout_key(protocol, phase.name)
+        if count * limit > phase.minutes * 60 + 1e-9:
             raise ProtocolError(
                 f"{top.where}: timeline phase {phase.name!r} has minutes = {phase.minutes:g}, but its {count} "
-                f"task(s) may take {count} x task.timeout_s = {count * protocol.task.timeout_s / 60:g} minutes")
+                f"task(s) may take {count} x {key} = {count * limit / 60:g} minutes")
 
 
 def _check_objects(top: _Reader, protocol: Protocol) -> None:

@@ -40,6 +40,7 @@ from microg.participant.plan import TaskPlan
 from microg.sim import World, make_world
 from microg.task import COMPLETED, Moment, TaskRules, play
 from microg.task.kinds import KIND
+from microg.task.rules import timeout_reason
 
 from . import framelog
 from .inputs import Inputs, participant_plan
@@ -287,7 +288,7 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
     if state is not None and state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
         result = TaskResult(status, state.completion_time, state.attempts, run.logged + len(run.pending))
-        reason = None if status == COMPLETED else f"not completed within task.timeout_s = {rules.timeout_s:g} s"
+        reason = None if status == COMPLETED else timeout_reason(rules)
     else:
         result = TaskResult("aborted", None, state.attempts if state else 0, run.logged + len(run.pending))
         reason = f"the hand source ({source.description}) ended before the task did"

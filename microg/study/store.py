@@ -201,7 +201,7 @@ def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...]) ->
     tasks: list[PlannedTask] = []
     for phase in protocol.phases_for(group):
         if phase.name == "training":
-            names, interaction = [o.name for o in protocol.training.objects], protocol.training.interaction
+            names, interaction = list(protocol.training.object_names), protocol.training.interaction
         elif phase.name in [p.name for p in protocol.phases]:
             names = list(object_order)
             interaction = next(p.interaction for p in protocol.phases if p.name == phase.name)

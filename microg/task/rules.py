@@ -65,6 +65,11 @@ class HandoverRules:
     hold_s: float
 
 
+def timeout_reason(rules: TaskRules) -> str:
+    """Why a task that ran out of time was not completed, as its run records it."""
+    return f"not completed within timeout_s = {rules.timeout_s:g} s"
+
+
 @dataclass(frozen=True)
 class TaskRules:
     """A task's numbers (a protocol's ``task`` table sets them): the pick-and-place's (``stages``

@@ -307,7 +307,7 @@ class ParticipantDisplay:
     def _label(self, task: PlannedTask) -> str:
         label = next((p.label for p in self.protocol.phases if p.name == task.phase), task.phase)
         return f"{label}: {task.object.replace('_', ' ')} ({task.order_position} of " \
-               f"{sum(1 for o in (self.protocol.objects if task.phase != 'training' else self.protocol.training.objects))})"
+               f"{len(self.protocol.objects) if task.phase != 'training' else self.protocol.training.tasks})"
 
     def _publish(self, kind: str, body: dict) -> None:
         message = json.dumps({"type": kind, **body})

@@ -8,7 +8,7 @@ import pytest
 
 from microg.hands.guard import GuardConfig
 from microg.hands.tracking import Tracking
-from microg.participant import VETERAN, SimulatedParticipant, TaskPlan
+from microg.participant import BEGINNER, VETERAN, SimulatedParticipant, TaskPlan
 from microg.participant.bench import EARTH, PLACES, START, ZERO_G, bench_plan, bench_rules, \
     bench_world, run_once
 from microg.participant.noise import TrackingNoiseLevels
@@ -250,3 +250,27 @@ def test_a_slow_reach_for_a_tumbling_object_turns_the_hand_smoothly(spin, interc
     run(participant, world, lambda p, w: w.time > 6.0, record)
     moved = np.linalg.norm(np.diff(np.array(points), axis=0), axis=-1).max(axis=1)
     assert len(points) > 500 and moved.max() < 0.03, moved.max()
+
+
+@pytest.mark.parametrize("seed", [1, 5])
+def test_a_participant_at_the_fastest_a_person_moves_never_jumps_as_far_as_the_guard_refuses(seed):
+    """Issue 28: Fitts' constants at their smallest (a fast learner after much practice) turning the
+    hand over for the flat cuboid: no point of the hand moves as far as the tracking guard's jump
+    distance between two frames (before movements were paced by MAX_POINT_SPEED, these seeds moved a
+    fingertip 13-16 cm in one frame, and an in-silico study refused the frame)."""
+    skill = dataclasses.replace(BEGINNER, name="fastest", movement_intercept=0.05, movement_slope=0.02,
+                                carry_slowdown=1.0)
+    plan = bench_plan("flat_cuboid", time_limit_s=40.0)
+    participant = SimulatedParticipant(plan, skill, seed)
+    moved, last = [], None
+
+    def record(p, w, frame):
+        nonlocal last
+        points = np.vstack([np.vstack([h.joints.reshape(-1, 3), h.palm_position]) for h in frame.hands])
+        if last is not None and len(points) == len(last):
+            moved.append(float(np.linalg.norm(points - last, axis=1).max()))
+        last = points
+
+    run(participant, bench_world(plan, "impulse_penetration"), lambda p, w: p.closed, record)
+    assert len(moved) > 3000, "the task ended before 30 s of frames"
+    assert max(moved) < GuardConfig().jump_distance

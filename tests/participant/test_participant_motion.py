@@ -60,3 +60,20 @@ def test_slerp_keeps_unit_length_and_turns_at_constant_rate():
         assert 2 * math.acos(min(q[0], 1.0)) == pytest.approx(s * math.pi / 2, abs=1e-12)
     # The shortest way round: -q is the same rotation.
     np.testing.assert_allclose(slerp(identity, -half_turn_about_y, 1.0), half_turn_about_y, atol=1e-12)
+
+
+def test_a_movement_lasts_at_least_what_the_fastest_point_of_a_hand_allows():
+    """Issue 28: a movement's duration is its Fitts time or, when that is shorter, the time at which
+    its farthest point (the translation plus the turn at HAND_LENGTH) peaks at MAX_POINT_SPEED
+    (minimum jerk: peak speed 1.875 D / T)."""
+    from microg.participant.actions import HAND_LENGTH, MAX_POINT_SPEED, STATE, _begin_movement
+
+    states = np.zeros(1, STATE)
+    states[0]["pose"]["orientation"] = [1.0, 0.0, 0.0, 0.0]
+    states[0]["end"]["position"] = [0.2, 0.0, 0.0]
+    states[0]["end"]["orientation"] = [0.0, 0.0, 0.0, 1.0]  # half a turn about z
+    _begin_movement(states[0], 1.0, 0.01)
+    assert states[0]["begin"] == 1.0
+    assert states[0]["duration"] == pytest.approx(1.875 * (0.2 + math.pi * HAND_LENGTH) / MAX_POINT_SPEED, rel=1e-12)
+    _begin_movement(states[0], 2.0, 5.0)  # a slower movement keeps its time
+    assert states[0]["duration"] == 5.0

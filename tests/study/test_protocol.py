@@ -10,6 +10,7 @@ import pytest
 from microg.paths import INSTRUMENTS, PROTOCOLS
 from microg.study.protocol import ProtocolError, load_protocol
 from microg.study.questionnaire import questions
+from microg.study.store import plan_tasks
 
 PAPER = PROTOCOLS / "paper.toml"
 
@@ -45,6 +46,27 @@ def test_the_paper_protocol_states_the_papers_study():
     assert sum(ph.minutes for ph in p.timeline) <= 40 == p.duration_minutes
     assert [ph.name for ph in p.phases_for("B")] == ["orientation", "instructions", "stage1", "stage2",
                                                      "questionnaire"]
+
+
+def test_the_paper_protocols_veterans_train_on_four_ball_tasks_of_their_own_time_limit():
+    """Issue 28: the training runs ``tasks`` tasks through its objects in turn, each judged by the
+    task's rules with the training's ``timeout_s``; the phases keep the task table's."""
+    p = load_protocol(PAPER)
+    assert p.training.object_names == ("ball",) * 4
+    assert p.rules("training").timeout_s == 90.0 and p.rules("training").places == p.task.places
+    assert p.rules("stage1") is p.task and p.task.timeout_s == 240.0
+    planned = plan_tasks(p, "V", ("cube", "flat_cuboid", "long_cuboid"))
+    assert [(t.phase, t.object, t.order_position) for t in planned[:5]] == [
+        ("training", "ball", 1), ("training", "ball", 2), ("training", "ball", 3), ("training", "ball", 4),
+        ("stage1", "cube", 1)]
+    assert [t.phase for t in plan_tasks(p, "B", ("cube", "flat_cuboid", "long_cuboid"))][:1] == ["stage1"]
+
+
+def test_a_training_goes_through_its_objects_in_turn(tmp_path):
+    path = tmp_path / "two.toml"
+    path.write_text(PAPER.read_text().replace('objects = ["ball"]', 'objects = ["ball", "cube"]')
+                    .replace("tasks = 4", "tasks = 3"))
+    assert load_protocol(path).training.object_names == ("ball", "cube", "ball")
 
 
 def test_the_microgravity_variant_differs_only_in_gravity_and_support():
@@ -110,6 +132,10 @@ BAD = [
     ('label = "System 2"', 'label = "System 2"\nadded_latency_ms = 1500', ["phases[1].added_latency_ms = 1500",
                                                                          "at most 1000 (ms)"]),
     ('label = "System 2"', 'label = "System 2"\nadded_latency_ms = "50ms"', ["phases[1].added_latency_ms = '50ms'"]),
+    ("tasks = 4", "tasks = 0", ["training.tasks = 0", "whole number >= 1"]),
+    ("timeout_s = 90.0", "timeout_s = 5.0",
+     ["training.timeout_s = 5.0", "must exceed the 3 holds of task.hold_s = 9 s"]),
+    ("tasks = 4", "tasks = 5", ["'training'", "minutes = 6", "5 x training.timeout_s = 7.5 minutes"]),
 ]
 
 

@@ -63,8 +63,8 @@ def test_each_phase_runs_its_kind_with_the_numbers_of_its_table(tmp_path):
     p = load_protocol(kinds_protocol(tmp_path))
     assert [(ph.name, ph.kind) for ph in p.phases] == [("catching", "catch"), ("stopping", "stop_spin")]
     assert p.kind("training") == p.training.kind == "pick_and_place"
-    assert p.rules("training") is p.task and p.rules("catching").kind == "catch"
-    assert p.rules("catching") is p.rules("catching")
+    assert p.rules("training").kind == "pick_and_place" and p.rules("catching").kind == "catch"
+    assert p.rules("catching") is p.rules("catching") and p.rules("training") is p.rules("training")
     # toward a point: the launch's direction is the unit vector from the start to it
     start, toward = np.array(p.task.start), np.array([0.0, 0.18, 0.1])
     expected = (toward - start) / np.linalg.norm(toward - start)

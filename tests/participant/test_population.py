@@ -1,0 +1,36 @@
+"""The power law of practice of a population's person, against its closed form."""
+
+import math
+
+import numpy as np
+import pytest
+
+from microg.participant.population import NAMES, PARAMETERS, practise
+
+SPEC = {p.name: p for p in PARAMETERS}
+
+
+def person(**values) -> np.ndarray:
+    """A person's values in ``PARAMETERS`` order: each parameter's upper bound halved, but ``values``."""
+    return np.array([values.get(p.name, p.high / 2.0) for p in PARAMETERS])
+
+
+def test_practice_moves_each_practised_parameter_along_the_power_law_and_leaves_the_others():
+    untrained = person(movement_intercept=0.4, carry_slowdown=2.0, learning_rate=0.5, trained_fraction=0.6)
+    after = practise(untrained, 3)
+    factor = 0.6 + 0.4 * 4.0 ** -0.5
+    assert after["movement_intercept"] == pytest.approx(0.4 * factor, rel=1e-12)
+    assert after["carry_slowdown"] == 2.0 and not SPEC["carry_slowdown"].practised
+    assert practise(untrained, 0)["movement_intercept"] == pytest.approx(0.4, rel=1e-12)
+
+
+def test_practice_takes_no_parameter_below_the_smallest_value_a_person_can_have():
+    """Issue 28: a fast learner near its trained fraction's floor would otherwise move faster than a
+    hand (a Fitts time of a few milliseconds)."""
+    untrained = person(movement_intercept=0.4, movement_slope=0.05, learning_rate=3.0, trained_fraction=0.05)
+    after = practise(untrained, 100)
+    assert after["movement_intercept"] == SPEC["movement_intercept"].low
+    assert after["movement_slope"] == SPEC["movement_slope"].low
+    for name in NAMES:
+        assert after[name] >= SPEC[name].low, name
+    assert math.isclose(after["learning_rate"], 3.0)
