@@ -74,8 +74,9 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
 @click.option("--pilot", type=ExistingPath(path_type=Path),
               help="A pilot study (folder) or its exported trials.csv/.parquet: means and covariance estimated "
                    "from it.")  # fmt: skip
-@click.option("--simulated", is_flag=True, help="In-silico studies: the real sessions with simulated participants "
-              "and physics, one Dask task per study (slow).")  # fmt: skip
+@click.option("--simulated", is_flag=True, help="In-silico studies: whole studies of the protocol's simulated "
+              "participants played through the physics (batched; the trials table a logged study would have), one "
+              "Dask task per study.")  # fmt: skip
 @click.option("--effect-size", "effect_sizes", multiple=True, metavar="[TEST:]f=F|np2=ETA",
               help="The effect of a test as Cohen's f or partial eta squared, instead of --effects (repeatable; "
                    "without TEST every ANOVA term; Superpower's convention: lambda = f^2 df2).")

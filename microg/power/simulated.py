@@ -1,5 +1,6 @@
-"""In-silico studies: power from whole studies run through the real sessions with simulated
-participants and the physics, each analysed with the report's own functions.
+"""In-silico studies: power from whole studies of simulated participants played through the physics
+(batched, with a logged session's rules and trials table), each analysed with the report's own
+functions.
 
 One study is one Dask task: a whole simulated study (``microg.insilico.simulate_trials``: the
 protocol resized to n per group, each group's simulated participants as ``microg demo`` runs them),

@@ -24,6 +24,17 @@ def test_practice_moves_each_practised_parameter_along_the_power_law_and_leaves_
     assert practise(untrained, 0)["movement_intercept"] == pytest.approx(0.4, rel=1e-12)
 
 
+def test_practice_takes_the_chance_of_an_error_toward_none():
+    """Issue 28: a lapse of the grip is practised as untrained x (1 + n)^-rate, without the trained
+    fraction's floor that a movement's time keeps."""
+    untrained = person(grip_lapse=0.4, movement_intercept=0.4, learning_rate=0.5, trained_fraction=0.6)
+    for n in (1, 3, 99):
+        after = practise(untrained, n)
+        assert after["grip_lapse"] == pytest.approx(0.4 * (1.0 + n) ** -0.5, rel=1e-12)
+        assert after["movement_intercept"] > 0.4 * 0.6
+    assert [p.name for p in PARAMETERS if p.error] == ["grip_lapse"]
+
+
 def test_practice_takes_no_parameter_below_the_smallest_value_a_person_can_have():
     """Issue 28: a fast learner near its trained fraction's floor would otherwise move faster than a
     hand (a Fitts time of a few milliseconds)."""
