@@ -454,9 +454,10 @@ def plot_check(check: pd.DataFrame, path: Path, title: str) -> None:
         axis.set_yticks(y, [m[len(kind):] for m in rows["measure"]], fontsize=7)
         axis.set_title(kind, fontsize=9, loc="left")
         axis.grid(axis="x", alpha=0.3)
-    axes[0, 0].legend(fontsize=7, loc="best")
     figure.suptitle(title, fontsize=9)
-    figure.tight_layout()
+    figure.legend(*axes[0, 0].get_legend_handles_labels(), loc="upper center", ncol=4, fontsize=7,
+                  bbox_to_anchor=(0.5, 0.97), frameon=False)  # above the panels, off their data
+    figure.tight_layout(rect=(0, 0, 1, 0.95))
     figure.savefig(path, dpi=120)
     plt.close(figure)
 
