@@ -181,6 +181,8 @@ def calibrate(*, study_dir: str | None, trials_file: Path | None, targets_file: 
                f"{result.summary['workers']} workers")
     folder = profile.parent
     click.echo(f"-> {profile}, {folder / 'calibration.csv'}, {folder / 'calibration.png'}, {folder / 'posterior.csv'}")
+    click.echo(f"next: a study of these people, microg demo --profile {profile}; how many of them a study needs, "
+               f"microg power --simulated --profile {profile}")
 
 
 COMMANDS = [participant]

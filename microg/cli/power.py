@@ -77,6 +77,9 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
 @click.option("--simulated", is_flag=True, help="In-silico studies: whole studies of the protocol's simulated "
               "participants played through the physics (batched; the trials table a logged study would have), one "
               "Dask task per study.")  # fmt: skip
+@click.option("--profile", type=ExistingPath(dir_okay=False, path_type=Path), default=None,
+              help="--simulated: a population file (PROFILE.toml, microg participant calibrate writes one) that every "
+                   "group's simulated participants are drawn from; default: each group's simulated_profile.")
 @click.option("--effect-size", "effect_sizes", multiple=True, metavar="[TEST:]f=F|np2=ETA",
               help="The effect of a test as Cohen's f or partial eta squared, instead of --effects (repeatable; "
                    "without TEST every ANOVA term; Superpower's convention: lambda = f^2 df2).")
@@ -115,7 +118,7 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
 @clear_errors
 @_power_errors
 def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,
-          effect_sizes: tuple[str, ...], method: str | None, sensitivity: bool, correction: str | None, sims: int,
+          profile: Path | None, effect_sizes: tuple[str, ...], method: str | None, sensitivity: bool, correction: str | None, sims: int,
           sizes: str, out: Path, target: float, alpha: float, scheduler: str | None, workers: int | None, seed: int,
           resume: bool, batch: int, measure: str, interaction: str | None) -> None:
     """How many participants per group the design needs: power of each ANOVA term and post hoc
@@ -146,6 +149,14 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
     elif len(given) != 1:
         raise click.UsageError("give exactly one of --effects FILE, --pilot STUDY|TABLE, --effect-size, --simulated"
                                + (f" (not {' and '.join(given)})" if given else ""))
+    population = None
+    if profile is not None:
+        from microg.participant import PopulationError, read_population
+
+        try:
+            population = read_population(profile)
+        except PopulationError as error:
+            raise click.BadParameter(str(error), param_hint="--profile") from None
     rules = load_protocol(protocol_file(protocol))
     if simulated:
         from microg.insilico.engine import unplayable
@@ -167,7 +178,7 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
     samples = tuple(design.group_sizes(n) if isinstance(n, dict) else n for n in _sizes(sizes))
     request = PowerRequest(design, method or ("montecarlo" if simulated else "exact"), samples, effects,
                            rules, alpha, target, sims, seed, measure, interaction, correction, sensitivity,
-                           _effect_sizes(effect_sizes, design.terms))  # fmt: skip
+                           _effect_sizes(effect_sizes, design.terms), population)  # fmt: skip
     result = run_power(request, out, scheduler, workers, resume, progress=True, batch=batch)
     if estimate is not None:
         (out / "effects.toml").write_text(estimate.effects.to_toml())

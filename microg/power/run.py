@@ -20,6 +20,7 @@ takes only its tasks in flight with it, and Dask runs them again elsewhere.
 
 from __future__ import annotations
 
+import hashlib
 import io
 import json
 import logging
@@ -29,6 +30,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -39,6 +41,9 @@ from microg.power.effects import Effects
 from microg.power.montecarlo import SIMULATION_COLUMNS, montecarlo_batch, power_table
 from microg.power.plot import plot_power
 from microg.study.protocol import Protocol
+
+if TYPE_CHECKING:
+    from microg.participant import Population
 
 METHODS = ("exact", "montecarlo")
 POWER_COLUMNS = ("n_per_group", "term", "power", "ci_low", "ci_high", "method")
@@ -80,6 +85,9 @@ class PowerRequest:
     correction: str | None = None
     sensitivity: bool = False
     effect_sizes: tuple = ()
+    population: Population | None = field(default=None, compare=False)
+    """In-silico studies: the population every group's participants are drawn from (None: each
+    group's ``simulated_profile``)."""
 
     def __post_init__(self):
         if self.method not in METHODS:
@@ -97,6 +105,9 @@ class PowerRequest:
         if self.simulated and not all(isinstance(self.design.sample_key(n), int) for n in self.n_per_group):
             raise PowerInputError("--simulated with groups of unequal size: in-silico studies run every group at one "
                                   "size (microg.insilico); give --n as sizes, e.g. --n 4,8")
+        if self.population is not None and not self.simulated:
+            raise PowerInputError("--profile draws the participants of --simulated studies: not with --effects, "
+                                  "--pilot, --effect-size or --sensitivity")
         if self.effects is None and not self.effect_sizes and not self.sensitivity and self.method == "exact":
             raise PowerInputError("--method exact with --simulated: in-silico studies can only be counted "
                                   "(--method montecarlo)")
@@ -124,7 +135,9 @@ class PowerRequest:
         if self.effect_sizes:
             return "effect sizes (Superpower's convention: lambda = f^2 df2)"
         if self.effects is None:
-            return "the design's degrees of freedom" if self.sensitivity else "simulated studies"
+            if self.sensitivity:
+                return "the design's degrees of freedom"
+            return "simulated studies" + (f" of {self.population.where}" if self.population is not None else "")
         return self.effects.source
 
     @property
@@ -146,6 +159,8 @@ class PowerRequest:
             "effects": None if self.effects is None else self.effects.as_dict(),
             "effect_sizes": [list(entry) for entry in self.effect_sizes] or None,
             "protocol_sha256": self.protocol.sha256 if self.simulated else None,
+            "population_sha256": (hashlib.sha256(self.population.to_toml().encode()).hexdigest()
+                                  if self.population is not None else None),
             "measure": self.measure if self.simulated else None,
             "interaction": (self.interaction or self.design.interactions[0]) if self.simulated else None,
             "n_per_group": self.samples,
@@ -326,7 +341,7 @@ def _submit(client, request: PowerRequest, n: int, indices: list[int]):
 
     interaction = request.interaction or request.design.interactions[0]
     return client.submit(simulated_batch, request.protocol, request.design, n, indices, request.seed, request.alpha,
-                         request.measure, interaction, request.read, pure=False)  # fmt: skip
+                         request.measure, interaction, request.read, request.population, pure=False)  # fmt: skip
 
 
 def _claim(out: Path, record: dict, resume: bool) -> None:

@@ -3,7 +3,8 @@
 functions.
 
 One study is one Dask task: a whole simulated study (``microg.insilico.simulate_trials``: the
-protocol resized to n per group, each group's simulated participants as ``microg demo`` runs them),
+protocol resized to n per group, each group's simulated participants as ``microg demo`` runs them,
+or all drawn from one population: ``microg power --simulated --profile``),
 then ``microg.analysis.mixed_anova``, ``sphericity_correction`` and ``posthoc`` on the design's
 cells. The study's seed is drawn from the run's seed and the study's index, as for a Monte Carlo
 data set. No questionnaire is answered (the design's measures come from the tasks).
@@ -17,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from microg.insilico import simulate_trials
+from microg.participant import Population
 from microg.power.design import Design
 from microg.power.montecarlo import simulation_seed
 from microg.power.pilot import SUBJECT, design_cells
@@ -54,16 +56,18 @@ def study_tests(trials: pd.DataFrame, design: Design, measure: str, interaction:
 
 
 def simulated_batch(protocol: Protocol, design: Design, n_per_group, indices, seed: int, alpha: float,
-                    measure: str, interaction: str, correction: str = "mauchly") -> pd.DataFrame:
-    """Run and analyse the simulated studies ``indices`` at ``n_per_group``: one Dask task per study.
+                    measure: str, interaction: str, correction: str = "mauchly",
+                    population: Population | None = None) -> pd.DataFrame:
+    """Run and analyse the simulated studies ``indices`` at ``n_per_group``: one Dask task per study;
+    every participant drawn from ``population`` when given, else from its group's ``simulated_profile``.
 
     Returns the rows of ``montecarlo.SIMULATION_COLUMNS``.
     """
     tables = []
     for index in indices:
         study_seed = int(simulation_seed(seed, n_per_group, int(index)).generate_state(1)[0])
-        p = study_tests(simulate_trials(protocol, n_per_group, study_seed), design, measure, interaction, alpha,
-                        correction)
+        trials = simulate_trials(protocol, n_per_group, study_seed, population=population)
+        p = study_tests(trials, design, measure, interaction, alpha, correction)
         tables.append(pd.DataFrame({"n_per_group": design.sample_key(n_per_group), "sim": int(index), "term": p.index,
                                     "p": p.to_numpy()}))  # fmt: skip
     return pd.concat(tables, ignore_index=True)

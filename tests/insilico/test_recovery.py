@@ -47,6 +47,7 @@ def test_a_calibration_recovers_the_means_of_a_known_population(tmp_path):
         "--check", "3", "--seed", "5", "--workers", "2"])  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "posterior (mean and 90 % credible interval):" in result.output and "fitted (" in result.output
+    assert f"microg power --simulated --profile {out}" in result.output  # what to do with it next
     fitted = read_population(out).parameters
     covered = [name for name in TRUTH if fitted[name].ci_low <= TRUTH[name].mean <= fitted[name].ci_high]
     assert len(covered) >= 2, {name: (fitted[name].ci_low, fitted[name].ci_high) for name in TRUTH}

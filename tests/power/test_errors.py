@@ -6,6 +6,7 @@ import pytest
 from click.testing import CliRunner
 
 from microg.cli import main
+from microg.paths import PROTOCOLS
 
 from .conftest import ISSUE_EFFECTS, effects_text
 
@@ -137,6 +138,23 @@ def test_one_source_of_effects_exactly(effects_file, tmp_path):
     none = CliRunner().invoke(main, ["power", "--out", str(tmp_path)])
     assert both.exit_code == 2 and "--effects and --simulated" in both.output
     assert none.exit_code == 2 and "exactly one of" in none.output
+
+
+def test_a_population_is_only_for_in_silico_studies(effects_file, tmp_path):
+    result = CliRunner().invoke(main, ["power", "--effects", str(effects_file), "--profile",
+                                       str(PROTOCOLS / "populations" / "literature.toml"), "--out", str(tmp_path)])
+    assert result.exit_code == 1 and "--profile draws the participants of --simulated studies" in result.output
+
+
+def test_a_bad_population_file_is_named_with_its_key_and_value(tmp_path):
+    profile = tmp_path / "pilot.toml"
+    text = (PROTOCOLS / "populations" / "literature.toml").read_text()
+    assert "sd = 0.0018" in text  # the aim's SD between people
+    profile.write_text(text.replace("sd = 0.0018", "sd = -0.0018"))
+    result = CliRunner().invoke(main, ["power", "--simulated", "--profile", str(profile), "--out", str(tmp_path / "run")])
+    assert result.exit_code == 2 and str(profile) in result.output and "aim_sd" in result.output, result.output
+    assert "-0.0018" in result.output
+    assert not (tmp_path / "run").exists()
 
 
 def test_exact_power_of_in_silico_studies_is_refused(tmp_path):
