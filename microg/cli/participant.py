@@ -168,7 +168,7 @@ def calibrate(*, study_dir: str | None, trials_file: Path | None, targets_file: 
     if why is not None:
         raise click.ClickException(why)
     request = CalibrationRequest(source.protocol, hold_out(source.targets, held_out), source.source, source.digest,
-                                 parse_fit(fit or ",".join(DEFAULT_FIT)), read_population(base) if base else None,
+                                 parse_fit(",".join(DEFAULT_FIT) if fit is None else fit), read_population(base) if base else None,
                                  particles, generations, participants or source.participants, check, seed,
                                  source.unused)  # fmt: skip
     click.echo(f"calibrating to {request.source}: {sum(not t.held_out for t in request.targets)} numbers fitted, "

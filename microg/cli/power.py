@@ -161,8 +161,8 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
     if simulated:
         from microg.insilico.engine import unplayable
 
-        why = unplayable(rules)
-        if why is not None:
+        why = unplayable(rules) or ("\n".join(rules.player_problems()) if population is None else None)
+        if why:
             raise click.ClickException(why)
     design = design_from_protocol(rules, within)
     if interaction is not None and interaction not in design.interactions:

@@ -120,7 +120,7 @@ def parse_fit(text: str) -> tuple[Free, ...]:
     for part in (p.strip() for p in text.split(",")):
         name, _, what = part.partition(":")
         if name not in SPEC or what not in ("", "sd"):
-            raise CalibrationError(f"--fit {part!r}: give NAME (its population mean) or NAME:sd (its spread "
+            raise CalibrationError(f"--fit {text!r}: {part!r}: give NAME (its population mean) or NAME:sd (its spread "
                                    f"between people), NAME one of {', '.join(NAMES)}")
         free.append(Free(name, "sd" if what else "mean"))
     if len({f.key for f in free}) != len(free):
@@ -136,8 +136,9 @@ def hold_out(targets, patterns) -> tuple[Target, ...]:
             raise CalibrationError(f"--hold-out {pattern!r}: matches no number (the numbers: "
                                    f"{', '.join(t.key for t in targets)})")
     held = [replace(t, held_out=True) if any(fnmatch.fnmatchcase(t.key, p) for p in patterns) else t for t in targets]
-    if all(t.held_out for t in held):
-        raise CalibrationError("every number is held out: nothing is left to fit")
+    if patterns and all(t.held_out for t in held):
+        raise CalibrationError(f"--hold-out {' '.join(map(repr, patterns))}: every number is held out: nothing is "
+                               "left to fit")
     return tuple(held)
 
 

@@ -156,12 +156,16 @@ def targets_from_dict(data: dict, protocol: Protocol, where: str) -> TargetsFile
     if not isinstance(entries, list) or not entries:
         raise TargetError(f"{where}: targets = {entries!r}: give at least one [[targets]] table")
     known = _known_values(protocol)
-    targets = []
+    targets, given = [], {}
     for i, entry in enumerate(entries):
         at = f"{where}: targets[{i}]"
         if not isinstance(entry, dict):
             raise TargetError(f"{at} = {entry!r}: must be a table")
-        targets += _entry_targets(entry, at, known, n, len(protocol.groups))
+        for target in _entry_targets(entry, at, known, n, len(protocol.groups)):
+            if target.key in given:
+                raise TargetError(f"{at}: {target.key} is given already by {given[target.key]}; give each number once")
+            given[target.key] = f"targets[{i}]"
+            targets.append(target)
     source = data.get("source", where)
     return TargetsFile(tuple(targets), data.get("protocol"), str(source), n)
 
@@ -249,16 +253,20 @@ def _entry_targets(entry: dict, at: str, known: dict, n_per_group: int, groups: 
     if not isinstance(held_out, bool):
         raise TargetError(f"{at}.held_out = {held_out!r}: must be true or false")
     selected_groups = 1 if any(column == "group" for column, _ in where) else groups
-    people = int(_number(entry, "n", at, positive=True)) if "n" in entry else n_per_group * selected_groups
+    people = _people(entry, at, n_per_group * selected_groups)
     se = _number(entry, "se", at, positive=True) if "se" in entry else None
     targets = []
     for key in given:
         value = _number(entry, key, at, positive=key in ("ratio", "above", "below"))
+        if measure == "completed" and key in ("mean", "sd") and not 0.0 <= value <= 1.0:
+            raise TargetError(f"{at}.{key} = {value!r}: a share of tasks completed lies from 0 to 1")
         if key == "mean":
             statistic = Statistic(measure, "mean", where)
             error = se if se is not None else _need_sd(entry, at) / math.sqrt(people)
         elif key == "sd":
             statistic = Statistic(measure, "sd", where)
+            if se is None and people < 2:
+                raise TargetError(f"{at}.n = {people}: an SD between people needs at least two (or give se)")
             error = se if se is not None else value / math.sqrt(2 * (people - 1))
         elif key == "slope":
             statistic = Statistic(measure, "slope", where)
@@ -266,8 +274,22 @@ def _entry_targets(entry: dict, at: str, known: dict, n_per_group: int, groups: 
         else:
             statistic = Statistic(measure, "ratio", where, versus)
             error = _need_se(se, at, key)
-        targets.append(Target(statistic, value, max(error, 1e-9), held_out, key if key in ("above", "below") else None))
+        if error <= 0.0:
+            raise TargetError(f"{at}.sd = {entry['sd']!r}: gives a standard error of 0, which would outweigh every "
+                              "other number; give se")
+        targets.append(Target(statistic, value, error, held_out, key if key in ("above", "below") else None))
     return targets
+
+
+def _people(entry: dict, at: str, otherwise: int) -> int:
+    """How many participants a target's numbers come from: its own ``n`` (a whole number), else the
+    file's ``n_per_group`` times the groups selected."""
+    if "n" not in entry:
+        return otherwise
+    n = _number(entry, "n", at, positive=True)
+    if n != int(n):
+        raise TargetError(f"{at}.n = {entry['n']!r}: must be a whole number of participants")
+    return int(n)
 
 
 def _need_sd(entry: dict, at: str) -> float:
@@ -314,17 +336,27 @@ def study_source(study: str | Path, seed: int) -> Source:
 
 def trials_source(path: str | Path, protocol: Protocol, seed: int) -> Source:
     """The targets of an exported trials table (CSV or Parquet), simulated with ``protocol``."""
-    from microg.analysis.tables import AnalysisInputError, read_table
+    from microg.analysis.tables import AnalysisInputError, check_trials, read_table
 
     path = Path(path)
     try:
         trials = read_table(path, text=("participant", "group", "phase", "interaction", "object"))
     except (AnalysisInputError, FileNotFoundError) as error:
-        raise TargetError(f"--trials {path}: {error}") from None
+        raise TargetError(f"--trials: {error}") from None
     missing = [c for c in ("participant", "group", "phase", "interaction", "object", "completed", "time_s",
                            "attempts", "task_index") if c not in trials]  # fmt: skip
     if missing:
         raise TargetError(f"{path}: no column {missing[0]!r} (a trials table as microg export writes it)")
+    try:  # the report's checks: numbers where numbers belong, True/False flags, a time for every completed task
+        trials = check_trials(trials, str(path), dv=("time_s", "attempts", "task_index"),
+                              counts=("attempts", "task_index"), design=False)
+    except AnalysisInputError as error:
+        raise TargetError(str(error)) from None
+    for column in ("phase", "task_index"):
+        if trials[column].isna().any():
+            row = int(trials[column].isna().to_numpy().argmax())
+            raise TargetError(f"{path}: column {column!r} is empty (data row {row + 1}, participant "
+                              f"{trials['participant'].iloc[row]!r})")
     return _trials_source(trials, protocol, str(path), hashlib.sha256(path.read_bytes()).hexdigest(), seed)
 
 
@@ -345,14 +377,17 @@ def file_source(path: str | Path, protocol: Protocol | None = None) -> Source:
     """The targets of a targets file, simulated with ``protocol`` (None: the file's ``protocol``,
     a name or a file relative to it; without one, the paper's)."""
     from microg.paths import protocol_file
-    from microg.study.protocol import load_protocol
+    from microg.study.protocol import ProtocolError, load_protocol
 
     path = Path(path)
     data = read_targets(path)
     if protocol is None:
         named = data.get("protocol", "paper")
         beside = path.parent / named
-        protocol = load_protocol(beside if beside.suffix == ".toml" and beside.exists() else protocol_file(named))
+        try:
+            protocol = load_protocol(beside if beside.suffix == ".toml" and beside.exists() else protocol_file(named))
+        except (ProtocolError, FileNotFoundError) as error:
+            raise TargetError(f"{path}: protocol = {named!r}: {error}") from None
     parsed = targets_from_dict(data, protocol, str(path))
     return Source(protocol, parsed.targets, f"{parsed.source} ({path})", hashlib.sha256(path.read_bytes()).hexdigest(),
                   parsed.n_per_group, ("everything the file does not name",))

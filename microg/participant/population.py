@@ -180,6 +180,9 @@ def _check(where: str, name: str, spread: Spread) -> None:
                               f"{spec.high:g}] ({spec.unit}: {spec.meaning})")
     if spread.sd < 0:
         raise PopulationError(f"{where}: parameters.{name}.sd = {spread.sd!r}: must be >= 0 (the SD between people)")
+    if spread.sd > spec.high:
+        raise PopulationError(f"{where}: parameters.{name}.sd = {spread.sd!r}: larger than the largest value a person "
+                              f"may have ({spec.high:g} {spec.unit})")
     if spread.sd > 0 and spec.scale == "log" and spread.mean <= 0:
         raise PopulationError(f"{where}: parameters.{name}.mean = {spread.mean!r}: a log-normal parameter with a "
                               "spread needs a positive mean")

@@ -294,7 +294,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     if scheduler:
         try:
             client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as error:
+        except (OSError, TimeoutError, ValueError) as error:  # ValueError: not an address
             raise PowerInputError(f"--scheduler {scheduler}: cannot connect: {error}") from None
         with client:
             yield client

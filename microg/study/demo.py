@@ -27,7 +27,7 @@ from microg.paths import protocol_file
 
 from .assignment import paper_sample
 from .export import export_study, read_answers
-from .inputs import open_inputs
+from .inputs import InputError, open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .simulated_rater import SimulatedRater
 from .session import SimulationClock, run_session
@@ -90,6 +90,12 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             raise StoreError(f"{out} exists and is not empty; choose another --out or allow --overwrite")
         shutil.rmtree(out)
     rules: Protocol = load_protocol(protocol_file(protocol))
+    spec = "simulated" if profile is None else f"simulated:{Path(profile).resolve()}"
+    if profile is not None:
+        try:
+            open_inputs(spec)  # the population file checked before anything is written
+        except InputError as error:
+            raise InputError(f"--profile {profile}: {str(error).split(': ', 1)[-1]}") from None
     problems = rules.simulation_problems()
     if problems:
         raise ProtocolError("a simulated study cannot run this protocol:\n  " + "\n  ".join(problems))
@@ -102,7 +108,6 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             store.add_participant(person)
         ids = [p.id for p in store.participants()]
         sessions = []
-        spec = "simulated" if profile is None else f"simulated:{Path(profile).resolve()}"
         for participant_id in ids:
             inputs = _inputs(store, participant_id, spec)
             sessions.append(store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,

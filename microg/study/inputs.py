@@ -16,7 +16,7 @@ from microg.participant.plan import TaskPlan
 
 from microg.participant import Population, PopulationError, SkillProfile
 
-from .protocol import PRACTICE, Group, Protocol, simulated_player
+from .protocol import PRACTICE, Group, Protocol, profile_names, simulated_player
 from .store import PlannedTask
 
 
@@ -170,9 +170,13 @@ def open_inputs(spec: str, group: Group | None = None, webxr: HandSource | None 
     if kind == "simulated":
         if argument:
             try:
-                return SimulatedInputs(f"simulated:{argument}", simulated_player(argument, Path.cwd()))
+                player = simulated_player(argument, Path.cwd())
             except (ValueError, PopulationError) as error:
                 raise InputError(f"--input {spec!r}: {error}") from None
+            if player is None:
+                raise InputError(f"--input {spec!r}: {argument!r} is no profile: give a population file (.toml) or "
+                                 f"one of {', '.join(profile_names())}")
+            return SimulatedInputs(f"simulated:{argument}", player)
         if group is None:
             raise InputError(f"--input {spec!r}: give a profile, as simulated:{PRACTICE}, simulated:literature, "
                              f"simulated:veteran, simulated:beginner or simulated:PROFILE.toml")

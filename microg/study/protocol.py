@@ -306,15 +306,8 @@ class Protocol:
         value): a group's skill profile that does not exist, an instrument the rating model does not
         answer. Empty when simulated sessions can run it (it plays every task kind)."""
         from microg.participant.ratings import unanswered
-        from microg.participant.skill import PROFILES
 
-        problems = []
-        profiles = [PRACTICE] + shipped_populations() + sorted(PROFILES)
-        for i, group in enumerate(self.groups):
-            if group.player is None:
-                problems.append(f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: "
-                                f"simulated participants play a population file (FILE.toml) or one of {profiles} "
-                                "(the default is the group's name)")
+        problems = self.player_problems()
         for i, phase in enumerate(self.timeline):
             for name in phase.instruments:
                 why = unanswered(self.instruments[name])
@@ -322,6 +315,12 @@ class Protocol:
                     problems.append(f"{self.where}: timeline[{i}].instruments = {list(phase.instruments)}: {name}: "
                                     f"{why}")
         return problems
+
+    def player_problems(self) -> list[str]:
+        """Each group whose ``simulated_profile`` names nothing a simulated participant can play."""
+        return [f"{self.where}: groups[{i}].simulated_profile = {group.simulated_profile!r}: simulated participants "
+                f"play a population file (FILE.toml) or one of {profile_names()} (the default is the group's name)"
+                for i, group in enumerate(self.groups) if group.player is None]
 
     def about(self, phase: Phase) -> tuple[TaskPhase | None, ...]:
         """The phases of tasks whose interaction models a questionnaire phase asks about, in order (None:
@@ -433,7 +432,7 @@ def simulated_player(profile: str, protocol_dir: Path | None, stored: dict | Non
     population file (``FILE.toml``: its text in ``stored`` when the protocol comes from a study's
     database, else read relative to ``protocol_dir``), a fixed skill (``veteran``, ``beginner``), or
     None for any other name. A population file that cannot be used raises PopulationError."""
-    from microg.participant import PROFILES, default_population, read_population
+    from microg.participant import PROFILES, PopulationError, default_population, read_population
     from microg.participant.population import population_from_dict
 
     if profile == PRACTICE:
@@ -445,8 +444,20 @@ def simulated_player(profile: str, protocol_dir: Path | None, stored: dict | Non
     if not profile.endswith(".toml"):
         return None
     if stored is not None and profile in stored:
-        return population_from_dict(tomllib.loads(stored[profile]), f"{where}: population {profile}")
+        try:
+            data = tomllib.loads(stored[profile])
+        except tomllib.TOMLDecodeError as error:
+            raise PopulationError(f"{where}: population {profile}: cannot be read as TOML: {error}") from None
+        return population_from_dict(data, f"{where}: population {profile}")
     return read_population((protocol_dir or Path.cwd()) / profile)
+
+
+def profile_names() -> list[str]:
+    """The names a simulated participant's profile may be besides a population file: the default
+    population, the shipped ones, the fixed skills."""
+    from microg.participant import PROFILES
+
+    return [PRACTICE] + shipped_populations() + sorted(PROFILES)
 
 
 def shipped_populations() -> list[str]:

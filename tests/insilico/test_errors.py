@@ -57,6 +57,12 @@ def test_a_profile_with_a_negative_sd(tmp_path):
     ('measure = "attempts"\ngroup = "B"\nversus = { group = "V" }\nratio = 2.0', "targets[0].ratio: needs se"),
     ('measure = "time_s"\nmean = 10.0\nsd = -2.0', "targets[0].sd = -2.0: must be a finite number >= 0"),
     ('measure = "time_s"\nmedian = 10.0\nse = 1.0', "targets[0].median: unknown key"),
+    ('measure = "time_s"\nn = 1\nmean = 10.0\nsd = 2.0', "targets[0].n = 1: an SD between people needs at least two"),
+    ('measure = "time_s"\nn = 2.5\nmean = 10.0\nsd = 2.0', "targets[0].n = 2.5: must be a whole number"),
+    ('measure = "time_s"\nmean = 10.0\nsd = 0.0', "targets[0].sd = 0.0: gives a standard error of 0"),
+    ('measure = "completed"\nmean = 1.5\nse = 0.1', "targets[0].mean = 1.5: a share of tasks completed lies from 0"),
+    ('measure = "time_s"\nmean = 10.0\nsd = 2.0\n[[targets]]\nmeasure = "time_s"\nmean = 20.0\nse = 1.0',
+     "targets[1]: time_s.mean[] is given already by targets[0]; give each number once"),
 ])  # fmt: skip
 def test_a_target_that_cannot_be_fitted(tmp_path, entry, message):
     targets = tmp_path / "targets.toml"
@@ -76,6 +82,36 @@ def test_a_pilot_too_small_to_fit(tmp_path):
     assert f"{trials}: group = 'V': 1 participant; a calibration needs at least two per group" in output
 
 
+@pytest.mark.parametrize("column, value, message", [
+    ("time_s", "fast", "column 'time_s' value 'fast' is not a number (data row 2, participant 'P1')"),
+    ("time_s", "inf", "column 'time_s' value inf is not finite (data row 2, participant 'P1')"),
+    ("time_s", "-5", "column 'time_s' value -5.0 is negative (data row 2, participant 'P1')"),
+    ("time_s", "", "column 'completed' value True is True but time_s is empty (data row 2, participant 'P1')"),
+    ("attempts", "1.5", "column 'attempts' value 1.5 is not a count (a whole number) (data row 2, participant 'P1')"),
+    ("completed", "maybe", "column 'completed' value 'maybe' is not True or False (data row 2, participant 'P1')"),
+    ("group", "", "column 'group' value nan is empty (data row 2, participant 'P1')"),
+])  # fmt: skip
+def test_a_pilot_with_a_value_that_is_not_a_measure(tmp_path, column, value, message):
+    """The report's own checks of a trials table (``check_trials``): before them a text cell ended in
+    a traceback, an infinite time after the sampler had started, and one odd flag turned every
+    "False" of its column into a completed task."""
+    header = ["participant", "group", "phase", "interaction", "object", "completed", "time_s", "attempts", "task_index"]
+    rows = [[f"P{i}", group, "stage1", "impulse_penetration", "C", "True", "11.0", "0", "0"]
+            for i, group in enumerate("VVBB")]
+    rows[1][header.index(column)] = value
+    trials = tmp_path / "pilot.csv"
+    trials.write_text("\n".join(",".join(row) for row in [header, *rows]) + "\n")
+    output = calibrate("--trials", trials, "--protocol", PROTOCOL, "--out", tmp_path / "fit" / "out.toml")
+    assert f"{trials}: {message}" in output
+    assert not (tmp_path / "fit").exists()
+
+
+def test_a_targets_file_whose_protocol_is_not_there(tmp_path):
+    targets = tmp_path / "targets.toml"
+    targets.write_text('protocol = "nosuch"\n' + TARGET)
+    assert f"{targets}: protocol = 'nosuch': " in calibrate("--targets", targets, "--out", tmp_path / "out.toml")
+
+
 def test_a_pilot_with_an_object_the_protocol_lacks(tmp_path):
     rows = [[f"P{i}", group, "stage1", "impulse_penetration", "mug", True, 11.0, 0, 0]
             for i, group in enumerate("VVBB")]
@@ -90,9 +126,11 @@ def test_options_that_name_nothing(tmp_path):
     targets = tmp_path / "targets.toml"
     targets.write_text(TARGET)
     common = ["--targets", targets, "--protocol", PROTOCOL, "--out", tmp_path / "out.toml"]
-    assert "--fit 'grip_strength': give NAME" in calibrate(*common, "--fit", "grip_strength")
+    assert "--fit 'grip_strength': 'grip_strength': give NAME" in calibrate(*common, "--fit", "grip_strength")
+    assert "--fit ',,': '': give NAME" in calibrate(*common, "--fit", ",,")
+    assert "--fit '': '': give NAME" in calibrate(*common, "--fit", "")  # not the default list
     assert "--hold-out 'attempts.*': matches no number" in calibrate(*common, "--hold-out", "attempts.*")
-    assert "every number is held out" in calibrate(*common, "--hold-out", "time_s.*")
+    assert "--hold-out 'time_s.*': every number is held out" in calibrate(*common, "--hold-out", "time_s.*")
     assert "give exactly one of STUDY, --trials FILE, --targets FILE" in calibrate("--out", tmp_path / "out.toml")
 
 

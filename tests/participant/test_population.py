@@ -1,11 +1,12 @@
-"""The power law of practice of a population's person, against its closed form."""
+"""The power law of practice of a population's person, against its closed form; a population's
+absurd spread refused by name."""
 
 import math
 
 import numpy as np
 import pytest
 
-from microg.participant.population import NAMES, PARAMETERS, practise
+from microg.participant.population import NAMES, PARAMETERS, PopulationError, population_from_dict, practise
 
 SPEC = {p.name: p for p in PARAMETERS}
 
@@ -45,3 +46,11 @@ def test_practice_takes_no_parameter_below_the_smallest_value_a_person_can_have(
     for name in NAMES:
         assert after[name] >= SPEC[name].low, name
     assert math.isclose(after["learning_rate"], 3.0)
+
+
+def test_a_spread_between_people_beyond_any_persons_value_is_refused():
+    """An SD of a million s/bit for Fitts' slope (at most 2 s/bit) would put nearly every person at a
+    bound: the file is refused, naming the key and the value."""
+    with pytest.raises(PopulationError, match=r"pilot.toml: parameters.movement_slope.sd = 1000000.0: larger than the "
+                                              r"largest value a person may have \(2 s/bit\)"):
+        population_from_dict({"parameters": {"movement_slope": {"mean": 0.25, "sd": 1e6}}}, "pilot.toml")

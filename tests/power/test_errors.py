@@ -157,6 +157,21 @@ def test_a_bad_population_file_is_named_with_its_key_and_value(tmp_path):
     assert not (tmp_path / "run").exists()
 
 
+def test_in_silico_studies_of_a_group_without_a_simulated_participant_are_refused_before_any_runs(tmp_path):
+    protocol = tmp_path / "mine.toml"
+    protocol.write_text((PROTOCOLS / "paper.toml").read_text().replace('simulated_profile = "practice"',
+                                                                      'simulated_profile = "expert"'))
+    result = CliRunner().invoke(main, ["power", "--simulated", "--protocol", str(protocol), "--out", str(tmp_path / "run")])
+    assert result.exit_code == 1 and f"{protocol}: groups[0].simulated_profile = 'expert'" in result.output
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_scheduler_that_is_no_address(tmp_path):
+    result = CliRunner().invoke(main, ["power", "--simulated", "--scheduler", "foo", "--out", str(tmp_path / "run")])
+    assert result.exit_code == 1 and "--scheduler foo: cannot connect: " in result.output, result.output
+    assert "Traceback" not in result.output
+
+
 def test_exact_power_of_in_silico_studies_is_refused(tmp_path):
     result = CliRunner().invoke(main, ["power", "--simulated", "--method", "exact", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "--method exact" in result.output

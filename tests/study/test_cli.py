@@ -429,3 +429,17 @@ def test_toml_nested_too_deeply_is_named_by_every_reader(tmp_path, verb, message
     result = CliRunner().invoke(main, [a.format(**names) for a in verb])
     assert result.exit_code == 1 and "Traceback" not in result.output, result.output
     assert message.format(**names) in result.output
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("pilot.txt", "[parameters.aim_sd]\nmean = 0.004\nsd = 0.001\n", "is no profile: give a population file (.toml)"),
+    ("pilot.toml", "[parameters.aim_sd]\nmean = 0.004\nsd = -0.001\n", "parameters.aim_sd.sd = -0.001: must be >= 0"),
+])
+def test_a_demo_of_a_population_that_cannot_be_drawn_from_writes_nothing(tmp_path, name, text, message):
+    """Before, a file not named .toml ended in a worker's traceback after the study was made."""
+    profile = tmp_path / name
+    profile.write_text(text)
+    result = CliRunner().invoke(main, ["demo", "--profile", str(profile), "--participants", "2",
+                                       "--out", str(tmp_path / "demo")])
+    assert result.exit_code == 1 and f"--profile {profile}: " in result.output and message in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "demo").exists()

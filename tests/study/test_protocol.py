@@ -269,6 +269,14 @@ def test_what_only_simulated_participants_need_is_reported_not_refused(tmp_path)
     assert load_protocol(PAPER).simulation_problems() == []
 
 
+def test_a_groups_population_file_that_is_not_toml_is_refused_by_name(tmp_path):
+    (tmp_path / "pilot.toml").write_text("mean == 3\n")
+    path = edited(tmp_path, 'simulated_profile = "practice"', 'simulated_profile = "pilot.toml"')
+    with pytest.raises(ProtocolError, match=re.escape(f"{path}: groups[0].simulated_profile = 'pilot.toml': ")) as error:
+        load_protocol(path)
+    assert "cannot be read as TOML" in str(error.value)
+
+
 def test_a_group_plays_a_population_shipped_with_microg_by_its_name(tmp_path):
     from microg.paths import POPULATIONS
     from microg.participant import default_population, read_population
