@@ -52,8 +52,8 @@ BATCH = 32
 """Tasks stepped together at most (per object and interaction model)."""
 SHARES_PER_WORKER = 32
 """Shares of the tasks per worker process (``play_tasks``): small enough that the workers finish
-close together (a 30-participant paper study on 2 workers: 15.2 s with 4 shares each, 14.2 with 8,
-13.2 with 32, no better with 64 or 120; its 26 CPU seconds cannot take less than 13)."""
+close together (a 30-participant paper study of 26 CPU seconds on 2 workers: 15.2 s with 4 shares
+each, 14.2 with 8, 13.2 with 32, no better with 64 or 120; it cannot take less than 13)."""
 FRAMES_PER_SECOND = 130
 """More frames a second than a simulated participant gives (115 Hz with jitter): sizes each task's
 record of frame times."""

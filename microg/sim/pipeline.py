@@ -30,7 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from .bodies import MESH
-from .contact import detect, sweep
+from .contact import closest_surface_point, detect, sweep
 from .hand_path import move_hand, take_hands
 from .impulse import apply_impulses, spring_onsets
 from .integrate import add_gravity, rotate_constant, rotate_free, update_position, update_velocity
@@ -99,9 +99,10 @@ def arm_compliance(p, o, r, margin):
 @kernel
 def contact_compliance(p, s, o, h):
     """An upper bound on the sum of n^T K n over the contacts object o has, or may start within a
-    step of h (a phalanx that is within reach of its bounding sphere): times a spring's stiffness,
+    step of h (a phalanx within reach of its surface): times a spring's stiffness,
     the square of the fastest oscillation they can set up. A contact's arm is its god-object
-    phalanx's centre; a phalanx not in contact is taken anywhere within its radius of its centre."""
+    phalanx's centre; a phalanx not in contact counts when the step could close its gap to the
+    object's surface (a mesh's: its bounding sphere), taken anywhere within its radius of its centre."""
     rot = rotation(s.orientation[o])
     bound = norm(row(p.half_size, o)) * (2.0 if p.shape[o] == MESH else 1.0)  # a mesh's centre is anywhere in its box
     reach = h * (norm(row(s.velocity, o)) + norm(row(s.angular_velocity, o)) * bound)
@@ -112,9 +113,11 @@ def contact_compliance(p, s, o, h):
         if s.active[k, o]:
             total += arm_compliance(p, o, add(cell(s.anchor, k, o), scale(s.radius[k], cell(s.normal, k, o))), 0.0)
             continue
-        offset = sub(row(s.hand_position, k), row(s.position, o))
-        if norm(offset) - bound - s.radius[k] <= reach + h * norm(row(s.hand_velocity, k)):
-            total += arm_compliance(p, o, mat_t_vec(rot, offset), s.radius[k])
+        local = mat_t_vec(rot, sub(row(s.hand_position, k), row(s.position, o)))
+        gap = norm(local) - bound if p.shape[o] == MESH else closest_surface_point(p.shape[o], row(p.half_size, o),
+                                                                                    local)[2]
+        if gap - s.radius[k] <= reach + h * norm(row(s.hand_velocity, k)):
+            total += arm_compliance(p, o, local, s.radius[k])
     return total
 
 
