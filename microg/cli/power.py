@@ -161,9 +161,10 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
     if simulated:
         from microg.insilico.engine import unplayable
 
-        why = unplayable(rules) or ("\n".join(rules.player_problems()) if population is None else None)
-        if why:
-            raise click.ClickException(why)
+        why = unplayable(rules)
+        problems = ([why] if why else []) + (rules.player_problems() if population is None else [])
+        if problems:
+            raise click.ClickException("\n".join(problems))
     design = design_from_protocol(rules, within)
     if interaction is not None and interaction not in design.interactions:
         raise click.BadParameter(f"{interaction!r} is not an interaction model of protocol {rules.name!r} "

@@ -90,10 +90,10 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             raise StoreError(f"{out} exists and is not empty; choose another --out or allow --overwrite")
         shutil.rmtree(out)
     rules: Protocol = load_protocol(protocol_file(protocol))
-    spec = "simulated" if profile is None else f"simulated:{Path(profile).resolve()}"
+    profiled = None  # every participant's inputs, when --profile names them: checked before anything is written
     if profile is not None:
         try:
-            open_inputs(spec)  # the population file checked before anything is written
+            profiled = open_inputs(f"simulated:{Path(profile).resolve()}")
         except InputError as error:
             raise InputError(f"--profile {profile}: {str(error).split(': ', 1)[-1]}") from None
     problems = rules.simulation_problems()
@@ -109,7 +109,7 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
         ids = [p.id for p in store.participants()]
         sessions = []
         for participant_id in ids:
-            inputs = _inputs(store, participant_id, spec)
+            inputs = profiled or _inputs(store, participant_id)
             sessions.append(store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,
                                                  clock=inputs.clock).id)
         planned = {session_id: len(store.tasks(session_id)) for session_id in sessions}
