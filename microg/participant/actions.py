@@ -60,7 +60,7 @@ from numba import njit
 from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
 from microg.task.rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
 from .anatomy import REST
-from .grasp import CLOSURES, choose_grasp
+from .grasp import CLOSURES, ROUND_LATITUDE, choose_grasp
 from .motion import minimum_jerk_at, movement_time
 
 BELIEVED_STIFFNESS = 100.0
@@ -354,7 +354,10 @@ def _destination(p, s):
 @njit(cache=True)
 def _squeeze_depth(p, s, seen, draws):
     """Extra closure (m) that holds the expected load: the grip force safety x m (g + a) / (2 mu)
-    per side, through the believed stiffness of the phalanges pressing on each side."""
+    per side, through the believed stiffness of the phalanges pressing on each side. A ball is
+    pressed above its equator (``grasp.ROUND_LATITUDE``, theta), so each press also pushes it out
+    of the grip and only mu cos(theta) - sin(theta) of it holds: people grip harder where the
+    surface slopes away from the grip (Jenmalm and Johansson 1997)."""
     thumb, others = 0, 0
     for k in range(20):
         if seen.touching[k]:
@@ -369,7 +372,9 @@ def _squeeze_depth(p, s, seen, draws):
         load = p.mass * (gravity + PEAK_ACCELERATION * distance / _carry_time(p, distance) ** 2)
     else:  # kept where it was taken: a catch's brakes it to a stop
         load = p.mass * (gravity + _length(seen.velocity) / BRAKE_S)
-    force = p.grip_safety * load / (2.0 * max(p.static_friction, 0.1))
+    holding = p.static_friction * math.cos(ROUND_LATITUDE) - math.sin(ROUND_LATITUDE) if p.round_object \
+        else p.static_friction
+    force = p.grip_safety * load / (2.0 * max(holding, 0.1))
     stiffness = BELIEVED_STIFFNESS * math.exp(draws.normal(0.0, p.stiffness_belief_sd))
     return max(force * (thumb + others) / (2.0 * stiffness * thumb * others), MIN_SQUEEZE)
 

@@ -58,6 +58,10 @@ FLAT_APPROACH = 0.11
 OPEN_LIFT = 0.6
 """In a side grasp an opening digit also rises (m per m of opening): it uncurls along an arc."""
 
+ROUND_LATITUDE = math.radians(20.0)
+"""Latitude (rad) above a ball's equator where a side grasp's pressing phalanges touch it: each
+press also pushes the ball down by sin(latitude) of its force (``actions._squeeze_depth``)."""
+
 RELAXED_FINGER = np.radians([0.0, 5.0, 10.0, 7.0])
 """Fingers that do not press in a side grasp stay nearly straight, above the object; under a
 clamped plate they lie straight."""
@@ -167,14 +171,13 @@ def side_template(half: tuple[float, float, float], fingers: tuple[int, ...], ro
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Object centre in the hand frame and the closure ladder of a side grasp; ``half`` are the
     object's half extents along the hand's x, y, z. The pressing phalanges touch the near and
-    far faces a little above the object's middle (on a sphere: at 20 degrees of latitude)."""
+    far faces a little above the object's middle (on a sphere: at ``ROUND_LATITUDE``)."""
     hx, hy, hz = half
     x_centre = float(np.mean(KNUCKLES[list(fingers), 0]))
     if round_object:
-        latitude = np.radians(20.0)
-        reach = hz * np.cos(latitude)
+        reach = hz * np.cos(ROUND_LATITUDE)
         centre = np.array([x_centre, -(PALM_BOTTOM + PALM_CLEARANCE + hy), -(0.004 + reach)])
-        height = centre[1] + hy * np.sin(latitude)
+        height = centre[1] + hy * np.sin(ROUND_LATITUDE)
     else:
         reach = hz
         centre = np.array([x_centre, -(PALM_BOTTOM + PALM_CLEARANCE + hy), -(0.012 + hz)])

@@ -89,6 +89,24 @@ def test_same_seed_same_tables_whatever_the_number_of_workers(demo):
         pd.testing.assert_frame_equal(a, b)
 
 
+def test_a_demo_with_a_profile_draws_every_participant_from_it(tmp_path):
+    """``--profile`` replaces each group's own population (this protocol's: ``literature``) for every
+    participant: each session's input names the file and each task's skill is drawn from it."""
+    from microg.paths import PROTOCOLS as SHIPPED
+
+    profile = SHIPPED / "populations" / "default.toml"
+    result = CliRunner().invoke(main, ["demo", "--out", str(tmp_path / "d"), "--participants", "2", "--seed", "3",
+                                       "--jobs", "1", "--protocol", str(PROTOCOLS / "demo-quick.toml"),
+                                       "--profile", str(profile), "--quiet"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "d" / "report" / "report.html").exists()
+    db = sqlite3.connect(tmp_path / "d" / "study" / "study.db")
+    sessions = pd.read_sql("SELECT input, seed FROM sessions", db)
+    runs = pd.read_sql("SELECT source FROM task_runs", db)
+    assert len(sessions) == 2 and (sessions.input == f"simulated:{profile.resolve()}").all()
+    assert len(runs) > 0 and runs.source.str.startswith("simulated:default:").all(), runs.source.tolist()
+
+
 def test_an_existing_demo_is_not_overwritten_unless_asked(demo):
     out, _ = demo
     result = CliRunner().invoke(main, ["demo", "--out", str(out / "a"), "--participants", "2", "--quiet"])
