@@ -60,7 +60,7 @@ OPEN_LIFT = 0.6
 
 ROUND_LATITUDE = math.radians(20.0)
 """Latitude (rad) above a ball's equator where a side grasp's pressing phalanges touch it: each
-press also pushes the ball down by sin(latitude) of its force (``actions._squeeze_depth``)."""
+press also pushes the ball away from the palm by sin(latitude) of its force (``actions._squeeze_depth``)."""
 
 RELAXED_FINGER = np.radians([0.0, 5.0, 10.0, 7.0])
 """Fingers that do not press in a side grasp stay nearly straight, above the object; under a

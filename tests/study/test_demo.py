@@ -101,7 +101,7 @@ def test_a_demo_with_a_profile_draws_every_participant_from_it(tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "d" / "report" / "report.html").exists()
     db = sqlite3.connect(tmp_path / "d" / "study" / "study.db")
-    sessions = pd.read_sql("SELECT input, seed FROM sessions", db)
+    sessions = pd.read_sql("SELECT input FROM sessions", db)
     runs = pd.read_sql("SELECT source FROM task_runs", db)
     assert len(sessions) == 2 and (sessions.input == f"simulated:{profile.resolve()}").all()
     assert len(runs) > 0 and runs.source.str.startswith("simulated:default:").all(), runs.source.tolist()
