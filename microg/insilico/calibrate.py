@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import datetime
 import fnmatch
-import hashlib
 import json
 import logging
 import time
@@ -189,7 +188,7 @@ class CalibrationRequest:
             "protocol_sha256": self.protocol.sha256,
             "targets": [[t.key, t.value, t.se, t.held_out] for t in self.targets],
             "free": [[f.key, f.prior_text] for f in self.free],
-            "base_sha256": hashlib.sha256(self.population.to_toml().encode()).hexdigest(),
+            "base_sha256": self.population.sha256,
             "particles": self.particles,
             "generations": self.generations,
             "participants": self.participants,

@@ -27,6 +27,7 @@ comes from is in ``PARAMETERS`` (and docs/simulated-participant.md).
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -131,6 +132,11 @@ class Population:
         """One person's values of ``PARAMETERS`` (in that order), from their own seed."""
         normals = np.random.default_rng(np.random.SeedSequence([int(seed), _PERSON_STREAM])).standard_normal(len(NAMES))
         return np.array([_value(SPEC[name], self.parameters[name], z) for name, z in zip(NAMES, normals)])
+
+    @property
+    def sha256(self) -> str:
+        """The hash of its ``PROFILE.toml``: a run records which population it drew from."""
+        return hashlib.sha256(self.to_toml().encode()).hexdigest()
 
     def to_toml(self) -> str:
         """The population as a ``PROFILE.toml`` (``read_population`` reads it back)."""

@@ -20,7 +20,6 @@ takes only its tasks in flight with it, and Dask runs them again elsewhere.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import json
 import logging
@@ -159,8 +158,7 @@ class PowerRequest:
             "effects": None if self.effects is None else self.effects.as_dict(),
             "effect_sizes": [list(entry) for entry in self.effect_sizes] or None,
             "protocol_sha256": self.protocol.sha256 if self.simulated else None,
-            "population_sha256": (hashlib.sha256(self.population.to_toml().encode()).hexdigest()
-                                  if self.population is not None else None),
+            "population_sha256": self.population.sha256 if self.population is not None else None,
             "measure": self.measure if self.simulated else None,
             "interaction": (self.interaction or self.design.interactions[0]) if self.simulated else None,
             "n_per_group": self.samples,
