@@ -89,7 +89,7 @@ window.handPlayer = {
   step() {
     const now = performance.now();
     if (now < this.due) return;
-    this.due = Math.max(this.due, now - %(step_ms)f) + %(step_ms)f;
+    this.due = now + %(step_ms)f;
     for (const [side, path] of Object.entries(this.paths)) {
       const hand = window.emulatedHeadset.hands[side];
       while (path.k < path.keys.length) {
@@ -118,7 +118,8 @@ addEventListener("DOMContentLoaded", () => {
 """Keyframes: {position [x, y, z], quaternion [x, y, z, w], pinch 0..1, frames, until}: reached
 linearly over ``frames`` steps, then held until the JavaScript condition ``until`` (on ``microg``)
 holds. A path with ``loop`` set starts again after its first key. A step is taken on an XR frame,
-at most HAND_STEPS_PER_S a second, so a hand moves no faster when the page draws faster."""
+never sooner than 1 / HAND_STEPS_PER_S after the last one, so a hand moves no faster when the page
+draws faster, nor in a burst after the page stalled (a late frame is not caught up)."""
 HAND_STEPS_PER_S = 20
 """About the XR frame rate of the page under the emulator on a 2-core machine without a GPU before
 the page drew less (18 a second): the speed the tests' hand paths were made for (a grasp carried
@@ -163,10 +164,11 @@ def emulate_headset(driver, device: str = "IWER.metaQuest3", stereo: bool = Fals
 
 
 def wait_for(driver, script: str, timeout_s: float = START_S):
-    """The first truthy value of ``script`` in the page (polled), or TimeoutError."""
+    """The first truthy value of ``script`` in the page (polled), or a TimeoutException naming it."""
     from selenium.webdriver.support.ui import WebDriverWait
 
-    return WebDriverWait(driver, timeout_s, poll_frequency=0.05).until(lambda d: d.execute_script(script))
+    return WebDriverWait(driver, timeout_s, poll_frequency=0.05).until(
+        lambda d: d.execute_script(script), f"waited {timeout_s:g} s for the page's `{script}`")
 
 
 def enter_and_place(driver, palm: tuple[float, float, float] = (0.0, 1.0, -0.45),
