@@ -256,10 +256,11 @@ def _track(p, s, streams, dt, joints, palm, palm_orientation):
     noise's states ``dt`` later, and the joints, palm and its orientation they jitter."""
     tremor, noise = s.tremor.copy(), s.noise.copy()
     tremor_draws, noise_draws = np.empty(4), np.empty(NOISE_SIZE)
+    tremor_stream, noise_stream = streams[2], streams[3]  # taken out of the list once: each take counts a reference
     for i in range(4):
-        tremor_draws[i] = streams[2].standard_normal()
+        tremor_draws[i] = tremor_stream.standard_normal()
     for i in range(NOISE_SIZE):
-        noise_draws[i] = streams[3].standard_normal()
+        noise_draws[i] = noise_stream.standard_normal()
     advance_tremor(tremor, p.tremor_centre, dt, tremor_draws, s.tremor)
     advance_noise(noise, p.noise_tau, p.noise_sd, dt, noise_draws, s.noise)
     shake, offset = np.empty(3), s.noise[1]

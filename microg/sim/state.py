@@ -26,6 +26,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 from numba import types
+from numba.core import cgutils
 from numba.experimental import structref
 from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
@@ -183,51 +184,55 @@ PARAMS = StructType([(name, _array(dtype, len(shape)) if shape else dtype)
 """What the kernels read of the model (``world.Model``)."""
 
 
-def _span(place: Place, dimensions: int) -> tuple[str, str, str]:
-    """A field's start, stop and shape (of two or more dimensions) for n objects as source text:
-    ``5``, ``5 + 3 * n``, ``(n, 3)``."""
-    def linear(fixed: int, per_object: int) -> str:
-        terms = [str(fixed)] * bool(fixed or not per_object)
-        return " + ".join(terms + [f"{per_object} * n" if per_object > 1 else "n"] * bool(per_object))
-
-    fixed, per_object = size(place)
+def _span(place: Place, dimensions: int) -> tuple[str, str]:
+    """A field's start and shape for n objects as source text: ``5``, ``(n, 3)`` (``(5,)``)."""
+    fixed, per_object = place.start, place.start_per_object
+    start = " + ".join([str(fixed)] * bool(fixed or not per_object)
+                       + [f"{per_object} * n" if per_object > 1 else "n"] * bool(per_object))
     extents = ["n" if p else str(e) for e, p in zip(place.extent, place.extent_per_object)][:dimensions]
-    return (linear(place.start, place.start_per_object),
-            linear(place.start + fixed, place.start_per_object + per_object), f"({', '.join(extents)})")
+    return start, f"({', '.join(extents)}{',' * (dimensions == 1)})"
 
 
 @intrinsic
-def borrow(typingctx, array):
-    """``array`` as a view that holds no reference to its memory (its meminfo is null): what
-    ``unpack`` makes its fields of. A field is read in every kernel of every step, and a counted
-    view pays an atomic increment and decrement on each read (an in-silico study ran 20 % faster
-    without them). Safe because a state lives only inside the compiled call whose arguments own its
-    buffers; nothing returns a field to Python without copying it."""
+def borrow(typingctx, buffer, start, shape):
+    """``buffer[start:start + prod(shape)]`` as a C-contiguous view of ``shape`` that holds no
+    reference to its memory (its meminfo is null): what ``unpack`` makes its fields of. A field is
+    read in every kernel of every step, and a counted view pays an atomic increment and decrement on
+    each read (an in-silico study ran 20 % faster without them); made in place, it needs neither a
+    slice nor a reshape, which each frame's ``unpack`` would otherwise pay for every field. Safe
+    because a state lives only inside the compiled call whose arguments own its buffers (laid out by
+    ``layout``, so every field fits); nothing returns a field to Python without copying it."""
+    ndim = len(shape)
+    view_type = types.Array(buffer.dtype, ndim, "C")
 
     def codegen(context, builder, signature, args):
-        source = make_array(array)(context, builder, value=args[0])
-        view = make_array(array)(context, builder)
-        populate_array(view, data=source.data, shape=source.shape, strides=source.strides,
+        source = make_array(buffer)(context, builder, value=args[0])
+        extents = cgutils.unpack_tuple(builder, args[2], ndim)
+        strides, step = [], source.itemsize
+        for extent in reversed(extents):  # C order: the last axis is contiguous
+            strides.insert(0, step)
+            step = builder.mul(step, extent)
+        view = make_array(view_type)(context, builder)
+        populate_array(view, data=builder.gep(source.data, [args[1]]), shape=extents, strides=strides,
                        itemsize=source.itemsize, meminfo=None)
         return view._getvalue()
 
-    return array(array), codegen
+    return view_type(buffer, start, shape), codegen
 
 
 def views(name: str, struct: str, declaration, laid, buffers: tuple[str, ...], doc: str):
     """The kernel ``name(*buffers, n)`` that gives the ``declaration``'s fields as a ``struct`` of
     views into the buffers (the number, for a field of shape ()), made from their places ``laid``:
-    one line a field, ``s.position = reals[5:5 + 3 * n].reshape((n, 3))``, and no offset written by
+    one line a field, ``s.position = borrow(reals, 5, (n, 3))``, and no offset written by
     hand. The source is compiled as code of this file, in its namespace, so numba caches the kernel
     like any other (across processes: checked with ``NUMBA_DEBUG_CACHE=1``), and it compiles to what
     a hand-written one would: the cold start did not grow (written as calls of view helpers instead,
     it grew by about 1 s in 20). The kernel's docstring shows its source."""
     lines = [f"def {name}({', '.join(buffers)}, n):", f"    s = structref.new({struct})"]
     for field, buffer, shape, *_ in declaration:
-        start, stop, extents = _span(getattr(laid, field), len(shape))
-        whole = f"borrow({buffers[buffer]})[{start}:{stop}]"
+        start, extents = _span(getattr(laid, field), len(shape))
         lines.append(f"    s.{field} = " + (f"{buffers[buffer]}[{start}]" if not shape else
-                                           whole if len(shape) == 1 else f"{whole}.reshape({extents})"))
+                                           f"borrow({buffers[buffer]}, {start}, {extents})"))
     source = "\n".join(lines + ["    return s"])
     namespace = {}
     exec(compile(source, __file__, "exec"), globals(), namespace)
