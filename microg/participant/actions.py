@@ -145,7 +145,8 @@ MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP, TAKE = 0, 2, 3, 4,
 send's pick-up, a handover's take."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
-         "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s", "grip_lapse")
+         "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s", "grip_lapse",
+         "drop_grip_gain")
 """The skill's numbers in a ``PLAYER`` record (``skill.SkillProfile``'s fields)."""
 
 _POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8", (5, 4))]
@@ -354,10 +355,11 @@ def _destination(p, s):
 @njit(cache=True)
 def _squeeze_depth(p, s, seen, draws):
     """Extra closure (m) that holds the expected load: the grip force safety x m (g + a) / (2 mu)
-    per side, through the believed stiffness of the phalanges pressing on each side. A ball is
-    pressed above its equator (``grasp.ROUND_LATITUDE``, theta), so each press also pushes it out
-    of the grip and only mu cos(theta) - sin(theta) of it holds: people grip harder where the
-    surface slopes away from the grip (Jenmalm and Johansson 1997)."""
+    per side, through the believed stiffness of the phalanges pressing on each side; raised by
+    ``drop_grip_gain`` of itself for each drop in the task. A ball is pressed above its equator
+    (``grasp.ROUND_LATITUDE``, theta), so each press also pushes it out of the grip and only
+    mu cos(theta) - sin(theta) of it holds: people grip harder where the surface slopes away from
+    the grip (Jenmalm and Johansson 1997)."""
     thumb, others = 0, 0
     for k in range(20):
         if seen.touching[k]:
@@ -374,7 +376,7 @@ def _squeeze_depth(p, s, seen, draws):
         load = p.mass * (gravity + _length(seen.velocity) / BRAKE_S)
     holding = p.static_friction * math.cos(ROUND_LATITUDE) - math.sin(ROUND_LATITUDE) if p.round_object \
         else p.static_friction
-    force = p.grip_safety * load / (2.0 * max(holding, 0.1))
+    force = p.grip_safety * (1.0 + p.drop_grip_gain * s.attempts) * load / (2.0 * max(holding, 0.1))
     stiffness = BELIEVED_STIFFNESS * math.exp(draws.normal(0.0, p.stiffness_belief_sd))
     return max(force * (thumb + others) / (2.0 * stiffness * thumb * others), MIN_SQUEEZE)
 

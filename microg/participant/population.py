@@ -81,6 +81,8 @@ PARAMETERS: tuple[Parameter, ...] = (
               "approaches", 0.002, 0.04),
     Parameter("closing_speed", "m/s", "how fast each side of the grip closes", 0.005, 0.5),
     Parameter("grip_safety", "ratio", "grip force over the force needed to hold the expected load", 0.5, 5.0),
+    Parameter("drop_grip_gain", "ratio", "the grip force is raised by this fraction of itself for each drop "
+              "in the task (a grip raised after a slip is kept in the lifts that follow)", 0.0, 5.0),
     Parameter("stiffness_belief_sd", "log", "SD of the participant's belief of a phalanx's stiffness (sizes the "
               "squeeze)", 0.0, 2.0, practised=True),
     Parameter("hold_margin_s", "s", "extra hold time beyond the required one", 0.0, 20.0),

@@ -18,7 +18,9 @@ interaction model look good: every model is played with the same numbers.
 - Tremor: RMS per axis (Becker et al. 2008); see ``noise``.
 - Grip: the pre-shape opens ``preshape_margin`` beyond each face; closing speed per side; the grip
   is sized for the expected load with a safety margin (grip force 20-40 % above the slip limit,
-  Johansson and Westling 1984), through the participant's belief of how stiff a pressed phalanx is.
+  Johansson and Westling 1984), through the participant's belief of how stiff a pressed phalanx is;
+  after a drop the grip is raised by ``drop_grip_gain`` of itself for the rest of the task (a slip
+  raises the grip force, and it stays raised in the lifts that follow: Johansson and Westling 1984).
 - Holding: the participant times the hold on its own clock (Weber fraction of interval timing
   about 0.05-0.15, Grondin 2010) and holds ``hold_margin_s`` longer than required.
 - Grip lapses: a bare hand feels no grip, so during a carry its grip may open by itself
@@ -78,6 +80,8 @@ class SkillProfile:
     grip_lapse: float = 0.0
     """Chance that the grip lapses open during a carry, until a drop in the task (then the
     participant minds its grip)."""
+    drop_grip_gain: float = 0.0
+    """The grip force is raised by this fraction of itself for each drop in the task."""
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -88,18 +88,21 @@ def test_a_turned_bar_is_squeezed_across_its_narrow_horizontal_side():
 
 
 @pytest.mark.parametrize("round_object", [False, True])
-def test_the_grip_is_sized_for_the_weight_through_the_friction_its_contacts_can_use(round_object):
+@pytest.mark.parametrize("drops", [0, 2])
+def test_the_grip_is_sized_for_the_weight_through_the_friction_its_contacts_can_use(round_object, drops):
     """The squeeze holds safety x m g with the believed stiffness: a box's faces give friction mu,
     a ball pressed at latitude theta only mu cos(theta) - sin(theta) (the rest of each press pushes it
-    out of the grip), so the same ball-weight load takes a deeper squeeze (closed form)."""
+    out of the grip), so the same ball-weight load takes a deeper squeeze; each drop in the task
+    raises the grip by ``drop_grip_gain`` of itself (closed form)."""
     from microg.participant.actions import BELIEVED_STIFFNESS, CATCHING, PLAYER, SEEN, STATE, _squeeze_depth
     from microg.participant.grasp import ROUND_LATITUDE
 
     p, s, seen = np.zeros(1, PLAYER)[0], np.zeros(1, STATE)[0], np.zeros(1, SEEN)[0]
     p["kind"], p["round_object"], p["mass"], p["static_friction"] = CATCHING, round_object, 0.126, 0.8
-    p["gravity"], p["grip_safety"], p["stiffness_belief_sd"] = (0.0, -9.81, 0.0), 1.4, 0.0
+    p["gravity"], p["grip_safety"], p["stiffness_belief_sd"], p["drop_grip_gain"] = (0.0, -9.81, 0.0), 1.4, 0.0, 0.5
+    s["attempts"] = drops
     seen["touching"][[3, 7, 11]] = 1  # the thumb's and two fingers' distal phalanges
     mu = 0.8 * np.cos(ROUND_LATITUDE) - np.sin(ROUND_LATITUDE) if round_object else 0.8
-    force = 1.4 * 0.126 * 9.81 / (2 * mu)  # per side
+    force = 1.4 * (1 + 0.5 * drops) * 0.126 * 9.81 / (2 * mu)  # per side
     expected = force * 3 / (2 * BELIEVED_STIFFNESS * 1 * 2)  # one thumb phalanx against two, in series
     assert _squeeze_depth(p, s, seen, np.random.default_rng(0)) == pytest.approx(expected, rel=1e-12)
