@@ -14,8 +14,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from microg.skeleton import Hand, HandFrame, slot
-from microg.sim import (HandFrames, Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene,
-                        kinetic_energy, make_batch, make_world, step, step_batch)
+from microg.sim import (Material, ObjectSpec, PlacedObject, angular_momentum, compose_scene,
+                        kinetic_energy, make_batch, make_world, stack_frames, step, step_batch)
 from microg.hands.filter import HandFilter
 from microg.participant.scripted import probe_hand
 
@@ -217,7 +217,7 @@ def live_batch(config: Config, worlds: int, duration: float = 1.0, scene: LiveSc
     position, orientation = np.empty((len(frames) - 1, 3)), np.empty((len(frames) - 1, 4))
     spent = 0.0
     for i, frame in enumerate(frames):
-        stacked = HandFrames.stack([frame] * worlds)
+        stacked = stack_frames([frame] * worlds)
         start = time.process_time()
         batch = step_batch(batch, stacked)
         spent += time.process_time() - start

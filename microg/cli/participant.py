@@ -143,7 +143,6 @@ def calibrate(*, study_dir: str | None, trials_file: Path | None, targets_file: 
     beside it, calibration.csv and calibration.png.
     """
     from microg.insilico.calibrate import DEFAULT_FIT, CalibrationRequest, calibrate as run, describe, hold_out, parse_fit
-    from microg.insilico.engine import unplayable
     from microg.insilico.targets import file_source, study_source, trials_source
     from microg.participant import read_population
     from microg.paths import protocol_file
@@ -164,9 +163,6 @@ def calibrate(*, study_dir: str | None, trials_file: Path | None, targets_file: 
         source = trials_source(trials_file, rules or load_protocol(protocol_file("paper")), seed)
     else:
         source = file_source(targets_file, rules)
-    why = unplayable(source.protocol)
-    if why is not None:
-        raise click.ClickException(why)
     request = CalibrationRequest(source.protocol, hold_out(source.targets, held_out), source.source, source.digest,
                                  parse_fit(",".join(DEFAULT_FIT) if fit is None else fit), read_population(base) if base else None,
                                  particles, generations, participants or source.participants, check, seed,

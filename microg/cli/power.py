@@ -159,10 +159,7 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
             raise click.BadParameter(str(error), param_hint="--profile") from None
     rules = load_protocol(protocol_file(protocol))
     if simulated:
-        from microg.insilico.engine import unplayable
-
-        why = unplayable(rules)
-        problems = ([why] if why else []) + (rules.player_problems() if population is None else [])
+        problems = rules.player_problems() if population is None else []
         if problems:
             raise click.ClickException("\n".join(problems))
     design = design_from_protocol(rules, within)

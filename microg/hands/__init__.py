@@ -14,7 +14,7 @@ before the physics. ``filter_report`` measures the window filter's noise and lag
 from __future__ import annotations
 
 from .filter import HandFilter
-from .guard import Guard, GuardConfig, GuardCounts, GuardState, admit, finish
+from .guard import Guard, GuardConfig, GuardCounts
 from .recording import (Recording, RecordingError, RecordingInfo, RecordingWriter, ReplaySource, load_recording,
                         read_recording, record, write_recording)
 from .source import HandSource
@@ -42,7 +42,7 @@ def open_source(spec: str, *, realtime: bool = False) -> HandSource:
 
 
 __all__ = [
-    "Guard", "GuardConfig", "GuardCounts", "GuardState", "HandFilter", "HandSource", "Recording", "RecordingError",
-    "RecordingInfo", "RecordingWriter", "ReplaySource", "Tracking", "admit", "finish", "load_recording", "open_source",
+    "Guard", "GuardConfig", "GuardCounts", "HandFilter", "HandSource", "Recording", "RecordingError",
+    "RecordingInfo", "RecordingWriter", "ReplaySource", "Tracking", "load_recording", "open_source",
     "read_recording", "record", "write_recording",
 ]

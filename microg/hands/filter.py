@@ -22,10 +22,12 @@ appears or comes with a new track id (the guard numbers tracks) starts an empty 
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numba import njit
 
-from microg.skeleton import N_BONES, N_DIGITS, SIDES, HandFrame
+from microg.skeleton import HANDS, N_BONES, N_DIGITS, HandFrame, hand_frame, hands_record
 
 FILTER_WINDOW = 3
 """F in Eq. 1, the frames the window filter averages: the paper found 3 best. A protocol may set
@@ -102,27 +104,55 @@ def filter_series(values: np.ndarray, times: np.ndarray, window: int, period: fl
     return out
 
 
+JOINTS = N_DIGITS * (N_BONES + 1)
+
+
+@lru_cache(maxsize=None)
+def filter_dtype(window: int) -> np.dtype:
+    """The window filter's state for ``window`` frames (a record): per side the ring of the last
+    joints and their times, how many it holds, the newest's place, and the track it belongs to
+    (``tracked`` 0: none)."""
+    return np.dtype([("samples", "f8", (2, window, JOINTS, 3)), ("times", "f8", (2, window)), ("count", "i8", (2,)),
+                     ("newest", "i8", (2,)), ("track", "i8", (2,)), ("tracked", "u1", (2,))], align=True)
+
+
+@njit(cache=True)
+def smooth(state, period, frame, out):
+    """Eq. 1 on one admitted ``HANDS`` record ``frame``: ``out`` is the frame with each hand's joints
+    filtered over its side's window (the palm and everything else as it came). A hand that
+    appears or comes with a new track id starts an empty window."""
+    out.t = frame.t
+    for side in range(2):
+        out.present[side], out.track_id[side] = frame.present[side], frame.track_id[side]
+        out.points[side] = frame.points[side]
+        out.widths[side] = frame.widths[side]
+        out.orientation[side] = frame.orientation[side]
+        if not frame.present[side]:
+            state.tracked[side] = 0
+            continue
+        if not state.tracked[side] or state.track[side] != frame.track_id[side]:
+            state.count[side], state.newest[side] = 0, -1
+        window = state.times.shape[1]
+        newest = (state.newest[side] + 1) % window
+        state.newest[side], state.count[side] = newest, min(state.count[side] + 1, window)
+        state.samples[side, newest] = frame.points[side, 1:]
+        state.times[side, newest] = frame.t
+        out.points[side, 1:] = window_mean(state.samples[side], state.times[side], state.count[side], newest, period)
+        state.tracked[side], state.track[side] = 1, frame.track_id[side]
+
+
 class HandFilter:
-    """Eq. 1 on the joints of every frame that passes, per side (see the module docstring)."""
+    """Eq. 1 on the joints of every frame that passes, per side (see the module docstring), for
+    Python: its state is the record ``smooth`` steps."""
 
     def __init__(self, window: int, period: float):
         if not isinstance(window, int) or isinstance(window, bool) or window < 1:
             raise ValueError(f"filter window = {window!r}: must be a whole number of frames >= 1")
-        self._windows = [WindowFilter(window, period, (N_DIGITS, N_BONES + 1, 3)) for _ in SIDES]
-        self._tracks: list[int | None] = [None for _ in SIDES]
+        self.period = period
+        self.state = np.zeros(1, filter_dtype(window))[0]
+        self._out = np.zeros(1, HANDS)[0]
 
     def smooth(self, frame: HandFrame) -> HandFrame:
         """The frame with each hand's joints filtered; everything else as it came."""
-        hands = []
-        for side, name in enumerate(SIDES):
-            hand = frame.hand(name)
-            if hand is None:
-                self._tracks[side] = None
-                continue
-            window = self._windows[side]
-            if self._tracks[side] != hand.track_id:
-                window.reset()
-            window.push(hand.joints, frame.timestamp)
-            self._tracks[side] = hand.track_id
-            hands.append(hand.with_joints(window.value))
-        return HandFrame.made(frame.timestamp, tuple(hands))
+        smooth(self.state, self.period, hands_record(frame), self._out)
+        return hand_frame(self._out)

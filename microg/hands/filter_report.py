@@ -28,7 +28,7 @@ from scipy.optimize import minimize_scalar
 
 from .filter import filter_series
 from microg.skeleton import DIGITS, SIDES, HandFrame
-from .guard import GuardConfig, GuardState, admit, finish
+from .guard import Guard, GuardConfig
 
 WINDOWS = tuple(range(1, 8))
 MAX_LAG = 0.1
@@ -61,12 +61,8 @@ class Fingertips:
 
 def fingertips(frames, side: str | None = None, config: GuardConfig = GuardConfig()) -> Fingertips:
     """The guarded fingertip trajectory of ``side`` (default: the side tracked in most frames)."""
-    state, passed = GuardState(), []
-    for frame in frames:
-        state, ready = admit(config, state, frame)
-        passed.extend(ready)
-    state, ready = finish(state)
-    passed.extend(ready)
+    guard = Guard(config)
+    passed = [ready for frame in frames for ready in guard.admit(frame)] + list(guard.finish())
     if side is None:
         seen = [sum(f.hand(s) is not None for f in passed) for s in SIDES]
         side = SIDES[int(np.argmax(seen))]

@@ -1,9 +1,11 @@
 """The tracking guard: bad tracking is handled here, never passed on to the physics.
 
-Every session's hand tracking (``microg.hands.tracking``) passes its source's frames through the
-guard, then the window filter. The logic is pure: ``admit(config, state, frame)`` returns the next
-state and the frames to pass on (none, one, or several), ``finish`` releases what is still waiting
-when the source ends; ``Guard`` holds the state between frames. What it does:
+Every session's hand tracking passes its source's frames through the guard, then the window
+filter. The guard is compiled code over plain records: ``admit(config, guard, pending, decided,
+frame, out)`` takes one ``HANDS`` record and writes the frames now ready for the world into
+``out`` (none, one, or several), ``finish`` releases what is still waiting when the source ends.
+A ``GUARD`` record is the guard's memory, ``pending`` the frames waiting for a decision; ``Guard``
+holds them for Python. What it does:
 
 - **Incomplete hand** (NaN in the palm position, or in a joint the tracker normally delivers): the
   hand is left out of the frame, as if lost. "Normally delivers" is learned: every joint this
@@ -19,12 +21,13 @@ when the source ends; ``Guard`` holds the state between frames. What it does:
 - **Dropped frames** (an interval over ``gap_factor`` typical periods): counted and passed on as
   they arrived. The window filter (Eq. 1, ``microg.hands.filter``) is defined on arrived frames and
   keeps its lag constant across a gap, so no frame is invented here.
-- **Jump** (some point of the hand, palm or joint, is ``jump_distance`` or more from where it was
-  in the last frame): the frames wait, for at most ``confirm_frames - 1`` frames. If the hand
-  comes back near where it was, it was a glitch: the waiting frames get the hand bridged linearly
-  from before the glitch to after it. If it stays at the new place for ``confirm_frames`` frames in
-  a row, it is a new track there, from the frame it arrived. If it keeps jumping for more than
-  ``max_hold`` frames, it is lost. Nothing jumps, nothing freezes and catches up.
+- **Jump** (the jump rule, ``microg.skeleton.is_jump``: some point of the hand is ``jump_distance``
+  or more from where it was in the last frame): the frames wait, for at most ``confirm_frames - 1``
+  frames. If the hand comes back near where it was, it was a glitch: the waiting frames get the
+  hand bridged linearly from before the glitch to after it. If it stays at the new place for
+  ``confirm_frames`` frames in a row, it is a new track there, from the frame it arrived. If it
+  keeps jumping for more than ``max_hold`` frames, it is lost. Nothing jumps, nothing freezes and
+  catches up.
 - **Track ids**: the guard numbers tracks itself (1, 2, 3, ...): a new number whenever the source's
   id changes, a hand reappears, a jump is accepted or the clock is re-anchored. The world starts a
   new track (filter reset, zero velocity) exactly then.
@@ -37,16 +40,16 @@ Output timestamps strictly increase. While a jump is being decided every output 
 from __future__ import annotations
 
 import math
-import statistics
 from dataclasses import dataclass, fields
-from typing import NamedTuple
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
 
-from microg.skeleton import N_BONES, N_DIGITS, SIDES, Hand, HandFrame, hand_jumped
+from microg.skeleton import HANDS, N_BONES, N_DIGITS, POINTS, HandFrame, hand_frame, hands_record, is_jump
 
 RECENT_INTERVALS = 31
+"""Intervals between arrived frames the typical period is the median of."""
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,22 @@ class GuardConfig:
         for name in ("confirm_frames", "max_hold", "resync_after"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 raise ValueError(f"GuardConfig.{name} = {getattr(self, name)!r}: must be a positive integer")
+
+    def record(self):
+        """The settings as a ``CONFIG`` record (what the compiled guard reads)."""
+        out = np.zeros(1, CONFIG)[0]
+        for f in fields(self):
+            out[f.name] = getattr(self, f.name)
+        return out
+
+    @property
+    def pending_frames(self) -> int:
+        """The most frames that can wait for a decision: each side holds at most ``max_hold`` + 1."""
+        return 2 * (self.max_hold + 1)
+
+
+CONFIG = np.dtype([(f.name, "i8" if f.type in ("int", int) else "f8") for f in fields(GuardConfig)], align=True)
+"""``GuardConfig`` as a record."""
 
 
 @dataclass(frozen=True)
@@ -107,271 +126,285 @@ class GuardCounts:
     def as_dict(self) -> dict[str, int]:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
-    def add(self, **increments: int) -> GuardCounts:
-        """The counts with ``increments`` added: a copy of the fields, not ``dataclasses.replace``
-        (a tenth of its cost, and the guard counts every frame)."""
-        if not any(increments.values()):
-            return self
-        counts = object.__new__(GuardCounts)
-        counts.__dict__.update(self.__dict__)
-        for name, increment in increments.items():
-            counts.__dict__[name] += increment
-        return counts
+    @classmethod
+    def of(cls, counts) -> GuardCounts:
+        """The counts a ``GUARD`` record's ``counts`` hold."""
+        return cls(*(int(c) for c in counts))
 
 
-@dataclass(frozen=True, eq=False)
-class Pending:
-    """One output frame in the making: per side, the decided hand (None: absent) or, while
-    undecided, the raw hand seen there."""
+COUNTS = tuple(f.name for f in fields(GuardCounts))
+(_IN, _OUT, _DUPLICATE, _OUT_OF_ORDER, _RESYNC, _INCOMPLETE, _GAP, _JUMP, _REJECTED, _ACCEPTED, _LOST, _BRIDGED,
+ _NEW_TRACK) = range(len(COUNTS))
 
-    time: float
-    hands: tuple[Hand | None, Hand | None]
-    decided: tuple[bool, bool]
-
-    def decide(self, side: int, hand: Hand | None) -> Pending:
-        hands, decided = list(self.hands), list(self.decided)
-        hands[side], decided[side] = hand, True
-        return Pending(self.time, tuple(hands), tuple(decided))
-
-
-NOTHING_DELIVERED = np.zeros((N_DIGITS, N_BONES + 1), dtype=bool)
-NOTHING_DELIVERED.setflags(write=False)
+GUARD = np.dtype([
+    ("last_time", "f8"), ("offset", "f8"), ("stale_run", "i8"), ("stale_raw", "f8"),
+    ("intervals", "f8", (RECENT_INTERVALS,)), ("n_intervals", "i8"), ("next_track", "i8"),
+    ("last", HANDS), ("side_time", "f8", (2,)), ("source_id", "i8", (2,)), ("holding", "u1", (2,)),
+    ("delivered", "u1", (2, N_DIGITS, N_BONES + 1)), ("n_pending", "i8"), ("counts", "i8", (len(COUNTS),)),
+], align=True)
+"""The guard's memory: the last output time (NaN before any), the time offset, the stale run, the
+recent intervals (oldest first), the next track number; per side the last decided hand (``last``,
+its track the guard's), when it came, the source's id behind it, whether a jump waits for a
+decision, the joints the side has delivered; how many frames wait (``pending``); the counts
+(``COUNTS``)."""
 
 
-class SideState(NamedTuple):
-    """The guard's memory of one hand side. The guard's states are named tuples: immutable, and
-    made every frame at a third of a frozen dataclass's cost."""
-
-    last: Hand | None = None
-    """The last decided hand on this side (guard track id); None when it was absent."""
-    last_time: float = float("nan")
-    source_id: int | None = None
-    """The source's track id behind ``last``."""
-    holding: bool = False
-    """A jump is waiting for a decision."""
-    delivered: np.ndarray = NOTHING_DELIVERED
-    """(5, 5) joints this side has delivered before."""
-
-
-class GuardState(NamedTuple):
-    last_time: float | None = None
-    """Output timestamp of the latest frame."""
-    offset: float = 0.0
-    """Added to source timestamps; changes only when the clock is re-anchored."""
-    stale_run: int = 0
-    stale_raw: float = float("-inf")
-    intervals: tuple[float, ...] = ()
-    """The most recent intervals between arrived frames (s), for the typical period."""
-    next_track: int = 1
-    sides: tuple[SideState, SideState] = (SideState(), SideState())
-    pending: tuple[Pending, ...] = ()
-    """Frames waiting for a side's decision, oldest first."""
-    counts: GuardCounts = GuardCounts()
-
-    def period(self, config: GuardConfig) -> float:
-        """The typical frame period: the median recent interval."""
-        return period(config, self.intervals)
-
-
-def period(config: GuardConfig, intervals: tuple[float, ...]) -> float:
-    """The median of ``intervals`` (``statistics.median``: a few floats, every frame, where numpy's
-    call overhead would dominate), or the nominal period before any."""
-    return float(statistics.median(intervals)) if intervals else 1.0 / config.nominal_rate
-
-
-def completeness(hand: Hand, delivered: np.ndarray) -> tuple[bool, np.ndarray]:
-    """Whether the palm and every joint the tracker normally delivers (``delivered``, (5, 5)) are
-    known in ``hand``, and the joints delivered so far with this hand's."""
-    return _completeness(hand.joints, hand.palm_position, delivered)
+def new_guard():
+    """A guard before its first frame."""
+    guard = np.zeros(1, GUARD)[0]
+    guard["last_time"], guard["stale_raw"], guard["next_track"] = math.nan, -math.inf, 1
+    guard["last"]["points"], guard["last"]["widths"], guard["last"]["orientation"] = math.nan, math.nan, math.nan
+    guard["side_time"] = math.nan
+    return guard
 
 
 @njit(cache=True)
-def _completeness(joints, palm, delivered):
-    """``completeness`` compiled: the guard checks every frame, and numpy's reductions on a few
-    numbers cost more than the check."""
-    complete = math.isfinite(palm[0]) and math.isfinite(palm[1]) and math.isfinite(palm[2])
-    now = delivered.copy()
-    for d in range(joints.shape[0]):
-        for j in range(joints.shape[1]):
-            known = math.isfinite(joints[d, j, 0]) and math.isfinite(joints[d, j, 1]) and math.isfinite(joints[d, j, 2])
-            complete = complete and (known or not delivered[d, j])
-            now[d, j] = delivered[d, j] or known
-    return complete, now
+def period(config, guard):
+    """The typical frame period: the median recent interval, or the nominal period before any."""
+    n = guard.n_intervals
+    if n == 0:
+        return 1.0 / config.nominal_rate
+    ordered = np.sort(guard.intervals[RECENT_INTERVALS - n:])
+    middle = n // 2
+    return ordered[middle] if n % 2 else (ordered[middle - 1] + ordered[middle]) / 2
 
 
-def bridge(a: Hand, t_a: float, b: Hand, t_b: float, t: float) -> Hand:
-    """The hand on the straight line from ``a`` (at ``t_a``) to ``b`` (at ``t_b``) at time ``t``; ``b``'s id."""
-    s = (t - t_a) / (t_b - t_a)
-    qa, qb = a.palm_orientation, b.palm_orientation
-    qb = qb if np.dot(qa, qb) >= 0 else -qb
-    q = (1 - s) * qa + s * qb
-    return Hand(b.side, (1 - s) * a.joints + s * b.joints, b.widths,
-                (1 - s) * a.palm_position + s * b.palm_position, q / np.linalg.norm(q), b.track_id)
-
-
-def _time(config: GuardConfig, state: GuardState, raw: float) -> tuple[GuardState, float | None, bool]:
-    """The output time of a frame stamped ``raw``, or None to drop it; and whether time was re-anchored."""
-    t = raw + state.offset
-    if state.last_time is None:
-        return state, t, False
-    if t <= state.last_time:
-        run = state.stale_run + 1 if (state.stale_run and raw > state.stale_raw) else 1
+@njit(cache=True)
+def _time(config, guard, raw):
+    """The output time of a frame stamped ``raw`` (NaN to drop it) and whether time was re-anchored."""
+    t = raw + guard.offset
+    if math.isnan(guard.last_time):
+        return t, False
+    if t <= guard.last_time:
+        run = guard.stale_run + 1 if (guard.stale_run and raw > guard.stale_raw) else 1
         if run < config.resync_after:
-            counts = state.counts.add(**{"duplicate_timestamps" if t == state.last_time else "out_of_order": 1})
-            return state._replace(stale_run=run, stale_raw=raw, counts=counts), None, False
-    if t <= state.last_time or t - state.last_time > config.max_gap:
-        t = state.last_time + state.period(config)
-        state = state._replace(offset=t - raw, stale_run=0, counts=state.counts.add(clock_resyncs=1))
-        return state, t, True
-    intervals = (state.intervals + (t - state.last_time,))[-RECENT_INTERVALS:]
-    return state._replace(stale_run=0, intervals=intervals), t, False
+            guard.counts[_DUPLICATE if t == guard.last_time else _OUT_OF_ORDER] += 1
+            guard.stale_run, guard.stale_raw = run, raw
+            return math.nan, False
+    if t <= guard.last_time or t - guard.last_time > config.max_gap:
+        t = guard.last_time + period(config, guard)
+        guard.offset, guard.stale_run = t - raw, 0
+        guard.counts[_RESYNC] += 1
+        return t, True
+    guard.intervals[:-1] = guard.intervals[1:].copy()
+    guard.intervals[-1] = t - guard.last_time
+    guard.n_intervals = min(guard.n_intervals + 1, RECENT_INTERVALS)
+    guard.stale_run = 0
+    return t, False
 
 
-def _count_gap(config: GuardConfig, state: GuardState, t: float) -> GuardState:
-    """Count the interval before ``t`` as a gap when frames are missing in it."""
-    if state.last_time is None or t - state.last_time <= config.gap_factor * state.period(config):
-        return state
-    return state._replace(counts=state.counts.add(gaps=1))
+@njit(cache=True)
+def _complete(hand, side, delivered):
+    """Whether the palm and every joint the side normally delivers are known in frame ``hand``'s
+    ``side``; the joints delivered so far, with this hand's, into ``delivered``."""
+    points = hand.points[side]
+    complete = math.isfinite(points[0, 0]) and math.isfinite(points[0, 1]) and math.isfinite(points[0, 2])
+    for d in range(N_DIGITS):
+        for j in range(N_BONES + 1):
+            i = 1 + d * (N_BONES + 1) + j
+            known = math.isfinite(points[i, 0]) and math.isfinite(points[i, 1]) and math.isfinite(points[i, 2])
+            complete = complete and (known or not delivered[d, j])
+            delivered[d, j] = delivered[d, j] or known
+    return complete
 
 
-def _decide(config: GuardConfig, state: GuardState, side: int, restart: bool) -> GuardState:
-    """Decide this side's undecided pending frames, given the raw hand in the newest one."""
-    pending = list(state.pending)
-    memory = state.sides[side]
-    undecided = [i for i, frame in enumerate(pending) if not frame.decided[side]]
-    current, earlier = undecided[-1], undecided[:-1]
-    now, hand = pending[current].time, pending[current].hands[side]
-    counts, next_track = state.counts, state.next_track
+@njit(cache=True)
+def _copy_side(source, target, side):
+    target.present[side], target.track_id[side] = source.present[side], source.track_id[side]
+    target.points[side] = source.points[side]
+    target.widths[side] = source.widths[side]
+    target.orientation[side] = source.orientation[side]
 
-    def settle(decisions: dict[int, Hand | None], memory: SideState) -> GuardState:
-        for i, decided in decisions.items():
-            pending[i] = pending[i].decide(side, decided)
-        sides = tuple(memory if s == side else state.sides[s] for s in range(len(SIDES)))
-        return state._replace(pending=tuple(pending), sides=sides, counts=counts, next_track=next_track)
 
-    complete, delivered = (False, None) if hand is None else completeness(hand, memory.delivered)
-    if hand is not None and not complete:
-        counts, hand = counts.add(hands_incomplete=1), None
-    if hand is None:
-        return settle(dict.fromkeys(undecided), SideState(delivered=memory.delivered))
-    last = memory.last
+@njit(cache=True)
+def _absent(frame, side):
+    frame.present[side], frame.track_id[side] = False, 0
+    frame.points[side] = math.nan
+    frame.widths[side] = math.nan
+    frame.orientation[side] = math.nan
 
-    def new_track(starts: list[int], **increments: int) -> GuardState:
-        nonlocal counts, next_track
-        counts = counts.add(new_tracks=1, **increments)
-        track, next_track = next_track, next_track + 1
-        decisions = dict.fromkeys(undecided)
-        decisions.update({i: pending[i].hands[side].renumbered(track) for i in starts})
-        return settle(decisions, SideState(decisions[current], now, hand.track_id, False, delivered))
 
-    if restart or last is None or hand.track_id != memory.source_id:
-        return new_track([current])
-    if not hand_jumped(hand, last, config.jump_distance):
-        out = hand.renumbered(last.track_id)
-        counts = counts.add(bridged_hands=len(earlier), jumps_rejected=int(memory.holding))
-        decisions = {i: bridge(last, memory.last_time, out, now, pending[i].time) for i in earlier}
-        return settle(decisions | {current: out}, SideState(out, now, hand.track_id, False, delivered))
-    raw = [pending[i].hands[side] for i in undecided]
+@njit(cache=True)
+def _bridge(a, t_a, b, t_b, out, side):
+    """Side ``side`` of ``out`` at its time on the straight line from ``a`` (at ``t_a``) to ``b`` (at
+    ``t_b``): joints and palm linear, the palm's turn the short way; ``b``'s widths and track."""
+    s = (out.t - t_a) / (t_b - t_a)
+    qa, qb = a.orientation[side], b.orientation[side]
+    sign = 1.0 if qa[0] * qb[0] + qa[1] * qb[1] + qa[2] * qb[2] + qa[3] * qb[3] >= 0 else -1.0
+    length = 0.0
+    for i in range(4):
+        out.orientation[side, i] = (1 - s) * qa[i] + s * sign * qb[i]
+        length += out.orientation[side, i] ** 2
+    for i in range(4):
+        out.orientation[side, i] /= math.sqrt(length)
+    for i in range(POINTS):
+        for k in range(3):
+            out.points[side, i, k] = (1 - s) * a.points[side, i, k] + s * b.points[side, i, k]
+    out.widths[side] = b.widths[side]
+    out.present[side], out.track_id[side] = True, b.track_id[side]
+
+
+@njit(cache=True)
+def _jumped(a, b, side, config):
+    return is_jump(a.points[side], b.points[side], config.jump_distance)
+
+
+@njit(cache=True)
+def _remember(guard, pending, current, side, source_id, holding, delivered):
+    """The side's memory after a decision: frame ``current``'s hand (absent when it is not there)."""
+    _copy_side(pending[current], guard.last, side)
+    guard.side_time[side] = pending[current].t if pending[current].present[side] else math.nan
+    guard.source_id[side], guard.holding[side] = source_id, holding
+    guard.delivered[side] = delivered
+
+
+@njit(cache=True)
+def _new_track(guard, pending, decided, first, starts, side, source_id, delivered):
+    """A new track from frame ``starts`` on (the undecided frames before it: absent)."""
+    guard.counts[_NEW_TRACK] += 1
+    track = guard.next_track
+    guard.next_track += 1
+    for i in range(first, guard.n_pending):
+        if i < starts:
+            _absent(pending[i], side)
+        else:
+            pending[i].track_id[side] = track
+        decided[i, side] = True
+    _remember(guard, pending, guard.n_pending - 1, side, source_id, False, delivered)
+
+
+@njit(cache=True)
+def _decide(config, guard, pending, decided, side, restart):
+    """Decide this side's undecided pending frames (always the newest ones), given the raw hand in
+    the newest."""
+    current = guard.n_pending - 1
+    first = current
+    while first > 0 and not decided[first - 1, side]:
+        first -= 1
+    frame = pending[current]
+    delivered = guard.delivered[side].copy()
+    present = frame.present[side]
+    if present and not _complete(frame, side, delivered):
+        guard.counts[_INCOMPLETE] += 1
+        present = False
+    if not present:
+        for i in range(first, current + 1):
+            _absent(pending[i], side)
+            decided[i, side] = True
+        _remember(guard, pending, current, side, 0, False, guard.delivered[side].copy())
+        return
+    source_id = frame.track_id[side]
+    if restart or not guard.last.present[side] or source_id != guard.source_id[side]:
+        _new_track(guard, pending, decided, first, current, side, source_id, delivered)
+        return
+    if not _jumped(frame, guard.last, side, config):
+        frame.track_id[side] = guard.last.track_id[side]
+        guard.counts[_BRIDGED] += current - first
+        guard.counts[_REJECTED] += int(guard.holding[side])
+        for i in range(first, current):
+            _bridge(guard.last, guard.side_time[side], frame, frame.t, pending[i], side)
+        for i in range(first, current + 1):
+            decided[i, side] = True
+        _remember(guard, pending, current, side, source_id, False, delivered)
+        return
     streak = 1
-    while streak < len(raw) and raw[-streak - 1] is not None and \
-            not hand_jumped(raw[-streak], raw[-streak - 1], config.jump_distance):
+    while streak < current - first + 1 and pending[current - streak].present[side] and \
+            not _jumped(pending[current - streak + 1], pending[current - streak], side, config):
         streak += 1
     if streak >= config.confirm_frames:
-        return new_track(undecided[-streak:], jumps_accepted=1)
-    counts = counts.add(jumps=int(not memory.holding))
-    if len(undecided) > config.max_hold:
-        counts = counts.add(jumps_lost=1)
-        return settle(dict.fromkeys(undecided), SideState(delivered=memory.delivered))
-    return settle({}, memory._replace(holding=True, delivered=delivered))
+        guard.counts[_ACCEPTED] += 1
+        _new_track(guard, pending, decided, first, current - streak + 1, side, source_id, delivered)
+        return
+    guard.counts[_JUMP] += int(not guard.holding[side])
+    if current - first + 1 > config.max_hold:
+        guard.counts[_LOST] += 1
+        for i in range(first, current + 1):
+            _absent(pending[i], side)
+            decided[i, side] = True
+        _remember(guard, pending, current, side, 0, False, guard.delivered[side].copy())
+        return
+    guard.holding[side] = True
+    guard.delivered[side] = delivered
 
 
-def _release(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """Pass on the oldest pending frames that every side has decided."""
+@njit(cache=True)
+def _release(guard, pending, decided, out):
+    """Pass on the oldest pending frames every side has decided, into ``out``; how many."""
     ready = 0
-    while ready < len(state.pending) and all(state.pending[ready].decided):
+    while ready < guard.n_pending and decided[ready, 0] and decided[ready, 1]:
+        out[ready] = pending[ready]
         ready += 1
-    frames = tuple(HandFrame(frame.time, tuple(h for h in frame.hands if h is not None))
-                   for frame in state.pending[:ready])
-    return state._replace(pending=state.pending[ready:], counts=state.counts.add(frames_out=ready)), frames
+    for i in range(ready, guard.n_pending):
+        pending[i - ready] = pending[i]
+        decided[i - ready] = decided[i]
+    guard.n_pending -= ready
+    guard.counts[_OUT] += ready
+    return ready
 
 
-def admit(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """The guard's step: the next state, and the frames now ready for the world, oldest first."""
-    return steady(config, state, frame) or decided(config, state, frame)
+@njit(cache=True)
+def admit(config, guard, pending, decided, frame, out):
+    """The guard's step for one ``HANDS`` record ``frame``: the frames now ready for the world into
+    ``out``, oldest first; returns how many."""
+    guard.counts[_IN] += 1
+    t, restart = _time(config, guard, frame.t)
+    if math.isnan(t):
+        return 0
+    if not restart and not math.isnan(guard.last_time) and t - guard.last_time > config.gap_factor * period(config,
+                                                                                                            guard):
+        guard.counts[_GAP] += 1
+    guard.last_time = t
+    waiting = guard.n_pending
+    pending[waiting] = frame
+    pending[waiting].t = t
+    decided[waiting, 0] = decided[waiting, 1] = False
+    guard.n_pending += 1
+    for side in range(2):
+        _decide(config, guard, pending, decided, side, restart)
+    return _release(guard, pending, decided, out)
 
 
-def steady(config: GuardConfig, state: GuardState, frame: HandFrame):
-    """``decided``'s outcome for the usual frame, computed directly: nothing waiting, the clock
-    moving on by less than ``max_gap``, each side absent as before or the same complete track
-    moving less than a jump. None for any other frame (``decided`` handles it)."""
-    if state.pending or state.last_time is None:
-        return None
-    t = frame.timestamp + state.offset
-    interval = t - state.last_time
-    if not 0 < interval <= config.max_gap:
-        return None
-    sides, hands = [], []
-    for side, name in enumerate(SIDES):
-        hand, memory = frame.hand(name), state.sides[side]
-        if hand is None:
-            if memory.last is not None:
-                return None
-            sides.append(memory)
-            continue
-        if memory.last is None or memory.holding or hand.track_id != memory.source_id:
-            return None
-        complete, delivered = completeness(hand, memory.delivered)
-        if not complete or hand_jumped(hand, memory.last, config.jump_distance):
-            return None
-        out = hand.renumbered(memory.last.track_id)
-        sides.append(SideState(out, t, hand.track_id, False, delivered))
-        hands.append(out)
-    intervals = (state.intervals + (interval,))[-RECENT_INTERVALS:]
-    gap = int(interval > config.gap_factor * period(config, intervals))
-    counts = state.counts.add(frames_in=1, frames_out=1, gaps=gap)
-    state = GuardState(last_time=t, offset=state.offset, stale_run=0, stale_raw=state.stale_raw, intervals=intervals,
-                       next_track=state.next_track, sides=tuple(sides), pending=(), counts=counts)
-    return state, (HandFrame.made(t, tuple(hands)),)
+@njit(cache=True)
+def finish(guard, pending, decided, out):
+    """The source has ended: hands still waiting for a decision are marked lost; the rest into ``out``."""
+    for i in range(guard.n_pending):
+        for side in range(2):
+            if not decided[i, side]:
+                _absent(pending[i], side)
+                decided[i, side] = True
+    return _release(guard, pending, decided, out)
 
 
-def decided(config: GuardConfig, state: GuardState, frame: HandFrame) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """The guard's step for any frame, through the pending that wait for each side's decision."""
-    state = state._replace(counts=state.counts.add(frames_in=1))
-    state, t, restart = _time(config, state, frame.timestamp)
-    if t is None:
-        return state, ()
-    if not restart:
-        state = _count_gap(config, state, t)
-    waiting = Pending(t, tuple(frame.hand(name) for name in SIDES), (False, False))
-    state = state._replace(last_time=t, pending=state.pending + (waiting,))
-    for side in range(len(SIDES)):
-        state = _decide(config, state, side, restart)
-    return _release(state)
-
-
-def finish(state: GuardState) -> tuple[GuardState, tuple[HandFrame, ...]]:
-    """The source has ended: hands still waiting for a decision are marked lost; pass the rest."""
-    pending = tuple(Pending(s.time, tuple(h if d else None for h, d in zip(s.hands, s.decided)), (True, True))
-                    for s in state.pending)
-    return _release(state._replace(pending=pending))
+@lru_cache(maxsize=None)
+def _config_record(config: GuardConfig):
+    return config.record()
 
 
 class Guard:
-    """The guard as a stage of hand tracking: ``admit`` each frame and get the frames now ready,
-    ``finish`` when the source has ended."""
+    """The guard for Python: ``admit`` each ``HandFrame`` and get the frames now ready, ``finish``
+    when the source has ended. Its records (``guard``, ``pending``) are what compiled code steps."""
 
     def __init__(self, config: GuardConfig = GuardConfig()):
         self.config = config
-        self.state = GuardState()
+        self.record = _config_record(config)
+        self.guard = new_guard()
+        self.pending = np.zeros(config.pending_frames, HANDS)
+        self.decided = np.zeros((config.pending_frames, 2), dtype=np.bool_)
+        self._out = np.zeros(config.pending_frames, HANDS)
 
     @property
     def counts(self) -> GuardCounts:
-        return self.state.counts
+        return GuardCounts.of(self.guard["counts"])
+
+    @property
+    def waiting(self) -> int:
+        """Frames waiting for a decision."""
+        return int(self.guard["n_pending"])
 
     def admit(self, frame: HandFrame) -> tuple[HandFrame, ...]:
-        self.state, ready = admit(self.config, self.state, frame)
-        return ready
+        ready = admit(self.record, self.guard, self.pending, self.decided, hands_record(frame), self._out)
+        return tuple(hand_frame(self._out[i]) for i in range(ready))
 
     def finish(self) -> tuple[HandFrame, ...]:
-        self.state, ready = finish(self.state)
-        return ready
+        ready = finish(self.guard, self.pending, self.decided, self._out)
+        return tuple(hand_frame(self._out[i]) for i in range(ready))

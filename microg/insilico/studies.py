@@ -112,9 +112,11 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
             outcome = next(outcomes)
             run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
             times = outcome.frame_times
-            clock.elapse_frames(times)
+            clock.elapse_each(np.diff(times))
             reason = {"completed": None, "timeout": timeout_reason(protocol.rules(task.phase)),
                       "aborted": f"the hand source ({source}) ended before the task did"}[outcome.status]
+            measured = [Event(clock.now(), "measures", {"kind": task_kind, **outcome.measures})
+                        for task_kind in [protocol.kind(task.phase)] if outcome.measures]
             store.end_run(run_id, outcome.status, clock.now(), time_s=outcome.time_s, attempts=outcome.attempts,
-                          reason=reason, events=[Event(clock.now(), "in_silico", {"frames": len(times)})])
+                          reason=reason, events=measured + [Event(clock.now(), "in_silico", {"frames": len(times)})])
         store.finish_session(session.id, clock.now())

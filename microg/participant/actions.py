@@ -58,7 +58,6 @@ import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_from_matrix, quat_multiply, quat_to_matrix
-from microg.task.rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
 from .anatomy import REST
 from .grasp import CLOSURES, ROUND_LATITUDE, choose_grasp
 from .motion import minimum_jerk_at, movement_time
@@ -129,20 +128,17 @@ ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "l
 is an index into this tuple."""
 (WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
  DONE, INTERCEPT, KEEP, PUSH, OFFER, WAIT_FOR_HAND, TAKE_OVER) = range(len(ACTIONS))
-KIND_CODES = (PICK_AND_PLACE, CATCH, STOP_SPIN, SEND, HANDOVER)
-"""The task kinds a participant plays, as ``PLAYER.kind`` gives them (``microg.task.rules.KINDS``)."""
-PLACING, CATCHING, SENDING, HANDING = (KIND_CODES.index(kind) for kind in (PICK_AND_PLACE, CATCH, SEND, HANDOVER))
-"""``PLAYER.kind`` codes: the pick-and-place, the catch, the send, the handover."""
+REACH_FOR, INTERCEPT_IT = range(2)
+"""``PLAYER.approach`` codes: how the participant goes for the object (``microg.task.kind.Play``:
+``reach``, ``intercept``)."""
+GRASP_IT, TOUCH_IT = range(2)
+"""``PLAYER.take`` codes: it grasps the object, or touches it with the index fingertip (``grasp``, ``touch``)."""
+CARRY_IT, KEEP_IT, PUSH_IT, HAND_IT_OVER = range(4)
+"""``PLAYER.then`` codes: what it does with the object once taken (``carry``, ``keep``, ``push``,
+``hand_over``)."""
 ALONE, GIVING, TAKING_OVER = 0, 1, 2
 """``PLAYER.role`` codes: the one hand of every kind but the handover; a handover's hand that takes the
 object first and gives it, and the hand it is passed to."""
-STAGE_CODES = ("manipulation", "maintenance", "release", "completed", "timeout", "approach", "catch", "spinning",
-               "resting", "pick_up", "carry", "drift", "take", "pass", "place")
-"""The task's stages as ``SEEN.stage`` gives them (``microg.task.stages``, then ``catch``, ``stop_spin``,
-``send`` and ``handover``)."""
-MANIPULATION, RELEASE, COMPLETED, TIMEOUT, APPROACH, PICK_UP, TAKE = 0, 2, 3, 4, 5, 9, 12
-"""``SEEN.stage`` codes: manipulation, release, the two that end the task, a catch's approach, a
-send's pick-up, a handover's take."""
 SKILL = ("movement_intercept", "movement_slope", "carry_slowdown", "aim_sd", "reaction_s", "hesitation_s",
          "tremor_rms", "preshape_margin", "closing_speed", "grip_safety", "stiffness_belief_sd", "hold_margin_s",
          "clock_cv", "place_accept", "shape_caution", "new_object_pause_s", "drop_pause_s", "grip_lapse",
@@ -153,7 +149,7 @@ _POSE = [("position", "f8", (3,)), ("orientation", "f8", (4,)), ("posture", "f8"
 POSE = np.dtype(_POSE, align=True)
 """A hand's intended pose: its palm's position and orientation and its joint angles."""
 PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
-    ("time_limit", "f8"), ("kind", "i8"), ("toward", "f8", (3,)), ("home", "f8", (3,)), ("first_slot", "i8"),
+    ("time_limit", "f8"), ("approach", "i8"), ("take", "i8"), ("then", "i8"), ("toward", "f8", (3,)), ("home", "f8", (3,)), ("first_slot", "i8"),
     ("mirror", "f8"), ("role", "i8"), ("palm_up", "?"), ("caution", "f8"),
     ("round_object", "?"), ("half", "f8", (3,)), ("mass", "f8"), ("static_friction", "f8"), ("gravity", "f8", (3,)),
     ("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8"),
@@ -162,7 +158,7 @@ PLAYER = np.dtype([(name, "f8") for name in SKILL] + [
     ("noise_tau", "f8"), ("noise_sd", "f8", (16,)), ("tremor_centre", "f8"), ("tremor_base", "f8"),
 ], align=True)
 """What stays the same through a task: the skill (``SKILL``), the participant's clock limit, the
-task's kind (``KIND_CODES``), the direction its grip squeezes most along (``grasp.choose_grasp``),
+task's kind's play (``approach``, ``take``, ``then``: ``REACH_FOR`` ...), the direction its grip squeezes most along (``grasp.choose_grasp``),
 where the hand waits, its phalanx slots (the first of its 20), the mirror (-1 for a left hand), its
 role in the task (``ALONE``, ``GIVING``, ``TAKING_OVER``), whether it grasps palm up, its caution
 with this object, the object (ball or box, half extents, mass, friction), the gravity, the
@@ -193,7 +189,8 @@ velocity, which the sending hand coasts on at and brakes from (zero otherwise);
 object (NaN for not); ``lapse_at``: when the grip lapses open during this carry (NaN for never)."""
 SEEN = np.dtype([
     ("t", "f8"), ("dt", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("touching", "u1", (20,)),
-    ("grasped", "?"), ("has_display", "?"), ("stage", "i8"), ("place", "i8"), ("lit", "?"), ("velocity", "f8", (3,)),
+    ("grasped", "?"), ("has_display", "?"), ("over", "?"), ("loose", "?"), ("release", "?"), ("place", "i8"),
+    ("lit", "?"), ("velocity", "f8", (3,)),
     ("other_action", "i8"), ("other_grasped", "?"),
 ], align=True)
 """One frame as the participant perceives it: its own clock and the time since the last frame,
@@ -369,7 +366,7 @@ def _squeeze_depth(p, s, seen, draws):
                 others += 1
     thumb, others = max(thumb, 1), max(others, 1)
     gravity = math.sqrt(p.gravity[0] ** 2 + p.gravity[1] ** 2 + p.gravity[2] ** 2)
-    if p.kind == PLACING or p.kind == HANDING:  # carried to a place (a handover's: the meeting point, the zone)
+    if p.then == CARRY_IT or p.then == HAND_IT_OVER:  # carried to a place (a handover's: the meeting point, the zone)
         distance = _distance(p.places[min(s.place, p.n_places - 1)], seen.position)
         load = p.mass * (gravity + PEAK_ACCELERATION * distance / _carry_time(p, distance) ** 2)
     else:  # kept where it was taken: a catch's brakes it to a stop
@@ -458,7 +455,7 @@ def _begin_reach(p, s, seen, grasps, draws):
 @njit(cache=True)
 def _begin_take(p, s, seen, grasps, draws):
     """Go for the object: a catch's moving object intercepted in its path, any other reached for."""
-    if p.kind == CATCHING and _length(seen.velocity) >= MOVING_SPEED:
+    if p.approach == INTERCEPT_IT and _length(seen.velocity) >= MOVING_SPEED:
         _begin_intercept(p, s, seen, grasps, draws)
     else:
         s.drift[:] = 0.0
@@ -593,7 +590,7 @@ def wait_for_object(p, s, seen, grasps, draws):
     task puts a lost object back)."""
     frame = np.empty((3, 3))
     key = choose_grasp(p.round_object, p.half, seen.orientation, frame, p.toward, p.palm_up)
-    if p.kind == CATCHING and _length(seen.velocity) >= MOVING_SPEED:
+    if p.approach == INTERCEPT_IT and _length(seen.velocity) >= MOVING_SPEED:
         s.hand_in_object[:] = frame
         reachable = grasps[key].valid and _ahead(p, s, seen, grasps, key) >= 0.0
     else:
@@ -647,14 +644,14 @@ def squeeze(p, s, seen, grasps, draws):
     _closing(s, grasps, seen, p, limit)
     if _check_drop(p, s, seen, grasps, draws, True) or s.closure < limit or seen.t - s.since < SETTLE_S:
         return
-    if p.kind == SENDING:
+    if p.then == PUSH_IT:
         _begin_push(p, s, seen, draws)
         return
     if p.role == TAKING_OVER:
         _object_in_hand(s, seen, s.in_hand)
         _enter(s, TAKE_OVER, seen.t)
         return
-    if p.kind != PLACING and p.kind != HANDING:
+    if p.then == KEEP_IT:
         _begin_keep(p, s, seen, draws)
         return
     _copy_pose(s.pose, s.end)
@@ -682,7 +679,7 @@ def carry(p, s, seen, grasps, draws):
         s.other_held_since = math.nan  # (an offer again after a drop starts its own reaction time)
         _enter(s, OFFER, seen.t)
     elif s.place == p.n_places:
-        if not seen.has_display or seen.stage == RELEASE:
+        if not seen.has_display or seen.release:
             _begin_open(p, s, grasps, seen.t)
         else:
             s.place = seen.place
@@ -704,7 +701,7 @@ def hold(p, s, seen, grasps, draws):
     if _distance(seen.position, _destination(p, s)) > p.place_radius:
         _begin_carry(p, s, seen, draws, p.reaction_s)
         return
-    dark = seen.has_display and not seen.lit and p.kind != HANDING  # (a handover's zone has no mark to light)
+    dark = seen.has_display and not seen.lit and p.then != HAND_IT_OVER  # (a handover's zone has no mark to light)
     if dark != (not math.isnan(s.dark_since)):
         s.dark_since = t if dark else math.nan
     if dark and t - s.dark_since > p.reaction_s:
@@ -714,7 +711,7 @@ def hold(p, s, seen, grasps, draws):
         s.hold_clock += seen.dt * s.clock_rate
         done = s.hold_clock >= p.hold_s + p.hold_margin_s
     else:
-        done = seen.place > s.place or seen.stage == RELEASE
+        done = seen.place > s.place or seen.release
     if not done:
         return
     s.place += 1
@@ -826,7 +823,7 @@ def open_hand(p, s, seen, grasps, draws):
     if _move(s, seen.t) < 1.0:
         return
     _copy_pose(s.pose, s.end)
-    if p.kind == SENDING:
+    if p.then == PUSH_IT:
         _begin_movement(s, seen.t, BRAKE_S)
         _enter(s, RETREAT, seen.t)
         return
@@ -852,7 +849,7 @@ def watch(p, s, seen, grasps, draws):
     """Stay until the object is seen away from the hand (with a display: until the task shows it
     is over, or that a send missed or a handed-over object was dropped: fetch it again); if it
     still clings after ``WATCH_S``, open and back off again."""
-    again = (p.kind == SENDING and seen.stage == PICK_UP) or (p.role == GIVING and seen.stage == TAKE)
+    again = (p.then == PUSH_IT or p.role == GIVING) and seen.loose
     if seen.has_display and again:
         s.attempts += 1
         s.go_at = seen.t + pause(p, draws, p.drop_pause_s)
@@ -903,13 +900,12 @@ def follow_display(p, s, seen, grasps, draws):
     The task is over: done. The task shows the object not held (a pick-and-place's manipulation, a
     catch's approach, a send's pick-up, a handover's take) while the hand thinks it holds it: go
     back for it (after a reaction time in the action)."""
-    if seen.stage == COMPLETED or seen.stage == TIMEOUT:
+    if seen.over:
         _enter(s, DONE, seen.t)
         return True
     holding = s.action == LIFT or s.action == CARRY or s.action == HOLD or s.action == KEEP or s.action == PUSH \
         or s.action == OFFER or s.action == TAKE_OVER
-    loose = seen.stage == MANIPULATION or seen.stage == APPROACH or seen.stage == PICK_UP or seen.stage == TAKE
-    if loose and holding and seen.t - s.since > p.reaction_s:
+    if seen.loose and holding and seen.t - s.since > p.reaction_s:
         s.attempts += 1
         _begin_retry(p, s, grasps, draws, seen.t, True)
         return True
@@ -922,10 +918,10 @@ def decide(p, s, seen, grasps, draws):
     if seen.has_display and follow_display(p, s, seen, grasps, draws):
         return
     action = s.action
-    if p.kind == CATCHING and (action == DESCEND or action == CLOSE or action == SQUEEZE) \
+    if p.approach == INTERCEPT_IT and (action == DESCEND or action == CLOSE or action == SQUEEZE) \
             and _ride(p, s, seen, grasps, draws):
         return
-    if p.kind == SENDING and (action == OPEN or action == RETREAT):
+    if p.then == PUSH_IT and (action == OPEN or action == RETREAT):
         _coast(s, seen)
     if action == WAIT:
         wait(p, s, seen, grasps, draws)

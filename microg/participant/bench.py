@@ -20,13 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
+from microg.hands.filter import FILTER_WINDOW
 from microg.hands.guard import GuardConfig
-from microg.hands.tracking import Tracking
 from microg.paths import object_file
 from microg.skeleton import HandFrame
 from microg.sim import (INTERACTION_MODELS, PlacedObject, TableParameters, World, compose_scene, load_object,
                         make_world)
-from microg.task import TaskRules, TaskState, play
+from microg.task import KINDS, Lanes, TaskRules, play
 from .participant import SimulatedParticipant
 from .plan import TaskPlan
 
@@ -92,10 +92,13 @@ def run_once(participant: SimulatedParticipant, interaction: str) -> BenchRun:
     plan = participant.plan
     world = bench_world(plan, interaction)
     source = _Timed(participant)
-    tracked = Tracking(source, GuardConfig(nominal_rate=world.model.scene.tracking_rate))
-    state, frames, began = TaskState(), 0, time.perf_counter()
-    for moment in play(world, tracked, plan.rules):
-        state, frames = moment.state, frames + 1
+    lanes = Lanes(KINDS[plan.rules.kind], world, 1, guard=GuardConfig(nominal_rate=world.model.scene.tracking_rate),
+                  window=FILTER_WINDOW)
+    lanes.load(0, world, plan.rules)
+    frames, began = 0, time.perf_counter()
+    for moments in play(lanes, source):
+        frames += len(moments)
+    state = lanes.state(0)
     spent = time.perf_counter() - began
     completion = state.completion_time
     return BenchRun(completion is not None, math.nan if completion is None else completion, state.place,

@@ -2,7 +2,7 @@
 catch, a stop of a spin, a send; a handover with both hands: ``HandingParticipant``).
 
     participant = SimulatedParticipant(plan, "veteran", seed=7)
-    for moment in play(world, Tracking(participant), plan.rules):   # microg.task.play
+    for moments in play(lanes, participant):       # microg.task.play: one lane, a Python source
         ...
 
 or, by hand, ``frame = participant.next_frame(observe(world))`` then ``world = step(world, frame)``.
@@ -13,8 +13,8 @@ which phalanges touch it, whether it is grasped, what the task displays), decide
 does (``actions``) and returns a Leap-shaped frame: the intended pose plus physiological tremor
 plus tracking noise. The frame is one compiled call (``step_participant``) on plain records (the
 ``actions.PLAYER`` constants and the ``actions.STATE`` that changes); ``SimulatedParticipant``
-holds them for the ``HandSource`` interface, and an in-silico study steps many participants with
-the same call from compiled code.
+holds them for the ``HandSource`` interface, and ``runner`` plays many participants with the same
+call from compiled code (a session's simulated participant, an in-silico study's).
 
 Reaches, lifts and carries are minimum-jerk movements sized by Fitts' law; the reach follows the
 object if it drifts. Closing stops when the hand grasps the object, then the grip squeezes deeper
@@ -43,10 +43,10 @@ from numba.typed import List
 
 from microg.sim.rotation import quat_from_rotation_vector, quat_multiply
 from microg.skeleton import BONES_PER_HAND, SIDES, HandFrame, side_slots
-from microg.task import Observation
-from microg.task.rules import CATCH, HANDOVER, SEND, STOP_SPIN, TaskRules
-from .actions import (ACTIONS, ALONE, DONE, GIVING, HANDOVER_SIDE, KIND_CODES, LIFT_OFFSET, MAX_PLACES, PLAYER, SEEN,
-                      SKILL, STAGE_CODES, STATE, TAKING_OVER, WAIT_FOR_HAND, decide, pause)
+from microg.task import KINDS, Observation
+from microg.task.kind import APPROACHES, COMPLETED, TAKES, THENS, TIMEOUT, Kind
+from .actions import (ACTIONS, ALONE, DONE, GIVING, HANDOVER_SIDE, LIFT_OFFSET, MAX_PLACES, PLAYER, SEEN, SKILL, STATE,
+                      TAKING_OVER, WAIT_FOR_HAND, decide, pause)
 from .anatomy import CARPALS, KNUCKLES, PHALANGES, REST, pose_joints, posed_hand
 from .grasp import TOWARD_USER, UP, grasps
 from .noise import (NOISE_SIZE, FrameTiming, TrackingNoiseLevels, advance_noise, advance_tremor, frame_interval,
@@ -92,13 +92,15 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
     player["half"] = half
     player["mass"], player["static_friction"] = float(spec.mass), float(spec.material.static_friction)
     player["gravity"] = plan.gravity
-    rules = plan.rules
-    player["kind"], player["toward"] = KIND_CODES.index(rules.kind), squeezed_toward(rules)
-    places = np.asarray(rules.places, dtype=np.float64)
+    kind = KINDS[plan.rules.kind]
+    aims, play = kind.aims(plan.rules), kind.play
+    player["approach"], player["take"] = APPROACHES.index(play.approach), TAKES.index(play.take)
+    player["then"], player["toward"] = THENS.index(play.then), squeezed_toward(aims.path if play.squeeze == "path" else None)
+    places = np.asarray(aims.places, dtype=np.float64)
     player["places"][:len(places)] = places
-    player["n_places"], player["place_radius"], player["hold_s"] = len(places), rules.place_radius, kind_hold_s(rules)
-    if rules.kind == SEND:
-        player["target"], player["arrival_s"] = rules.send.target, rules.send.arrival_s
+    player["n_places"], player["place_radius"], player["hold_s"] = len(places), aims.place_radius, aims.hold_s
+    if aims.target is not None:
+        player["target"], player["arrival_s"] = aims.target, aims.arrival_s
     player["has_release"] = plan.release_position is not None
     if plan.release_position is not None:
         player["release"] = plan.release_position
@@ -120,7 +122,8 @@ def start(plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = 
 def meeting_point(plan: TaskPlan) -> np.ndarray:
     """Where a handover's giving hand offers the object: halfway from its start to the place zone,
     raised by the lift (``actions.LIFT_OFFSET``)."""
-    return (np.asarray(plan.start, dtype=np.float64) + np.asarray(plan.rules.handover.place)) / 2.0 + LIFT_OFFSET
+    zone = KINDS[plan.rules.kind].aims(plan.rules).places[0]
+    return (np.asarray(plan.start, dtype=np.float64) + np.asarray(zone)) / 2.0 + LIFT_OFFSET
 
 
 def handover_hand(plan: TaskPlan, role: int, player, state) -> None:
@@ -128,30 +131,27 @@ def handover_hand(plan: TaskPlan, role: int, player, state) -> None:
     point (its one place); the hand it passes the object to waits beside it, below and out to its
     own side (``actions.HANDOVER_SIDE``), takes the object from below, palm up, squeezing across the
     giving grip, carries it into the place zone and holds it there for the handover's ``hold_s``."""
-    meeting, handover = meeting_point(plan), plan.rules.handover
+    meeting = meeting_point(plan)
     player["role"], player["n_places"] = role, 1
-    if role == GIVING:
-        player["places"][0] = meeting
+    if role == GIVING:  # it aims at the meeting point as at a place of the task table
+        player["places"][0], player["place_radius"], player["hold_s"] = meeting, plan.rules.place_radius, \
+            plan.rules.hold_s
         return
     side = -1.0 if plan.hand == "left" else 1.0
-    player["places"][0], player["place_radius"], player["hold_s"] = handover.place, handover.radius, handover.hold_s
     player["home"] = meeting + HANDOVER_SIDE * np.array([side, 1.0, 1.0])
     player["toward"], player["palm_up"] = (side, 0.0, 0.3), True
     state["action"] = WAIT_FOR_HAND
     state["pose"]["position"] = player["home"]
 
 
-def squeezed_toward(rules: TaskRules) -> np.ndarray:
-    """The direction the grip squeezes most along (``grasp.choose_grasp``): toward the user, or
-    across the object's path (its horizontal normal, on the user's side) for a catch (the launch's)
-    and a send (from the start to the target), so that the object flies in between the thumb and the
-    fingers, or out from between them, and no digit stands in its way."""
-    if rules.kind == CATCH:
-        path = np.asarray(rules.catch.direction, dtype=np.float64)
-    elif rules.kind == SEND:
-        path = np.subtract(rules.send.target, rules.start)
-    else:
+def squeezed_toward(path) -> np.ndarray:
+    """The direction the grip squeezes most along (``grasp.choose_grasp``): toward the user, or across
+    the object's ``path`` (its horizontal normal, on the user's side: a catch's launch, a send's way
+    from the start to the target), so that the object flies in between the thumb and the fingers, or
+    out from between them, and no digit stands in its way."""
+    if path is None:
         return TOWARD_USER
+    path = np.asarray(path, dtype=np.float64)
     across = np.cross(path, UP)
     if np.linalg.norm(across) < 1e-6 * np.linalg.norm(path):  # straight up or down: any side will do
         return TOWARD_USER
@@ -159,17 +159,8 @@ def squeezed_toward(rules: TaskRules) -> np.ndarray:
     return across if across @ TOWARD_USER >= 0 else -across
 
 
-def kind_hold_s(rules: TaskRules) -> float:
-    """The hold the task asks (s): at each place, of a catch, or at rest."""
-    if rules.kind == CATCH:
-        return rules.catch.hold_s
-    if rules.kind == STOP_SPIN:
-        return rules.stop_spin.hold_s
-    return rules.hold_s
-
-
 @njit(cache=True)
-def perceive(p, seen, t, dt, position, orientation, touching, grasped, has_display, stage, place, lit):
+def perceive(p, seen, t, dt, position, orientation, touching, grasped, has_display, over, loose, release, place, lit):
     """What the participant takes in of an observation at its time ``t``, into ``seen``: its own
     phalanges among the 40 slots ``touching``, and the object as its hand holds it (grasped, with
     its own thumb and another of its digits on it)."""
@@ -183,7 +174,8 @@ def perceive(p, seen, t, dt, position, orientation, touching, grasped, has_displ
         thumb = thumb or (on and k < 4)
         fingers = fingers or (on and k >= 4)
     seen.grasped = grasped and thumb and fingers
-    seen.has_display, seen.stage, seen.place, seen.lit = has_display, stage, place, lit
+    seen.has_display, seen.over, seen.loose, seen.release = has_display, over, loose, release
+    seen.place, seen.lit = place, lit
 
 
 @njit(cache=True)
@@ -284,10 +276,11 @@ class SimulatedParticipant:
                  time_limit_s: float = 300.0):
         if not isinstance(plan, TaskPlan):
             raise TypeError(f"plan = {plan!r}: must be a TaskPlan")
-        self.plan = plan
+        self.plan, self.kind = plan, KINDS[plan.rules.kind]
         self.skill = skill_profile(skill) if isinstance(skill, str) else skill
         self.seed = int(seed)
         self.description = f"simulated:{self.skill.name}:seed={self.seed}"
+        self.settings = (timing, noise, time_limit_s)
         self.player, self.state, self._streams, self._grasps = start(plan, self.skill, self.seed, timing, noise,
                                                                      time_limit_s)
         self._seen = np.zeros(1, SEEN)[0]
@@ -302,13 +295,18 @@ class SimulatedParticipant:
         """The next frame, or None once the participant has finished (or run out of time)."""
         if self.closed:
             return None
-        _perceive(self.description, self.player, self._seen, observation, self.plan.hand)
+        _perceive(self.description, self.kind, self.player, self._seen, observation, self.plan.hand)
         joints, palm, orientation = np.empty((5, 5, 3)), np.empty(3), np.empty(4)
         t = step_participant(self.player, self.state, self._seen, self._streams, self._grasps, joints, palm,
                              orientation)
         if math.isnan(t):
             return None
         return HandFrame.made(t, (posed_hand(joints, palm, orientation, self.plan.hand),))
+
+    def load_into(self, players, b: int) -> None:
+        """Play in lane ``b`` of ``players`` (``microg.participant.runner.Players``) from its first
+        frame instead: the same participant, in compiled code."""
+        players.load(b, self.plan, self.skill, self.seed, *self.settings)
 
     def close(self) -> None:
         self.closed = True
@@ -324,14 +322,16 @@ class HandingParticipant:
     def __init__(self, plan: TaskPlan, skill: str | SkillProfile = "veteran", seed: int = 0, *,
                  timing: FrameTiming = MEASURED_TIMING, noise: TrackingNoiseLevels = MEASURED_NOISE,
                  time_limit_s: float = 300.0):
-        if not isinstance(plan, TaskPlan) or plan.rules.kind != HANDOVER:
-            raise TypeError(f"plan = {plan!r}: must be a TaskPlan of a {HANDOVER}")
-        first = plan.rules.handover.first_hand
+        if not isinstance(plan, TaskPlan) or KINDS[plan.rules.kind].play.then != "hand_over":
+            raise TypeError(f"plan = {plan!r}: must be a TaskPlan of a kind played with both hands")
+        self.kind = KINDS[plan.rules.kind]
+        first = self.kind.aims(plan.rules).first_hand
         self.sides = (first, SIDES[1 - SIDES.index(first)])
         self.plans = tuple(replace(plan, hand=side) for side in self.sides)
         self.skill = skill_profile(skill) if isinstance(skill, str) else skill
         self.seed = int(seed)
         self.description = f"simulated:{self.skill.name}:seed={self.seed}"
+        self.plan, self.settings = plan, (timing, noise, time_limit_s)
         self.hands = [start(hand_plan, self.skill, self.seed, timing, noise, time_limit_s, role=role)
                       for hand_plan, role in zip(self.plans, (GIVING, TAKING_OVER))]
         self._seen = [np.zeros(1, SEEN)[0] for _ in self.hands]
@@ -348,7 +348,7 @@ class HandingParticipant:
             return None
         for k, ((player, state, _, _), seen, side) in enumerate(zip(self.hands, self._seen, self.sides)):
             other = self.hands[1 - k][1]
-            _perceive(self.description, player, seen, observation, side)
+            _perceive(self.description, self.kind, player, seen, observation, side)
             seen["other_action"] = other["action"]
             grasped_by = observation.grasped_by
             seen["other_grasped"] = grasped_by is not None and bool(grasped_by[SIDES.index(self.sides[1 - k])])
@@ -361,22 +361,27 @@ class HandingParticipant:
         hands = [posed_hand(*pose, side, track_id=k + 1) for k, (pose, side) in enumerate(zip(out, self.sides))]
         return HandFrame.made(t, tuple(sorted(hands, key=lambda hand: SIDES.index(hand.side))))
 
+    load_into = SimulatedParticipant.load_into
+
     def close(self) -> None:
         self.closed = True
 
 
-def _perceive(description: str, player, seen, observation: Observation | None, side: str) -> None:
+def _perceive(description: str, kind: Kind, player, seen, observation: Observation | None, side: str) -> None:
     """What one hand takes in of the observation of the last frame, into ``seen`` (``perceive``): its
-    own grasp of the object (the physics' per hand, when the observation has it)."""
+    own grasp of the object (the physics' per hand, when the observation has it), what the task's
+    display says of its ``kind``'s stage."""
     if observation is None:
         raise ValueError(f"{description}: a simulated participant is closed-loop; "
                          "next_frame needs the observation of the last frame (microg.task.observe)")
     o, display = observation, observation.display
     touching = np.zeros(2 * BONES_PER_HAND, dtype=np.bool_) if o.touching is None else np.asarray(o.touching)
     grasped = bool(o.grasped) if o.grasped_by is None else bool(o.grasped_by[SIDES.index(side)])
+    stage = kind.stages[kind.index(display.stage)] if display is not None else None
     perceive(player, seen, 0.0, 0.0, np.asarray(o.position, dtype=np.float64),
              np.asarray(o.orientation, dtype=np.float64), touching, grasped, display is not None,
-             STAGE_CODES.index(display.stage) if display is not None else 0,
-             display.place if display is not None else 0, bool(display.lit) if display is not None else False)
+             stage is not None and stage.name in (COMPLETED, TIMEOUT), stage is not None and stage.loose,
+             stage is not None and stage.release, display.place if display is not None else 0,
+             bool(display.lit) if display is not None else False)
     seen["velocity"] = o.velocity
 

@@ -18,12 +18,12 @@ from .observe import (Snapshot, angular_momentum, grasped, highlighted, kinetic_
                       object_states, rendered_phalanges, snapshot, touching)
 from .scene import (EFFECTS, INTERACTION_MODELS, PlacedObject, Scene, TableParameters, compose_scene,  # noqa: E402
                     load_scene, with_interaction)
-from .world import Batch, HandFrames, World, make_batch, make_world, step, step_batch  # noqa: E402
+from .world import Batch, World, make_batch, make_world, stack_frames, step, step_batch  # noqa: E402
 
 __all__ = [
-    "EFFECTS", "INTERACTION_MODELS", "Batch", "HandFrames",
+    "EFFECTS", "INTERACTION_MODELS", "Batch",
     "Material", "ObjectSpec", "PlacedObject", "Scene", "SceneError", "Snapshot", "TableParameters", "World",
     "angular_momentum", "compose_scene", "grasped", "highlighted", "kinetic_energy", "load_object", "load_scene",
-    "make_batch", "make_world", "object_states", "rendered_phalanges", "snapshot", "step",
+    "make_batch", "make_world", "object_states", "rendered_phalanges", "snapshot", "stack_frames", "step",
     "step_batch", "touching", "with_interaction",
 ]

@@ -16,13 +16,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from microg.skeleton import BONES_PER_HAND, N_BONES
+from microg.skeleton import BONES_PER_HAND, N_BONES, SLOTS
 from .rotation import quat_to_matrix
 from .state import CLOCK_FRAME, CLOCK_TIME, COUNT_FRAMES, unpack
 from .vec import add, cell, dot, entry, kernel, mat_vec, rotation, row, scale, set_row
 from .world import World
 
 OPPOSITION = -0.5
+SNAPSHOT = np.dtype([("t", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("velocity", "f8", (3,)),
+                     ("angular_velocity", "f8", (3,)), ("touching", "u1", (SLOTS,)), ("grasped_by", "u1", (2,)),
+                     ("rendered", "f8", (SLOTS, 3))], align=True)
+"""One object of a world after a step as a record (``Snapshot``'s fields), what compiled code reads:
+the task's rules, the simulated participant, the frame log."""
 
 
 class Snapshot(NamedTuple):
@@ -71,19 +76,25 @@ def _snapshot(reals, flags, counts, n, index):
     return t, values, s.active[:, index].copy(), _grasped_by(s.active, s.normal)[:, index].copy()
 
 
-@entry
-def seen_object(reals, flags, counts, n, index, position, orientation, touching):
-    """What a task's rules and a participant see of object ``index`` (its position, orientation and
-    the phalanges touching it, into the arrays given), and returns the time and whether it is
-    grasped: ``_snapshot``'s numbers without the rendered hand, for a loop that steps many worlds."""
+@kernel
+def observe(reals, flags, counts, n, index, out, render):
+    """What the world shows of object ``index`` into ``out`` (a ``SNAPSHOT`` record): the last
+    frame's time, its pose and motion, the phalanges touching it, which hands grasp it and, when
+    ``render``, the rendered phalanges (else left as they were)."""
     s = unpack(reals, flags, counts, n)
+    out.t = s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]
     for i in range(3):
-        position[i] = s.position[index, i]
+        out.position[i], out.velocity[i], out.angular_velocity[i] = s.position[index, i], s.velocity[index, i], \
+            s.angular_velocity[index, i]
     for i in range(4):
-        orientation[i] = s.orientation[index, i]
-    for k in range(touching.shape[0]):
-        touching[k] = s.active[k, index]
-    return (s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]), _grasped(s.active, s.normal)[index]
+        out.orientation[i] = s.orientation[index, i]
+    for k in range(out.touching.shape[0]):
+        out.touching[k] = s.active[k, index]
+    for side in range(2):
+        out.grasped_by[side] = _hand_grasps(s.active, s.normal, side, index)
+    if render:
+        _render(s.valid, s.hand_position, s.active, s.depth, s.anchor, s.radius, s.normal, s.position, s.orientation,
+                out.rendered)
 
 
 def touching(world: World) -> np.ndarray:
@@ -156,10 +167,18 @@ def _rendered_state(reals, flags, counts, n):
 
 @entry
 def _rendered(valid, hand_position, active, depth, anchor, radius, normal, position, orientation):
+    rendered = np.empty((active.shape[0], 3))
+    _render(valid, hand_position, active, depth, anchor, radius, normal, position, orientation, rendered)
+    return rendered
+
+
+@kernel
+def _render(valid, hand_position, active, depth, anchor, radius, normal, position, orientation, rendered):
+    """The rendered phalanges into ``rendered`` (``rendered_phalanges``)."""
     slots, n = active.shape
-    rendered = np.full((slots, 3), np.nan)
     for k in range(slots):
         if not valid[k]:
+            rendered[k, 0] = rendered[k, 1] = rendered[k, 2] = np.nan
             continue
         deepest = -1
         for o in range(n):
@@ -171,7 +190,6 @@ def _rendered(valid, hand_position, active, depth, anchor, radius, normal, posit
         centre = add(cell(anchor, k, deepest), scale(radius[k], cell(normal, k, deepest)))
         turned = mat_vec(rotation(orientation[deepest]), centre)
         set_row(rendered, k, add(row(position, deepest), turned))
-    return rendered
 
 
 def object_states(world: World) -> dict[str, dict[str, np.ndarray]]:

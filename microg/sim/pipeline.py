@@ -1,14 +1,14 @@
 """The physics step, compiled for a scene's effects: one compiled call per frame for a whole batch.
 
-``specialise(effects)`` returns the compiled ``step_worlds``: for each world of a batch it takes the
-hand frame (``hand_path.take_hands``), then runs as many physics steps of ``dt`` as fit up to the
-frame's timestamp. A step moves the hand, then runs for each object, with its rotation computed
+``specialise(effects)`` returns the compiled ``step`` of one world: it takes the hand frame
+(``hand_path.take_hands``), then runs as many physics steps of ``dt`` as fit up to the frame's
+timestamp; ``step_worlds`` runs it for each world of a batch. A step moves the hand, then runs for each object, with its rotation computed
 once, the paper's sequence: contacts (Eqs. 2-8), impulses at the onsets (Eqs. 9-15), the friction
 cone (Eqs. 19-20), the penetration springs (Eqs. 16-18), the compliant contacts, gravity, the
 velocity update and the pose update. Objects never touch each other, so one object's step needs
 nothing of another's.
 
-The effects are compile-time constants of ``step_worlds`` (its closure): numba prunes the branches of
+The effects are compile-time constants of ``step`` (its closure): numba prunes the branches of
 the effects a scene does not name before it types the function, so their kernels are not in the
 machine code at all (``tests/sim/test_composition.py`` reads the compiled code to check it).
 The mesh kernels (``mesh_contact``) are compiled in the same way only for a scene with a mesh object.
@@ -30,6 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from .bodies import MESH
+from .compiled import specialised
 from .contact import closest_surface_point, detect, sweep
 from .hand_path import move_hand, take_hands
 from .impulse import apply_impulses, spring_onsets
@@ -39,7 +40,7 @@ from .soft_hand import soft_hand_forces
 from .state import (CLOCK_DRIFT, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS,
                     OBJECT_COUNT, unpack, unpack_mesh, unpack_params)
 from .table import table_contacts
-from .vec import add, cell, entry, kernel, mat_t_vec, norm, rotation, row, scale, sub
+from .vec import add, cell, kernel, mat_t_vec, norm, rotation, row, scale, sub
 
 CONTACT_EFFECTS = frozenset({"impulse", "penetration", "soft_hand"})
 MAX_TURN = 0.1
@@ -137,10 +138,11 @@ def end_step(s, h):
 
 @lru_cache(maxsize=None)
 def specialise(effects: frozenset[str], meshes: bool = False):
-    """The compiled ``step_worlds(params, ints, reals, flags, counts, times, present, track, points, widths)``
-    for exactly these effects (module docstring), and for mesh objects when ``meshes``: only then
-    are the mesh kernels compiled in (the contact kernels get None for the meshes otherwise, see
-    ``contact``); state buffers have a leading world axis."""
+    """The compiled ``step(params, ints, reals, flags, counts, frame)`` of one world to one hand
+    frame (a ``microg.skeleton.HANDS`` record) for exactly these effects (module docstring), and
+    for mesh objects when ``meshes``: only then are the mesh kernels compiled in (the contact
+    kernels get None for the meshes otherwise, see ``contact``). A kernel: compiled into its
+    callers (the frame path, ``step_worlds``)."""
     contacts = bool(effects & CONTACT_EFFECTS)
     swept = "continuous_collision" in effects
     anchored = "soft_hand" not in effects
@@ -153,56 +155,68 @@ def specialise(effects: frozenset[str], meshes: bool = False):
     table = "table" in effects
     gyroscopic = "gyroscopic" in effects
 
-    @entry
-    def step_worlds(params, ints, reals, flags, counts, times, present, track, points, widths):
+    @kernel
+    def step(params, ints, reals, flags, counts, frame):
         n = ints[OBJECT_COUNT]
         p = unpack_params(params, ints, n)
+        mesh = unpack_mesh(params, ints, n) if meshes else None
         # the contact springs a step is cut for: a model's without the impulse phase (the baselines)
         springs = p.soft_stiffness if soft_hand else p.penetration_stiffness if penetration and not impulse else 0.0
-        if meshes:
-            mesh = unpack_mesh(params, ints, n)
-        else:
-            mesh = None
         wrench, stiffness, damping = np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6))
-        for world in range(reals.shape[0]):
-            s = unpack(reals[world], flags[world], counts[world], n)
-            interval = start_frame(s, times[world])
-            take_hands(s, present[world], track[world], points[world], widths[world], interval)
-            due = steps_due(s, p.dt)
-            while s.counter[COUNT_STEPS] < due:
-                parts = parts_of_step(p, s, p.dt, springs)
-                h = p.dt / parts
-                for _ in range(parts):
-                    move_hand(s, s.clock[CLOCK_PREVIOUS_FRAME], s.clock[CLOCK_FRAME], s.clock[CLOCK_TIME], h)
-                    for o in range(n):
-                        rot = rotation(s.orientation[o])
-                        if contacts:
-                            if swept:
-                                sweep(p, s, o, rot, mesh)
-                            detect(p, s, o, rot, anchored, mesh)
-                        if impulse:
-                            if apply_impulses(p, s, o, rot, penetration, h):
-                                rot = rotation(s.orientation[o])
-                        elif penetration:
-                            if spring_onsets(p, s, o, rot, h):
-                                rot = rotation(s.orientation[o])
-                        if cone:
-                            friction_cone(p, s, o, rot, mesh)
-                        if penetration:
-                            penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh, not impulse)
-                        if soft_hand:
-                            soft_hand_forces(p, s, o, rot, friction, wrench, stiffness, damping, h)
-                        if gravity:
-                            add_gravity(p, o, wrench)
-                        if table:
-                            table_contacts(p, s, o, rot, wrench, stiffness, damping, h, mesh)
-                        update_velocity(p, s, o, rot, wrench, stiffness, damping, h)
-                        update_position(s, o, h)
-                        if gyroscopic:
-                            rotate_free(p, s, o, h)
-                        else:
-                            rotate_constant(s, o, h)
-                    end_part(s, h)
-                end_step(s, p.dt)
+        s = unpack(reals, flags, counts, n)
+        interval = start_frame(s, frame.t)
+        take_hands(s, frame.present, frame.track_id, frame.points, frame.widths, interval)  # phalanges (3.2)
+        due = steps_due(s, p.dt)
+        while s.counter[COUNT_STEPS] < due:
+            parts = parts_of_step(p, s, p.dt, springs)
+            h = p.dt / parts
+            for _ in range(parts):
+                move_hand(s, s.clock[CLOCK_PREVIOUS_FRAME], s.clock[CLOCK_FRAME], s.clock[CLOCK_TIME], h)
+                for o in range(n):
+                    rot = rotation(s.orientation[o])
+                    if contacts:
+                        if swept:
+                            sweep(p, s, o, rot, mesh)                        # continuous collision
+                        detect(p, s, o, rot, anchored, mesh)                 # contacts, Eqs. 2-8
+                    if impulse:
+                        if apply_impulses(p, s, o, rot, penetration, h):     # impulse phase, Eqs. 9-15
+                            rot = rotation(s.orientation[o])
+                    elif penetration:
+                        if spring_onsets(p, s, o, rot, h):
+                            rot = rotation(s.orientation[o])
+                    if cone:
+                        friction_cone(p, s, o, rot, mesh)                    # friction cone, Eqs. 19-20
+                    if penetration:
+                        penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh,
+                                           not impulse)                      # penetration phase, Eqs. 16-18
+                    if soft_hand:
+                        soft_hand_forces(p, s, o, rot, friction, wrench, stiffness, damping, h)
+                    if gravity:
+                        add_gravity(p, o, wrench)
+                    if table:
+                        table_contacts(p, s, o, rot, wrench, stiffness, damping, h, mesh)
+                    update_velocity(p, s, o, rot, wrench, stiffness, damping, h)
+                    update_position(s, o, h)
+                    if gyroscopic:
+                        rotate_free(p, s, o, h)
+                    else:
+                        rotate_constant(s, o, h)
+                end_part(s, h)
+            end_step(s, p.dt)
 
-    return step_worlds
+    return step
+
+
+_STEP_WORLDS = """
+def {name}(params, ints, reals, flags, counts, frames):
+    for world in range(reals.shape[0]):
+        {step}(params, ints, reals[world], flags[world], counts[world], frames[world])
+"""
+
+
+@lru_cache(maxsize=None)
+def step_worlds(effects: frozenset[str], meshes: bool = False):
+    """The compiled ``step_worlds(params, ints, reals, flags, counts, frames)``: ``specialise``'s step
+    for each world of a batch (buffers with a leading world axis, one ``HANDS`` record each)."""
+    key = "_".join(sorted(effects)) + ("_meshes" if meshes else "")
+    return specialised(_STEP_WORLDS, f"step_worlds_{key}", {"step": specialise(effects, meshes)}, __file__, globals())

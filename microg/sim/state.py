@@ -19,22 +19,17 @@ and normals in the object's body frame.
 
 from __future__ import annotations
 
-import textwrap
-from collections import namedtuple
 from functools import lru_cache
-from typing import Callable, NamedTuple
+from typing import Callable
 
 import numpy as np
 from numba import types
-from numba.core import cgutils
 from numba.experimental import structref
-from numba.extending import intrinsic
-from numba.np.arrayobj import make_array, populate_array
 
-from microg.skeleton import SLOTS
+from microg.skeleton import POINTS  # noqa: F401  (a frame's points per side, as the physics reads them)
 from .bodies import SHAPES
+from .compiled import StructType, array_type, kernel, places, tail, views, where
 from .scene import ANGULAR_INTEGRATORS
-from .vec import kernel
 
 CLOCK_TIME, CLOCK_START, CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_DRIFT = 0, 1, 2, 3, 4
 """Indices into ``clock``: simulated time, time of the first frame, of this frame, of the frame before,
@@ -43,8 +38,6 @@ first): the sweep takes the objects back by it (s). ``clock`` opens ``reals``, s
 buffer too."""
 COUNT_STEPS, COUNT_FRAMES = 0, 1
 """Indices into ``counter``: physics steps taken, hand frames taken; ``counter`` opens ``counts``."""
-POINTS = 26
-"""A hand's palm and 25 joints: what a frame gives the physics per side (``world.HandFrames``)."""
 
 REALS, FLAGS, COUNTS = 0, 1, 2
 FIELDS: tuple[tuple[str, int, tuple], ...] = (
@@ -107,45 +100,6 @@ buffer, shape (N: objects), and where ``make_model`` takes it from: a function o
 ``ObjectSpec`` (shape N, ...) or of the ``Scene``. A new parameter is one line here and its use."""
 
 
-class Place(NamedTuple):
-    """Where a field lies in its buffer for n objects: from ``start + n * start_per_object``, with
-    extents ``extent[i] + n * extent_per_object[i]`` (linear in n: a shape names N at most once);
-    the extents past a field's dimensions are 1 and 0."""
-
-    buffer: int
-    start: int
-    start_per_object: int
-    extent: tuple[int, int, int]
-    extent_per_object: tuple[int, int, int]
-
-
-def size(place: Place) -> tuple[int, int]:
-    """A field's number of entries as (fixed, per object): it holds fixed + n * per_object."""
-    entries = int(np.prod([e for e, p in zip(place.extent, place.extent_per_object) if not p]))
-    return (0, entries) if any(place.extent_per_object) else (entries, 0)
-
-
-def places(declaration, opening: tuple[int, ...]):
-    """The ``Place`` of every declared field, laid out in declaration order in its buffer after the
-    ``opening`` entries of each; a named tuple by field name."""
-    start = [(first, 0) for first in opening]
-    laid = {}
-    for name, buffer, shape, *_ in declaration:
-        extent = tuple(0 if d == "N" else SLOTS if d == "K" else d for d in shape) + (1,) * (3 - len(shape))
-        per_object = tuple(1 if d == "N" else 0 for d in shape) + (0,) * (3 - len(shape))
-        laid[name] = place = Place(buffer, *start[buffer], extent, per_object)
-        fixed, by_object = size(place)
-        start[buffer] = (start[buffer][0] + fixed, start[buffer][1] + by_object)
-    return namedtuple("Places", laid)(**laid)
-
-
-def tail(laid, buffer: int) -> Place:
-    """The empty place just past the last field of ``buffer``: where what follows them starts."""
-    last = [place for place in laid if place.buffer == buffer][-1]
-    fixed, by_object = size(last)
-    return Place(buffer, last.start + fixed, last.start_per_object + by_object, (0, 1, 1), (0, 0, 0))
-
-
 PLACES = places(FIELDS, opening=(0, 0, 0))
 PARAMETER_PLACES = places(PARAMETERS, opening=(0, 1))
 """The model's places: its reals start with the parameters, its ints with the number of objects
@@ -154,96 +108,17 @@ MESH_REALS, MESH_INTS = tail(PARAMETER_PLACES, MODEL_REALS), tail(PARAMETER_PLAC
 """Where the model's buffers' mesh tails start (``unpack_mesh``)."""
 
 
-def where(place: Place, n_objects: int, dimensions: int) -> tuple[int, int, tuple[int, ...]]:
-    """A field's start, stop and shape in its buffer for ``n_objects`` objects."""
-    start = place.start + n_objects * place.start_per_object
-    shape = tuple(e + n_objects * p for e, p in zip(place.extent, place.extent_per_object))[:dimensions]
-    return start, start + int(np.prod(shape)), shape
-
-
-def _array(dtype, ndim: int):
-    return types.Array(dtype, ndim, "C")
-
-
-@structref.register
-class StructType(types.StructRef):
-    """Named fields passed by reference (a numba StructRef): what the kernels get as the state and the
-    model's numbers. A kernel's signature is one pointer however many fields there are; a named tuple
-    of 26 arrays would be passed, and compiled, field by field (it made the step three times slower
-    to compile)."""
-
-    def preprocess_fields(self, fields):
-        return tuple((name, types.unliteral(typ)) for name, typ in fields)
-
-
-STATE = StructType([(name, _array({REALS: types.float64, FLAGS: types.bool_, COUNTS: types.int64}[buffer],
-                                  len(shape))) for name, buffer, shape in FIELDS])
-PARAMS = StructType([(name, _array(dtype, len(shape)) if shape else dtype)
+STATE = StructType([(name, array_type({REALS: types.float64, FLAGS: types.bool_, COUNTS: types.int64}[buffer],
+                                      len(shape))) for name, buffer, shape in FIELDS])
+"""What the kernels read of a world's state (``world.Data``)."""
+PARAMS = StructType([(name, array_type(dtype, len(shape)) if shape else dtype)
                      for name, buffer, shape, _ in PARAMETERS
                      for dtype in ({MODEL_REALS: types.float64, MODEL_INTS: types.int64}[buffer],)])
 """What the kernels read of the model (``world.Model``)."""
 
-
-def _span(place: Place, dimensions: int) -> tuple[str, str]:
-    """A field's start and shape for n objects as source text: ``5``, ``(n, 3)`` (``(5,)``)."""
-    fixed, per_object = place.start, place.start_per_object
-    start = " + ".join([str(fixed)] * bool(fixed or not per_object)
-                       + [f"{per_object} * n" if per_object > 1 else "n"] * bool(per_object))
-    extents = ["n" if p else str(e) for e, p in zip(place.extent, place.extent_per_object)][:dimensions]
-    return start, f"({', '.join(extents)}{',' * (dimensions == 1)})"
-
-
-@intrinsic
-def borrow(typingctx, buffer, start, shape):
-    """``buffer[start:start + prod(shape)]`` as a C-contiguous view of ``shape`` that holds no
-    reference to its memory (its meminfo is null): what ``unpack`` makes its fields of. A field is
-    read in every kernel of every step, and a counted view pays an atomic increment and decrement on
-    each read (an in-silico study ran 20 % faster without them); made in place, it needs neither a
-    slice nor a reshape, which each frame's ``unpack`` would otherwise pay for every field. Safe
-    because a state lives only inside the compiled call whose arguments own its buffers (laid out by
-    ``layout``, so every field fits); nothing returns a field to Python without copying it."""
-    ndim = len(shape)
-    view_type = types.Array(buffer.dtype, ndim, "C")
-
-    def codegen(context, builder, signature, args):
-        source = make_array(buffer)(context, builder, value=args[0])
-        extents = cgutils.unpack_tuple(builder, args[2], ndim)
-        strides, step = [], source.itemsize
-        for extent in reversed(extents):  # C order: the last axis is contiguous
-            strides.insert(0, step)
-            step = builder.mul(step, extent)
-        view = make_array(view_type)(context, builder)
-        populate_array(view, data=builder.gep(source.data, [args[1]]), shape=extents, strides=strides,
-                       itemsize=source.itemsize, meminfo=None)
-        return view._getvalue()
-
-    return view_type(buffer, start, shape), codegen
-
-
-def views(name: str, struct: str, declaration, laid, buffers: tuple[str, ...], doc: str):
-    """The kernel ``name(*buffers, n)`` that gives the ``declaration``'s fields as a ``struct`` of
-    views into the buffers (the number, for a field of shape ()), made from their places ``laid``:
-    one line a field, ``s.position = borrow(reals, 5, (n, 3))``, and no offset written by
-    hand. The source is compiled as code of this file, in its namespace, so numba caches the kernel
-    like any other (across processes: checked with ``NUMBA_DEBUG_CACHE=1``), and it compiles to what
-    a hand-written one would: the cold start did not grow (written as calls of view helpers instead,
-    it grew by about 1 s in 20). The kernel's docstring shows its source."""
-    lines = [f"def {name}({', '.join(buffers)}, n):", f"    s = structref.new({struct})"]
-    for field, buffer, shape, *_ in declaration:
-        start, extents = _span(getattr(laid, field), len(shape))
-        lines.append(f"    s.{field} = " + (f"{buffers[buffer]}[{start}]" if not shape else
-                                           f"borrow({buffers[buffer]}, {start}, {extents})"))
-    source = "\n".join(lines + ["    return s"])
-    namespace = {}
-    exec(compile(source, __file__, "exec"), globals(), namespace)
-    function = namespace[name]
-    function.__module__, function.__doc__ = __name__, f"{doc}\n\n{textwrap.indent(source, '    ')}"
-    return kernel(function)
-
-
-unpack = views("unpack", "STATE", FIELDS, PLACES, ("reals", "flags", "counts"),
+unpack = views("unpack", STATE, FIELDS, PLACES, ("reals", "flags", "counts"),
                "One world's buffers as a ``STATE`` of views, at their ``PLACES``:")
-unpack_params = views("unpack_params", "PARAMS", PARAMETERS, PARAMETER_PLACES, ("reals", "ints"),
+unpack_params = views("unpack_params", PARAMS, PARAMETERS, PARAMETER_PLACES, ("reals", "ints"),
                       "The model's buffers as ``PARAMS`` (arrays are views), at their ``PARAMETER_PLACES``:")
 
 
@@ -295,9 +170,9 @@ def parameter(reals: np.ndarray, ints: np.ndarray, name: str) -> np.ndarray | fl
     return values[start:stop].reshape(shape_here) if shape else values[start].item()
 
 
-MESH = StructType([(name, _array(types.int64, 2)) for name in ("object_parts", "object_corners", "part_faces",
-                                                               "face_edges")]
-                  + [(name, _array(types.float64, 2)) for name in ("planes", "edges", "corners")])
+MESH = StructType([(name, array_type(types.int64, 2)) for name in ("object_parts", "object_corners", "part_faces",
+                                                                   "face_edges")]
+                  + [(name, array_type(types.float64, 2)) for name in ("planes", "edges", "corners")])
 """The convex parts of a scene's mesh objects (``mesh.pack_meshes``): [first, stop) ranges per
 object (its parts, its corners), per part (its faces) and per face (its edges); the face planes
 (n, d), the edges (start, end, in-plane outward normal m, seam flag) and the corners."""
@@ -324,3 +199,15 @@ def unpack_mesh(reals, ints, n):
     r += 10 * edges
     m.corners = reals[r:r + 3 * corners].reshape((corners, 3))
     return m
+
+
+@kernel
+def set_motion(reals, flags, counts, n, index, motion):
+    """Put object ``index`` at ``motion``: its position, orientation, velocity and angular velocity
+    (13 numbers), e.g. back at its start."""
+    s = unpack(reals, flags, counts, n)
+    for i in range(3):
+        s.position[index, i], s.velocity[index, i], s.angular_velocity[index, i] = motion[i], motion[7 + i], \
+            motion[10 + i]
+    for i in range(4):
+        s.orientation[index, i] = motion[3 + i]

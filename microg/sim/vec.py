@@ -9,43 +9,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-from numba.core.registry import CPUDispatcher
-
-entry = njit(cache=True, error_model="numpy", no_cfunc_wrapper=True)
-"""A compiled entry point (called from Python): cached on disk, numpy's float semantics (x / 0 is
-inf, not an error). No C-callable wrapper (nothing takes its address)."""
-
-
-class Kernel(CPUDispatcher):
-    """A compiled physics function, called from compiled code: numba links its code into the
-    caller's. It is compiled without the wrappers that let Python (and C) call it, which are a
-    third of what compiling a small kernel costs; a call from Python (a test, a tool) goes to a
-    twin compiled with them, not cached on disk (numba's cache index would not tell the two apart)."""
-
-    def __call__(self, *args, **kwargs):
-        twin = self.__dict__.get("_python_twin")
-        if twin is None:
-            twin = self._python_twin = njit(error_model="numpy")(self.py_func)
-        return twin(*args, **kwargs)
-
-    def __repr__(self) -> str:
-        return f"CPUDispatcher({self.py_func})"  # what numba's typed code shows for any compiled function
-
-
-def kernel(func):
-    """A ``Kernel``: cached on disk, numpy's float semantics. Each is compiled on its own
-    (numba-level inlining makes a step this size several times slower to compile) and marked for
-    LLVM to inline (``forceinline``): numba prunes the reference counts of a kernel's arguments (the
-    state, the model, the wrench) only within one function, so a kernel left as a call pays an
-    atomic increment and decrement for each of them on every call, several times a substep (an
-    in-silico study took 15 % more CPU time so)."""
-    compiled = Kernel(py_func=func, locals={}, targetoptions={
-        "nopython": True, "boundscheck": None, "error_model": "numpy", "no_cpython_wrapper": True,
-        "no_cfunc_wrapper": True, "forceinline": True})
-    compiled.enable_caching()
-    return compiled
-
+from .compiled import entry, kernel  # noqa: F401  (the kernels' decorators, used by every physics module)
 
 @kernel
 def row(a, i):

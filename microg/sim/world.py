@@ -4,7 +4,7 @@
     world = step(world, hand_frame)
 
     batch = make_batch(scene, 256)                 # 256 independent worlds of one scene
-    batch = step_batch(batch, frames)              # frames: 256 HandFrames, or HandFrames.stack(...)
+    batch = step_batch(batch, frames)              # frames: 256 HandFrames, or stack_frames(...)
 
 ``make_world`` validates the scene once and compiles (or loads from the cache) the step for exactly
 the effects the scene names (``pipeline.specialise``). ``step`` takes one hand frame (already
@@ -25,17 +25,18 @@ leading world axis, in one compiled call: world i of the batch follows exactly t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, NamedTuple, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from .bodies import SceneError
-from microg.skeleton import N_BONES, N_DIGITS, SIDES, HandFrame
+from .compiled import attach
+from microg.skeleton import HANDS, HandFrame, hands_record
 from .mesh import pack_meshes
-from .pipeline import specialise
+from .pipeline import specialise, step_worlds
 from .scene import Scene
 from .state import (CLOCK_FRAME, CLOCK_PREVIOUS_FRAME, CLOCK_START, CLOCK_TIME, COUNT_FRAMES, COUNT_STEPS, FIELDS,
-                    PARAMETERS, POINTS, empty_buffers, pack_params, parameter, view)
+                    PARAMETERS, empty_buffers, pack_params, parameter, view)
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,8 +51,10 @@ class Model:
     params: np.ndarray
     """The model's reals (``state.pack_params``)."""
     ints: np.ndarray
+    step: Callable
+    """The compiled step of one world for this scene's effects (``pipeline.specialise``)."""
     step_worlds: Callable
-    """The compiled step for this scene's effects (``pipeline.specialise``)."""
+    """The same for a batch of worlds (``pipeline.step_worlds``)."""
 
     @property
     def n_objects(self) -> int:
@@ -65,23 +68,7 @@ class Model:
             raise KeyError(f"no object named {name!r} in this world (objects: {list(self.names)})") from None
 
 
-class _Kept:
-    """A named part of an instance's buffers (``read(instance, name)``), read on first access and
-    then kept in the instance, which answers every later access directly (each world a step returns
-    makes its own views, a dozen a frame)."""
-
-    def __init__(self, name: str, read: Callable):
-        self.name, self.read = name, read
-
-    def __get__(self, instance, owner: type):
-        if instance is None:
-            return self
-        value = instance.__dict__[self.name] = self.read(instance, self.name)
-        return value
-
-
-for _name, _, _, _ in PARAMETERS:
-    setattr(Model, _name, _Kept(_name, lambda model, name: parameter(model.params, model.ints, name)))
+attach(Model, [name for name, *_ in PARAMETERS], lambda model, name: parameter(model.params, model.ints, name))
 
 
 class Data:
@@ -109,9 +96,8 @@ class Data:
         return Data(self.n_objects, self.reals.copy(), self.flags.copy(), self.counts.copy())
 
 
-for _name, _, _ in FIELDS:
-    setattr(Data, _name, _Kept(_name, lambda data, name: view((data.reals, data.flags, data.counts), data.n_objects,
-                                                               name)))
+attach(Data, [name for name, *_ in FIELDS],
+       lambda data, name: view((data.reals, data.flags, data.counts), data.n_objects, name))
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,7 +116,8 @@ def make_model(scene: Scene) -> Model:
     meshes = pack_meshes([placed.spec.mesh for placed in scene.objects]) if scene.has_meshes else None
     params, ints = pack_params(scene, meshes)
     return Model(scene=scene, names=tuple(placed.spec.name for placed in scene.objects), effects=scene.effects,
-                 params=params, ints=ints, step_worlds=specialise(scene.effects, scene.has_meshes))
+                 params=params, ints=ints, step=specialise(scene.effects, scene.has_meshes),
+                 step_worlds=step_worlds(scene.effects, scene.has_meshes))
 
 
 def initial_data(model: Model) -> Data:
@@ -153,38 +140,13 @@ def make_world(scene: Scene) -> World:
     return World(model, initial_data(model))
 
 
-class HandFrames(NamedTuple):
-    """Hand frames as arrays with a leading world axis: what the compiled step reads (a named tuple:
-    ``step`` makes one every frame).
-
-    ``points`` (B, 2, 26, 3): each side's palm, then its 25 joints digit-major (NaN: unknown);
-    ``widths`` (B, 2, 5, 4); ``present`` (B, 2) and ``track_id`` (B, 2) per side; ``timestamp`` (B,).
-    """
-
-    timestamp: np.ndarray
-    present: np.ndarray
-    track_id: np.ndarray
-    points: np.ndarray
-    widths: np.ndarray
-
-    @classmethod
-    def stack(cls, frames: Sequence[HandFrame]) -> HandFrames:
-        """One frame per world."""
-        count = len(frames)
-        arrays = cls(np.empty(count), np.zeros((count, 2), dtype=np.bool_), np.zeros((count, 2), dtype=np.int64),
-                     np.empty((count, 2, POINTS, 3)), np.empty((count, 2, N_DIGITS, N_BONES)))
-        arrays.points.fill(np.nan)  # np.full's work without its Python (a step stacks one frame each frame)
-        arrays.widths.fill(np.nan)
-        for i, frame in enumerate(frames):
-            arrays.timestamp[i] = frame.timestamp
-            for hand in frame.hands:
-                side = SIDES.index(hand.side)
-                arrays.present[i, side] = True
-                arrays.track_id[i, side] = hand.track_id
-                arrays.points[i, side, 0] = hand.palm_position
-                arrays.points[i, side, 1:] = hand.joints.reshape(-1, 3)
-                arrays.widths[i, side] = hand.widths
-        return arrays
+def stack_frames(frames: Sequence[HandFrame]) -> np.ndarray:
+    """Hand frames as an array of ``microg.skeleton.HANDS`` records, one per world: what the compiled
+    step reads."""
+    stacked = np.zeros(len(frames), HANDS)
+    for i, frame in enumerate(frames):
+        hands_record(frame, stacked[i])
+    return stacked
 
 
 MAX_INTERVAL = 60.0
@@ -204,9 +166,8 @@ def _late(timestamp: float, frame_time: float, frames_seen: int) -> None:
                          "pass frames through the tracking guard (it re-anchors the clock) or start a new world")
 
 
-def _step_worlds(model: Model, buffers, frames: HandFrames) -> None:
-    model.step_worlds(model.params, model.ints, *buffers, frames.timestamp, frames.present, frames.track_id,
-                  frames.points, frames.widths)
+def _step_worlds(model: Model, buffers, frames: np.ndarray) -> None:
+    model.step_worlds(model.params, model.ints, *buffers, frames)
 
 
 def step(world: World, frame: HandFrame) -> World:
@@ -214,7 +175,7 @@ def step(world: World, frame: HandFrame) -> World:
     data = world.data
     _late(frame.timestamp, float(data.reals[CLOCK_FRAME]), int(data.counts[COUNT_FRAMES]))
     buffers = (data.reals[None].copy(), data.flags[None].copy(), data.counts[None].copy())
-    _step_worlds(world.model, buffers, HandFrames.stack((frame,)))
+    _step_worlds(world.model, buffers, stack_frames((frame,)))
     return World(world.model, Data(data.n_objects, buffers[0][0], buffers[1][0], buffers[2][0]))
 
 
@@ -253,18 +214,18 @@ def make_batch(scene_or_worlds: Scene | Sequence[World], size: int | None = None
                  np.stack([w.data.counts for w in worlds]))
 
 
-def step_batch(batch: Batch, frames: HandFrames | Sequence[HandFrame]) -> Batch:
+def step_batch(batch: Batch, frames: np.ndarray | Sequence[HandFrame]) -> Batch:
     """Advance every world of the batch to its own frame's timestamp (one frame per world, in
     order); returns a new Batch and leaves its argument untouched."""
-    if not isinstance(frames, HandFrames):
-        frames = HandFrames.stack(frames)
-    if frames.timestamp.shape != (len(batch),):
-        raise SceneError(f"step_batch: {frames.timestamp.shape[0]} frames for a batch of {len(batch)} worlds")
-    interval = frames.timestamp - batch.reals[:, CLOCK_FRAME]
+    if not isinstance(frames, np.ndarray):
+        frames = stack_frames(frames)
+    if frames.shape != (len(batch),):
+        raise SceneError(f"step_batch: {len(frames)} frames for a batch of {len(batch)} worlds")
+    interval = frames["t"] - batch.reals[:, CLOCK_FRAME]
     wrong = (batch.counts[:, COUNT_FRAMES] > 0) & ((interval <= 0) | (interval > MAX_INTERVAL))
     if wrong.any():
         i = int(np.argmax(wrong))
-        _late(float(frames.timestamp[i]), float(batch.reals[i, CLOCK_FRAME]), 1)
+        _late(float(frames["t"][i]), float(batch.reals[i, CLOCK_FRAME]), 1)
     buffers = (batch.reals.copy(), batch.flags.copy(), batch.counts.copy())
     _step_worlds(batch.model, buffers, frames)
     return Batch(batch.model, *buffers)

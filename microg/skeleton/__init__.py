@@ -15,12 +15,13 @@ from .cache import use_user_cache
 
 use_user_cache()
 
-from .hand import (BONES, BONES_PER_HAND, DIGITS, MAX_BONE_WIDTH, MAX_REACH, MIN_PHALANX_LENGTH,  # noqa: E402
-                   N_BONES, N_DIGITS, SIDES, SLOT_DIGIT, SLOTS, Hand, HandFrame, TrackedFrame, bone_centres, bone_lengths,
-                   displacement, hand_jumped, is_jump, jumped, phalanx_mask, side_slots, slot, slot_name)
+from .hand import (BONES, BONES_PER_HAND, DIGITS, HANDS, MAX_BONE_WIDTH, MAX_REACH, MIN_PHALANX_LENGTH,  # noqa: E402
+                   N_BONES, N_DIGITS, POINTS, SIDES, SLOT_DIGIT, SLOTS, Hand, HandFrame, TrackedFrame, bone_centres,
+                   bone_lengths, displacement, hand_frame, hand_jumped, hands_record, is_jump, jumped, phalanx_mask,
+                   side_slots, slot, slot_name)
 
 __all__ = [
-    "BONES", "BONES_PER_HAND", "DIGITS", "MAX_BONE_WIDTH", "MAX_REACH", "MIN_PHALANX_LENGTH", "N_BONES", "N_DIGITS",
-    "SIDES", "SLOTS", "SLOT_DIGIT", "Hand", "HandFrame", "TrackedFrame", "bone_centres", "bone_lengths", "displacement",
-    "hand_jumped", "is_jump", "jumped", "phalanx_mask", "side_slots", "slot", "slot_name",
+    "BONES", "BONES_PER_HAND", "DIGITS", "HANDS", "MAX_BONE_WIDTH", "MAX_REACH", "MIN_PHALANX_LENGTH", "N_BONES", "N_DIGITS",
+    "POINTS", "SIDES", "SLOTS", "SLOT_DIGIT", "Hand", "HandFrame", "TrackedFrame", "bone_centres", "bone_lengths", "displacement",
+    "hand_frame", "hand_jumped", "hands_record", "is_jump", "jumped", "phalanx_mask", "side_slots", "slot", "slot_name",
 ]

@@ -34,6 +34,8 @@ MAX_REACH = 10.0
 """m: the farthest from the tracker a joint or palm may be (no tracker sees a hand farther away)."""
 MIN_PHALANX_LENGTH = 1e-4
 """Bones shorter than this (m) are not phalanges: the thumb's metacarpal is one."""
+POINTS = 1 + N_DIGITS * (N_BONES + 1)
+"""A hand's palm and its 25 joints: the points a jump is measured on (``Hand.points``)."""
 
 
 def slot(side: str, digit: int, bone: int) -> int:
@@ -271,6 +273,52 @@ class HandFrame:
         return self.timestamp == other.timestamp and self.hands == other.hands
 
     __hash__ = None
+
+
+HANDS = np.dtype([("t", "f8"), ("present", "u1", (2,)), ("track_id", "i8", (2,)),
+                  ("points", "f8", (2, POINTS, 3)), ("widths", "f8", (2, N_DIGITS, N_BONES)),
+                  ("orientation", "f8", (2, 4))], align=True)
+"""A ``HandFrame`` as a record, what compiled code passes along (the tracking guard, the window
+filter, the physics): its time, and per side (``SIDES``) whether a hand is there, its track id, its
+``points`` (palm, then the joints digit-major), its bone widths and its palm orientation. The
+fields of a side without a hand are NaN (its track id 0)."""
+
+
+def hands_record(frame: HandFrame, out=None):
+    """``frame`` as a ``HANDS`` record (written into ``out`` when given)."""
+    out = np.zeros(1, HANDS)[0] if out is None else out
+    out["t"] = frame.timestamp
+    out["present"], out["track_id"] = False, 0
+    out["points"], out["widths"], out["orientation"] = np.nan, np.nan, np.nan
+    for hand in frame.hands:
+        side = SIDES.index(hand.side)
+        out["present"][side], out["track_id"][side] = True, hand.track_id
+        out["points"][side, 0] = hand.palm_position
+        out["points"][side, 1:] = hand.joints.reshape(-1, 3)
+        out["widths"][side], out["orientation"][side] = hand.widths, hand.palm_orientation
+    return out
+
+
+def hand_frame(record) -> HandFrame:
+    """The ``HandFrame`` a ``HANDS`` record holds. Its hands are made unchecked (``Hand.checked_copy``):
+    a record holds what checked hands gave, passed on, bridged or averaged by compiled code."""
+    hands = []
+    for side, name in enumerate(SIDES):
+        if record["present"][side]:
+            points = record["points"][side]
+            hands.append(_unchecked(name, points[1:].reshape(N_DIGITS, N_BONES + 1, 3).copy(),
+                                    record["widths"][side].copy(), points[0].copy(), record["orientation"][side].copy(),
+                                    int(record["track_id"][side])))
+    return HandFrame.made(float(record["t"]), tuple(hands))
+
+
+def _unchecked(side: str, joints, widths, palm_position, palm_orientation, track_id: int) -> Hand:
+    for array in (joints, widths, palm_position, palm_orientation):
+        array.setflags(write=False)
+    hand = object.__new__(Hand)
+    hand.__dict__.update(side=side, joints=joints, widths=widths, palm_position=palm_position,
+                         palm_orientation=palm_orientation, track_id=track_id)
+    return hand
 
 
 class TrackedFrame(NamedTuple):

@@ -1,7 +1,7 @@
 """Tidy tables from the log store: trials, questionnaire answers, scores and frames (CSV, Parquet).
 
 - ``trials``: one row per planned task of every session (its last run decides), with its task
-  kind and the kind's own measures (``microg.task.kinds.MEASURES``; empty for the other kinds);
+  kind and the kind's own measures (``measure_names``; empty for the other kinds);
 - ``questionnaire``: one row per answer to the paper's kind of 0-10 items (the Likert analysis's);
 - ``answers``: one row per answer to every instrument, in the order they were given;
   the three name the station that ran the session (``station``; empty for one run in the study itself);
@@ -35,7 +35,7 @@ from microg.instruments import Instrument, load_instrument
 from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, \
     TRIAL_DTYPES
 from microg.skeleton import HandFrame
-from microg.task.kinds import MEASURES
+from microg.task import KINDS
 
 from . import framelog, ledger
 from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
@@ -84,9 +84,14 @@ def trials_table(store: Store) -> pd.DataFrame:
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
         "station": r["station"], "task_kind": store.protocol.kind(r["phase"]),
-        **{name: measured.get(r["run_id"], {}).get(name) for name in MEASURES},
+        **{name: measured.get(r["run_id"], {}).get(name) for name in measure_names()},
     } for r in rows], columns=TRIAL_COLUMNS)
     return table.astype(TRIAL_DTYPES)
+
+
+def measure_names() -> list[str]:
+    """Every kind's own measures (``microg.task.Kind.measures``), columns of the trials table."""
+    return [measure.name for kind in KINDS.values() for measure in kind.measures]
 
 
 def _measures(store: Store) -> dict[int, dict]:

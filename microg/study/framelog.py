@@ -29,16 +29,15 @@ import pandas as pd
 import pyarrow as pa
 
 from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
-from microg.task import FINAL, MAINTENANCE, MANIPULATION, RELEASE, Moment
-from microg.task import catch, handover, send, stop_spin
+from microg.task import KINDS, Kind, Moments
 
 from .ledger import run_name
 
-STAGES = (MANIPULATION, MAINTENANCE, RELEASE) + FINAL + (catch.APPROACH, catch.CATCH, stop_spin.SPINNING,
-                                                          stop_spin.RESTING, send.PICK_UP, send.CARRY, send.DRIFT,
-                                                          handover.TAKE, handover.PASS, handover.PLACE)
-"""A frame's ``stage`` is stored as its index here (the other kinds' stages after the pick-and-place's,
-whose indices stay as they were)."""
+def stage_names() -> tuple[str, ...]:
+    """A frame's ``stage`` is stored as its index here: every kind's stages, in the registry's order
+    (``microg.task.KINDS``), each name once (so the codes of a study's frames stay as they were when a
+    kind joins the registry)."""
+    return tuple(dict.fromkeys(name for kind in KINDS.values() for name in kind.stage_names))
 JOINTS = N_DIGITS * (N_BONES + 1)
 FRAME = np.dtype([
     ("t", "<f8"), ("stage", "u1"), ("place", "u1"), ("place_lit", "?"), ("place_timer", "<f4"),
@@ -74,49 +73,38 @@ def decode(blob: bytes, count: int) -> np.ndarray:
     return frames
 
 
-def _rows(arrays: list[np.ndarray]) -> np.ndarray:
-    """Arrays of one shape as the rows of one array (``np.stack``'s result at half its cost for
-    the few-number arrays of a frame)."""
-    return np.concatenate(arrays).reshape((len(arrays),) + arrays[0].shape)
-
-
-def frames_of(moments: Sequence[Moment]) -> np.ndarray:
-    """The ``FRAME`` records of a task's moments (``microg.task.Moment``): each frame as the physics
-    received it, the world after it (object 0 and the rendered hands: ``Moment.after``), the task's
-    state, and what the task judged (object 0's contacts, the grasp). Built a field at a time over
-    the batch: one write per field and batch costs less than one per field and frame."""
-    frames = np.zeros(len(moments), dtype=FRAME)
-    for field in HAND_FIELDS:
-        frames[field] = np.nan
-    if not moments:
+def frames_of(moments: Moments) -> np.ndarray:
+    """The ``FRAME`` records of a task's frames (``microg.task.Moments``): each frame as the physics
+    received it, the world after it (object 0 and the rendered hands), the task's state, and what
+    the task judged (object 0's contacts, the grasp); the stage as its code here (``stage_names``)."""
+    records = moments.records
+    frames = np.zeros(len(records), dtype=FRAME)
+    if not len(records):
         return frames
-    frames["t"] = [m.frame.timestamp for m in moments]
-    frames["stage"] = [STAGES.index(m.state.stage) for m in moments]
-    frames["place"] = [m.state.place for m in moments]
-    frames["place_lit"] = [m.state.lit_since is not None for m in moments]
-    frames["place_timer"] = [m.state.place_timer(m.frame.timestamp) for m in moments]
-    frames["grasped"] = [m.observation.grasped for m in moments]
-    frames["held"] = [m.state.held for m in moments]
-    bits = np.packbits(_rows([m.observation.touching for m in moments]), axis=1, bitorder="little")
+    hands, after = records["hands"], records["after"]
+    frames["t"] = hands["t"]
+    frames["stage"] = stage_codes(moments.kind)[records["stage"]]
+    frames["place"], frames["place_lit"], frames["place_timer"] = records["place"], records["lit"], records["timer"]
+    frames["grasped"], frames["held"] = after["grasped_by"].any(axis=1), records["held"]
+    bits = np.packbits(after["touching"].astype(bool), axis=1, bitorder="little")
     frames["touching"] = np.pad(bits, ((0, 0), (0, 8 - bits.shape[1]))).view("<u8")[:, 0]
     for field in ("position", "orientation", "velocity", "angular_velocity"):
-        frames[field] = _rows([getattr(m.after, field) for m in moments])
-    for side, name in enumerate(SIDES):
-        rows, hands = [], []
-        for i, m in enumerate(moments):
-            hand = m.frame.hand(name)
-            if hand is not None:
-                rows.append(i)
-                hands.append(hand)
-        if not rows:
-            continue
-        frames["tracked"][rows, side] = True
-        frames["track_id"][rows, side] = [h.track_id for h in hands]
-        for field in ("joints", "widths", "palm_position", "palm_orientation"):
-            frames[field][rows, side] = _rows([getattr(h, field) for h in hands])
-        rendered = _rows([moments[i].after.rendered for i in rows])
-        frames["rendered"][rows, side] = rendered[:, side_slots(side)]
+        frames[field] = after[field]
+    tracked = hands["present"].astype(bool)
+    frames["tracked"], frames["track_id"] = tracked, np.where(tracked, hands["track_id"], 0)
+    frames["palm_position"], frames["joints"] = hands["points"][:, :, 0], hands["points"][:, :, 1:].reshape(
+        len(records), 2, N_DIGITS, N_BONES + 1, 3)
+    frames["widths"], frames["palm_orientation"] = hands["widths"], hands["orientation"]
+    frames["rendered"] = after["rendered"].reshape(len(records), 2, N_DIGITS * N_BONES, 3)
+    for field in HAND_FIELDS:
+        frames[field][~tracked] = np.nan
     return frames
+
+
+def stage_codes(kind: Kind) -> np.ndarray:
+    """A kind's stages' codes in the frame log (``stage_names``), by their index in the kind."""
+    names = stage_names()
+    return np.array([names.index(name) for name in kind.stage_names], dtype=np.uint8)
 
 
 # ---------------------------------------------------------------- the store's side
@@ -250,7 +238,7 @@ def frame_columns(frames: np.ndarray) -> dict[str, np.ndarray]:
     each side), each a contiguous array: what exports write. NaN where a hand was not tracked."""
     n = len(frames)
     columns: dict[str, np.ndarray] = {
-        "frame": np.arange(n), "t": frames["t"], "stage": np.array(STAGES, dtype=object)[frames["stage"]],
+        "frame": np.arange(n), "t": frames["t"], "stage": np.array(stage_names(), dtype=object)[frames["stage"]],
         "place": frames["place"].astype(np.int64), "place_lit": frames["place_lit"],
         "place_timer": frames["place_timer"].astype(np.float64), "grasped": frames["grasped"],
         "held": frames["held"], "touching": frames["touching"].astype(np.int64)}

@@ -101,22 +101,21 @@ MOCAP_CHANNELS = tuple(
 """(label, unit, type) of each MoCap channel, as XDF's channel meta-data describes them."""
 
 
-def mocap_sample(moment) -> np.ndarray:
-    """One MoCap sample (``MOCAP_CHANNELS``) of a task's frame (``microg.task.Moment``)."""
-    hands = [moment.frame.hand(side) for side in SIDES]
-    rendered, after = moment.after.rendered.reshape(2, -1), moment.after
-    nan = np.full(len(JOINTS) * len(DIGITS) * 3, np.nan)
-    return np.concatenate(
-        [[float(h is not None) for h in hands]]
-        + [nan if h is None else h.joints.ravel() for h in hands]
-        + [np.full(3, np.nan) if h is None else h.palm_position for h in hands]
-        + [np.full(4, np.nan) if h is None else h.palm_orientation for h in hands]
-        + [rendered[0], rendered[1], after.position, after.orientation])
+def mocap_samples(moments) -> np.ndarray:
+    """The MoCap samples (``MOCAP_CHANNELS``) of a task's frames (``microg.task.Moments``), one row each."""
+    records = moments.records
+    hands, after, n = records["hands"], records["after"], len(records)
+    tracked = hands["present"].astype(np.float64)
+    points = np.where(tracked[:, :, None, None] > 0, hands["points"], np.nan)
+    orientation = np.where(tracked[:, :, None] > 0, hands["orientation"], np.nan)
+    return np.hstack([tracked, points[:, 0, 1:].reshape(n, -1), points[:, 1, 1:].reshape(n, -1), points[:, 0, 0],
+                      points[:, 1, 0], orientation[:, 0], orientation[:, 1], after["rendered"].reshape(n, -1),
+                      after["position"], after["orientation"]])
 
 
 class MocapOutlet:
     """An LSL outlet of type ``MoCap`` at the tracking rate: a ``FrameSink`` of the session, one
-    sample per frame's ``Moment``."""
+    sample per frame (``microg.task.Moments``)."""
 
     def __init__(self, rate: float, tags: dict[str, str], name: str = MOCAP_NAME, source_id: str = "microg-mocap"):
         try:
@@ -134,5 +133,5 @@ class MocapOutlet:
         _describe(info, tags)
         self._outlet = pylsl.StreamOutlet(info)
 
-    def take(self, moment) -> None:
-        self._outlet.push_sample(mocap_sample(moment).tolist())
+    def take(self, moments) -> None:
+        self._outlet.push_chunk(mocap_samples(moments).tolist())

@@ -35,11 +35,10 @@ from typing import Protocol as Interface, Sequence
 import numpy as np
 from tqdm import tqdm
 
-from microg.hands.tracking import Tracking
 from microg.participant.plan import TaskPlan
+from microg.participant.runner import Players, run
 from microg.sim import World, make_world
-from microg.task import COMPLETED, Moment, TaskRules, play
-from microg.task.kinds import KIND
+from microg.task import COMPLETED, KINDS, Lanes, Moments, TaskRules, play
 from microg.task.rules import timeout_reason
 
 from . import framelog
@@ -55,7 +54,10 @@ class Clock(Interface):
     def now(self) -> float: ...
 
     def elapse(self, seconds: float) -> None:
-        """Simulated time passed (the runner calls this per frame; a wall clock ignores it)."""
+        """Simulated time passed (a wall clock ignores it)."""
+
+    def elapse_each(self, intervals: np.ndarray) -> np.ndarray:
+        """``elapse`` each of ``intervals`` in turn (a frame's, the runner's); the clock's reading after each."""
 
 
 @dataclass
@@ -76,6 +78,9 @@ class WallClock:
     def elapse(self, seconds: float) -> None:
         pass
 
+    def elapse_each(self, intervals: np.ndarray) -> np.ndarray:
+        return np.full(len(intervals), self.now())
+
 
 @dataclass
 class SimulationClock:
@@ -90,12 +95,12 @@ class SimulationClock:
     def elapse(self, seconds: float) -> None:
         self.t += seconds
 
-    def elapse_frames(self, times) -> None:
-        """``elapse`` each interval between consecutive frame ``times`` in turn, as a session does
-        frame by frame: the same additions in the same order (numpy's accumulate adds left to right),
-        in one pass for the in-silico study's many frames."""
-        if len(times) > 1:
-            self.t = float(np.add.accumulate(np.concatenate(([self.t], np.diff(times))))[-1])
+    def elapse_each(self, intervals: np.ndarray) -> np.ndarray:
+        """Each interval added in turn, as frame after frame (numpy's accumulate adds left to right)."""
+        readings = np.add.accumulate(np.concatenate(([self.t], intervals)))[1:]
+        if len(readings):
+            self.t = float(readings[-1])
+        return readings
 
 
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
@@ -150,9 +155,10 @@ class Unattended:
 
 class FrameSink(Interface):
     """What a frame feeds (the run's log, the participant's page, LSL's MoCap stream, a progress
-    bar): it takes each frame's ``Moment`` as the physics and the task's rules made it."""
+    bar): it takes the frames the physics and the task's rules made (``microg.task.Moments``: one
+    source frame's, or a simulated participant's batch), in order."""
 
-    def take(self, moment: Moment) -> None: ...
+    def take(self, moments: Moments) -> None: ...
 
 
 class Markers(Interface):
@@ -223,18 +229,24 @@ class RunLog:
 
     def __init__(self, log: EventLog, run_id: int, batch: int):
         self.log, self.run_id, self.batch = log, run_id, batch
-        self.logged, self.pending, self.last = 0, [], None
+        self.logged, self.pending, self.last_t = 0, [], None
+        self.frames = 0
+        self.state = None
 
-    def take(self, moment: Moment) -> None:
-        t = moment.frame.timestamp
-        self.log.clock.elapse(0.0 if self.last is None else t - self.last.frame.timestamp)
-        self.last = moment
-        now = self.log.clock.now()
-        self.log.commit([Event(now, e.kind, dict(e.data, frame_t=e.t)) for e in moment.events], self.run_id)
-        self.pending.append(moment)
-        if len(self.pending) == self.batch:
-            self.log.store.add_frames(self.run_id, self.logged, framelog.frames_of(self.pending))
-            self.logged, self.pending = self.logged + self.batch, []
+    def take(self, moments: Moments) -> None:
+        times = moments.records["hands"]["t"]
+        previous = times[0] if self.last_t is None else self.last_t
+        now = self.log.clock.elapse_each(np.diff(np.concatenate(([previous], times))))
+        self.last_t = float(times[-1])
+        for i in np.flatnonzero(moments.records["n_events"]):
+            self.log.commit([Event(float(now[i]), e.kind, dict(e.data, frame_t=e.t))
+                             for e in moments.task_events(int(i))], self.run_id)
+        self.pending.append(framelog.frames_of(moments))
+        self.frames += len(moments)
+        while self.frames - self.logged >= self.batch:
+            waiting = np.concatenate(self.pending)
+            self.log.store.add_frames(self.run_id, self.logged, waiting[:self.batch])
+            self.logged, self.pending = self.logged + self.batch, [waiting[self.batch:]]
 
     def end(self, status: str, *, time_s: float | None, attempts: int | None, reason: str | None,
             events: list[Event] = ()) -> None:
@@ -242,21 +254,23 @@ class RunLog:
         cut off (Ctrl-C, SIGTERM) just as a batch was committed has that batch stored already: only
         what the store does not hold goes in."""
         stored = framelog.count(self.log.store.db, self.run_id)
-        rest = self.pending[stored - self.logged:]
+        waiting = np.concatenate(self.pending) if self.pending else np.zeros(0, framelog.FRAME)
+        rest = waiting[stored - self.logged:]
         self.log.mark(self.log.store.end_run(self.run_id, status, self.log.clock.now(), time_s=time_s,
                                              attempts=attempts, reason=reason, events=list(events),
-                                             frames=(stored, framelog.frames_of(rest))))
+                                             frames=(stored, rest)))
 
 
 class TaskProgress:
     """A ``FrameSink``: the task's frame count and rate on the session's progress bar."""
 
     def __init__(self, bar, label: str):
-        self.bar, self.label, self.frames, self.started = bar, label, 0, time.monotonic()
+        self.bar, self.label, self.frames, self.started, self.shown = bar, label, 0, time.monotonic(), 0
 
-    def take(self, moment: Moment) -> None:
-        self.frames += 1
-        if self.frames % 110 == 0:
+    def take(self, moments: Moments) -> None:
+        self.frames += len(moments)
+        if self.frames - self.shown >= 110:
+            self.shown = self.frames
             rate = self.frames / max(time.monotonic() - self.started, 1e-9)
             self.bar.set_postfix_str(f"{self.label}: {self.frames} frames, {rate:.0f} fps")
 
@@ -265,38 +279,55 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
              rules: TaskRules | None = None, sinks: Sequence[FrameSink] = ()) -> TaskResult:
     """Play one task from ``source`` until it completes, times out or the source ends; log every
     frame and event, and feed every frame to ``sinks``. ``rules``: the protocol's task unless given
-    (a phase's: ``Protocol.rules``). A finished task of a kind with measures of its own logs them
-    as its run's last event but the guard's (``measures``: the kind and each measure).
+    (a phase's: ``Protocol.rules``). A simulated participant that can play in compiled code
+    (``load_into``) plays there, its frames taken a batch at a time. A finished task of a kind with
+    measures of its own logs them as its run's last event but the guard's (``measures``: the kind
+    and each measure).
 
     An exception (or Ctrl-C) ends the run as interrupted, with every frame so far, and goes on up.
     """
     rules = rules or protocol.task
-    run = RunLog(log, run_id, protocol.frame_batch)
-    tracked = Tracking(source, protocol.guard, protocol.filter_window)  # hands: guard, window filter (Eq. 1)
+    kind = KINDS[rules.kind]
+    lanes = Lanes(kind, world, 1, guard=protocol.guard, window=protocol.filter_window, capacity=protocol.frame_batch)
+    lanes.load(0, world, rules)
+    run_log = RunLog(log, run_id, protocol.frame_batch)
+    frames = _played(lanes, source, protocol.frame_batch) if hasattr(source, "load_into") else play(lanes, source)
     try:
-        for moment in play(world, tracked, rules):  # sim: step (Eqs. 2-20); task: stages, respawn
-            run.take(moment)                        # study: the run's events and frames
-            for sink in sinks:                      # view: the participant's page; LSL; progress
-                sink.take(moment)
+        for moments in frames:              # hands: guard, Eq. 1; sim: step (Eqs. 2-20); task: the rules, respawn
+            run_log.take(moments)           # study: the run's events and frames
+            for sink in sinks:              # view: the participant's page; LSL; progress
+                sink.take(moments)
     except BaseException as error:
-        run.end("interrupted", time_s=None, attempts=run.last.state.attempts if run.last else 0,
-                reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
+        run_log.end("interrupted", time_s=None, attempts=int(lanes.tasks[0]["attempts"]),
+                    reason=f"{type(error).__name__}: {error}" if str(error) else type(error).__name__)
         raise
     finally:
-        tracked.close()
-    state = run.last.state if run.last else None
-    if state is not None and state.finished:
+        source.close()
+    state = lanes.state(0)
+    if run_log.frames and state.finished:
         status = state.stage if state.stage == COMPLETED else "timeout"
-        result = TaskResult(status, state.completion_time, state.attempts, run.logged + len(run.pending))
+        result = TaskResult(status, state.completion_time, state.attempts, run_log.frames)
         reason = None if status == COMPLETED else timeout_reason(rules)
     else:
-        result = TaskResult("aborted", None, state.attempts if state else 0, run.logged + len(run.pending))
+        result = TaskResult("aborted", None, state.attempts, run_log.frames)
         reason = f"the hand source ({source.description}) ended before the task did"
-    measured = KIND[rules.kind].measures(state) if state is not None and state.finished else {}
+    measured = kind.measured(state.record) if run_log.frames and state.finished else {}
     ending = [Event(log.clock.now(), "measures", {"kind": rules.kind, **measured})] if measured else []
-    run.end(result.status, time_s=result.time_s, attempts=result.attempts, reason=reason,
-            events=ending + [Event(log.clock.now(), "tracking_guard", tracked.counts.as_dict())])
+    run_log.end(result.status, time_s=result.time_s, attempts=result.attempts, reason=reason,
+                events=ending + [Event(log.clock.now(), "tracking_guard", lanes.counts_of(0).as_dict())])
     return result
+
+
+def _played(lanes: Lanes, source, batch: int):
+    """The frames of a simulated participant playing lane 0 in compiled code (``microg.participant.runner``):
+    a batch at a time, and at once after a frame that made events (the session commits them as they
+    happen)."""
+    players = Players(lanes.kind, 1)
+    source.load_into(players, 0)
+    while not players.ended[0]:
+        run(lanes, players, batch, stop_on_events=True)
+        if lanes.n_frames[0]:
+            yield lanes.taken(0)
 
 
 # ---------------------------------------------------------------- the session

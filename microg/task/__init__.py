@@ -1,22 +1,20 @@
 """The tasks, written once: the pick-and-place (paper, section 4.3) and the kinds microgravity asks for.
 
-    for moment in play(world, tracked, rules):   # one frame each (tracked: microg.hands.tracking)
-        moment.state.stage, moment.events
+    lanes = Lanes(KINDS[rules.kind], world, 1, guard=GuardConfig(), window=3)
+    lanes.load(0, world, rules)
+    for moments in play(lanes, source):     # tracking guard, Eq. 1, the physics, the rules, respawn
+        moments.records["stage"], moments.task_events(0)
 
-``rules`` (the numbers, from a protocol, and the task's kind), ``observation`` (what the task and a
-participant see of the world), the rules of each kind as a pure state machine with what the task
-displays (``stages``: the pick-and-place; ``catch``; ``stop_spin``; ``holding``, the hold they
-share; ``kinds``, which is which), ``respawn`` (a lost object goes back) and ``play`` (the frame
-loop every task runs).
+``kind`` (what a task kind declares), ``kinds`` (the kinds, one module each, and their registry
+``KINDS``), ``rules`` (a protocol's numbers for a task), ``observation`` (what a participant
+sees of the world), ``play`` (one frame's way, compiled once for sessions and in-silico studies).
 """
 
+from .kind import COMPLETED, TIMEOUT, Kind, TaskDisplay, TaskEvent, TaskState
+from .kinds import KINDS, PICK_AND_PLACE, register
 from .observation import Observation, observe
-from .play import Moment, play
-from .respawn import inside_workspace, respawn
-from .rules import KINDS, TaskRules
-from .stages import COMPLETED, FINAL, MAINTENANCE, MANIPULATION, RELEASE, TIMEOUT, TaskDisplay, TaskEvent, TaskState, \
-    advance, displayed
+from .play import MOMENT, Lanes, Moments, frame_path, play
+from .rules import TaskRules
 
-__all__ = ["COMPLETED", "FINAL", "KINDS", "MAINTENANCE", "MANIPULATION", "Moment", "Observation", "RELEASE", "TIMEOUT",
-           "TaskDisplay", "TaskEvent", "TaskRules", "TaskState", "advance", "inside_workspace", "observe", "play",
-           "respawn", "displayed"]
+__all__ = ["COMPLETED", "KINDS", "Kind", "Lanes", "MOMENT", "Moments", "Observation", "PICK_AND_PLACE", "TIMEOUT",
+           "TaskDisplay", "TaskEvent", "TaskRules", "TaskState", "frame_path", "observe", "play", "register"]

@@ -14,7 +14,7 @@ import numpy as np
 from microg.sim import Snapshot, World, snapshot
 
 if TYPE_CHECKING:
-    from .stages import TaskDisplay
+    from .kind import TaskDisplay
 
 
 UPRIGHT = np.array([1.0, 0.0, 0.0, 0.0])

@@ -41,6 +41,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import json
+import math
 import mimetypes
 import queue
 import secrets
@@ -55,7 +56,7 @@ from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Phase, Protocol, Viewpoint
 from microg.study.questionnaire import Answer, Question, RatingError, parse_answer
 from microg.study.store import PlannedTask
-from microg.task import Moment
+from microg.task import Moments
 from microg.task.rules import HANDOVER
 
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
@@ -210,35 +211,35 @@ class ParticipantDisplay:
         self.deliver_events()
         self._publish("timeline", {"kind": "done", "task": task.index, "status": status, "time_s": time_s})
 
-    def take(self, moment: Moment) -> None:
-        """One frame's outcome: the rendered hand with its highlight, the object, the places, the
-        timers; kept as the newest frame (after the phase's added latency: ``due``) and sent to each
-        page as soon as it can take it. With hands from the page, ``read`` is when the page read the
-        newest of them (its own clock)."""
+    def take(self, moments: Moments) -> None:
+        """The newest of a task's frames (``microg.task.Moments``): the rendered hand with its
+        highlight, the object, the places, the timers; kept as the newest frame (after the phase's
+        added latency: ``due``) and sent to each page as soon as it can take it. With hands from the
+        page, ``read`` is when the page read the newest of them (its own clock)."""
         self.deliver_events()
         ready, held_until = now_ms(), time.monotonic() + self._added_s
-        after, state, display = moment.after, moment.state, moment.observation.display
-        rendered = after.rendered
+        record = moments.records[-1]
+        frame, after, display = record["hands"], record["after"], moments.display(len(moments) - 1)
         hands = []
-        for side, name in enumerate(SIDES):
-            hand = moment.frame.hand(name)
-            if hand is None:
+        for side in range(len(SIDES)):
+            if not frame["present"][side]:
                 continue
-            values = HandValues(hand.joints, hand.widths, hand.palm_position, hand.palm_orientation,
-                                rendered[side_slots(side)])
+            points = frame["points"][side]
+            values = HandValues(points[1:].reshape(5, 5, 3), frame["widths"][side], points[0],
+                                frame["orientation"][side], after["rendered"][side_slots(side)])
             bones = rendered_bones(values)
             drawn = bones.drawn
             hands.append({"side": side, "start": np.round(bones.start[drawn], 5).tolist(),
                           "end": np.round(bones.end[drawn], 5).tolist(),
                           "radius": np.round(bones.radius[drawn], 5).tolist(),
-                          "touching": moment.observation.touching[side_slots(side)][drawn].tolist()})
-        t = moment.frame.timestamp
+                          "touching": after["touching"][side_slots(side)].astype(bool)[drawn].tolist()})
+        t, started = float(frame["t"]), float(record["started"])
         message = {"type": "frame", "i": self._frame_version + 1, "t": t, "ready": ready,
-                   "object": np.round(np.concatenate([after.position, after.orientation]), 6).tolist(),
+                   "object": np.round(np.concatenate([after["position"], after["orientation"]]), 6).tolist(),
                    "hands": hands, "stage": display.stage, "place": display.place, "lit": display.lit,
                    "place_timer": round(display.timer_s, 3),
-                   "task_timer": round(t - state.started, 3) if state.started is not None else 0.0,
-                   "attempts": state.attempts, "held": state.held}
+                   "task_timer": round(t - started, 3) if not math.isnan(started) else 0.0,
+                   "attempts": int(record["attempts"]), "held": bool(record["held"])}
         if self.hands is not None:
             message["read"] = self.hands.last_read
         if self._added_s:

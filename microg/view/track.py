@@ -159,7 +159,7 @@ class Track:
         t, place, lit = float(f["t"]), int(f["place"]), bool(f["place_lit"])
         hands = [hand_values(f, side) for side in range(len(SIDES))]
         return FrameScene(
-            t=t - self.start, stage=framelog.STAGES[f["stage"]], place=place, place_lit=lit,
+            t=t - self.start, stage=framelog.stage_names()[f["stage"]], place=place, place_lit=lit,
             place_timer=float(f["place_timer"]), held=bool(f["held"]),
             attempts=bisect.bisect_right(self.attempt_times, t + 1e-9), object_position=f["position"].astype(np.float64),
             object_orientation=f["orientation"].astype(np.float64),
@@ -207,7 +207,7 @@ def key_moments(track: Track, n_places: int, kind: str = PICK_AND_PLACE) -> list
     if kind == SEND and len(held) and held[-1] + 1 < len(frames):
         moments.append(KeyMoment("let go", int(held[-1]) + 1))
     last = len(frames) - 1
-    end = {"completed": DONE[kind], "timeout": "timed out"}.get(framelog.STAGES[frames["stage"][-1]], "last frame")
+    end = {"completed": DONE[kind], "timeout": "timed out"}.get(framelog.stage_names()[frames["stage"][-1]], "last frame")
     if all(m.index != last for m in moments):
         moments.append(KeyMoment(end, last))
     return moments

@@ -117,7 +117,7 @@ def test_a_one_frame_glitch_is_bridged_and_never_reaches_the_world():
     config = GuardConfig(confirm_frames=3)
     guarded = Guarded(ListSource(frames), config)
     out = [guarded.next_frame() for _ in range(5)]
-    assert guarded.guard.state.pending == ()  # nothing waits before the glitch
+    assert guarded.guard.waiting == 0  # nothing waits before the glitch
     out.append(guarded.next_frame())  # reads the glitch, waits, then the next frame decides it
     assert len(guarded.source.frames) == 3  # it read exactly one frame past the glitch
     out += [guarded.next_frame() for _ in range(4)]

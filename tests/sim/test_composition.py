@@ -24,9 +24,9 @@ def compiled_kernels(world) -> set[str]:
     The step's function is compiled afresh (without the disk cache, whose code cannot be read
     back) for the arguments the world passes; numba prunes the branches of unnamed effects before
     typing, so a kernel appears in the typed code exactly when the machine code calls it."""
-    step_worlds = world.model.step_worlds
-    fresh = numba.njit(step_worlds.py_func, error_model="numpy")
-    signature = step_worlds.signatures[0]
+    step = world.model.step
+    fresh = numba.njit(step.py_func, error_model="numpy")
+    signature = step.signatures[0]
     fresh.compile(signature)
     typed = io.StringIO()
     fresh.inspect_types(file=typed, signature=signature)
@@ -41,9 +41,9 @@ MESH_KERNELS = ("mesh_closest_point", "mesh_over_face", "mesh_project", "mesh_se
 def linked_code(world) -> str:
     """The LLVM code of the world's compiled step with every kernel it calls, at any depth (numba
     links each called kernel's code into its caller's), compiled afresh as ``compiled_kernels``."""
-    step_worlds = world.model.step_worlds
-    fresh = numba.njit(step_worlds.py_func, error_model="numpy")
-    signature = step_worlds.signatures[0]
+    step = world.model.step
+    fresh = numba.njit(step.py_func, error_model="numpy")
+    signature = step.signatures[0]
     fresh.compile(signature)
     return fresh.inspect_llvm(signature)
 
@@ -87,7 +87,7 @@ def test_mesh_kernels_are_in_the_compiled_step_only_when_the_scene_has_a_mesh(tm
 
 def test_each_set_of_effects_compiles_once():
     scene = compose_scene([placed("cube")], "soft_hand")
-    assert make_world(scene).model.step_worlds is make_world(scene).model.step_worlds
+    assert make_world(scene).model.step is make_world(scene).model.step
     assert specialise(scene.effects) is not specialise(compose_scene([placed("cube")]).effects)
 
 

@@ -7,10 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from microg.task.catch import APPROACH, CATCH, CatchState, advance, measures
 from microg.task.observation import Observation
 from microg.task.rules import CatchRules, TaskRules
-from microg.task.stages import COMPLETED, TIMEOUT
+from microg.task import COMPLETED, KINDS, TIMEOUT
+
+KIND = KINDS["catch"]
+APPROACH, CATCH = "approach", "catch"
 
 RATE = 100.0
 START = np.array([0.2, 0.2, 0.0])
@@ -39,7 +41,7 @@ def play(grip, seconds: float = 6.0):
     """The catch over ``seconds``: the object flies on its line until the hand takes it, then stays
     where it was taken while ``grip(t, since)`` says (touching, grasped), ``since`` the time it
     reached the hand. Returns the final state and the events."""
-    state, events, caught_at = CatchState(), [], None
+    state, events, caught_at = KIND.start(), [], None
     for k in range(round(seconds * RATE)):
         t = k / RATE
         position = START + SPEED * DIRECTION * t
@@ -50,7 +52,7 @@ def play(grip, seconds: float = 6.0):
             position = START + SPEED * DIRECTION * caught_at
         velocity = np.zeros(3) if caught_at is not None and (touching or grasped) else SPEED * DIRECTION
         obs = Observation(t, grasped, position, touching=TOUCH if touching else NONE, velocity=velocity)
-        state, new = advance(state, obs, RULES)
+        state, new = KIND.advance(state, obs, RULES)
         events += new
     return state, events
 
@@ -60,14 +62,14 @@ def test_a_hand_that_closes_on_the_object_as_it_arrives_catches_it_at_the_time_i
     assert state.stage == COMPLETED and state.attempts == 0
     assert state.time_to_catch == pytest.approx(arrival(), abs=1e-9)
     assert state.completion_time == pytest.approx(arrival() + HOLD_S, abs=1e-9)
-    assert measures(state) == {"time_to_catch_s": state.time_to_catch}
+    assert KIND.measured(state.record) == {"time_to_catch_s": state.time_to_catch}
     assert [e.data["stage"] for e in events if e.kind == "stage"] == [APPROACH, CATCH]
 
 
 def test_a_hand_that_only_touches_never_catches_and_the_touch_is_an_attempt():
     state, events = play(lambda t, since: (t - since < 0.2, False))  # the object bounces off and flies on
     assert state.stage == TIMEOUT and state.completion_time is None and state.attempts == 1
-    assert measures(state) == {"time_to_catch_s": None}
+    assert KIND.measured(state.record) == {"time_to_catch_s": None}
     drops = [e for e in events if e.kind == "drop"]
     assert len(drops) == 1 and drops[0].t == pytest.approx(arrival() + 0.2 + GRACE_S, abs=1e-9)
 

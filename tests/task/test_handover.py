@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from microg.task.handover import PASS, PLACE, TAKE, HandoverState, advance, measures
 from microg.task.observation import Observation
 from microg.task.rules import HandoverRules, TaskRules
-from microg.task.stages import COMPLETED, TIMEOUT
+from microg.task import COMPLETED, KINDS, TIMEOUT
+
+KIND = KINDS["handover"]
+PASS, PLACE, TAKE = "pass", "place", "take"
 
 RATE = 100.0
 SETTLE, GRACE, HOLD = 0.1, 0.25, 1.0
@@ -21,12 +23,12 @@ RULES = TaskRules(start=START, start_orientation=(1.0, 0.0, 0.0, 0.0), places=((
 
 def play(script, seconds: float = RULES.timeout_s + 0.5):
     """Feed ``script(t) -> (left holds, right holds, position)`` at RATE; the final state and events."""
-    state, events = HandoverState(), []
+    state, events = KIND.start(), []
     for k in range(round(seconds * RATE)):
         t = k / RATE
         left, right, position = script(t)
         observation = Observation(t, left or right, position, grasped_by=np.array([left, right]))
-        state, new = advance(state, observation, RULES)
+        state, new = KIND.advance(state, observation, RULES)
         events += new
         if state.finished:
             break
@@ -54,7 +56,7 @@ def test_a_handover_done_right_completes_with_its_transfer_and_both_held_times()
     # completed once held alone in the place for HOLD
     assert state.completion_time == pytest.approx(IN_PLACE + HOLD, abs=1e-9)
     assert [e.data["stage"] for e in events if e.kind == "stage"] == [TAKE, PASS, PLACE]
-    assert measures(state) == {"transfer_time_s": state.transfer_time, "both_held_s": state.both_held}
+    assert KIND.measured(state.record) == {"transfer_time_s": state.transfer_time, "both_held_s": state.both_held}
     assert [e.data["hand"] for e in events if e.kind == "hold"] == ["right", "left"]
 
 
@@ -96,12 +98,11 @@ def test_two_hands_hand_the_cube_over_in_the_physics_and_the_measures_follow_the
     physics reports for each hand; the cube ends held in the zone."""
     from pathlib import Path
 
-    from microg.hands import Tracking
     from microg.study.inputs import participant_plan
     from microg.study.protocol import load_protocol
     from microg.study.session import task_world
     from microg.study.store import PlannedTask
-    from microg.task import play
+    from microg.task import Lanes, play
     from tests.study.scripted import RATE as HANDS_RATE, TwoPinches
 
     frame_s = 1 / HANDS_RATE
@@ -110,10 +111,12 @@ def test_two_hands_hand_the_cube_over_in_the_physics_and_the_measures_follow_the
     plan, world = participant_plan(protocol, task), task_world(protocol, task)
     handover = protocol.task.handover
     source = TwoPinches(np.asarray(plan.start), np.asarray(handover.place), float(plan.object.half_extents[0]))
-    moments = list(play(world, Tracking(source, protocol.guard), plan.rules))
-    state = moments[-1].state
-    t = np.array([m.after.t for m in moments])
-    left, right = np.array([m.after.grasped_by for m in moments]).T
+    lanes = Lanes(KIND, world, 1, guard=protocol.guard, window=protocol.filter_window)
+    lanes.load(0, world, plan.rules)
+    after = np.concatenate([moments.records for moments in play(lanes, source)])["after"]
+    state = lanes.state(0)
+    t = after["t"]
+    left, right = after["grasped_by"].astype(bool).T
     assert state.stage == COMPLETED and state.attempts == 0
     took = t[np.argmax(left)]
     let_go = t[np.flatnonzero(right)[-1] + 1]
@@ -122,7 +125,7 @@ def test_two_hands_hand_the_cube_over_in_the_physics_and_the_measures_follow_the
                                             abs=frame_s + 1e-9)
     held = round(handover.hold_s / frame_s)
     assert left[-held:].all() and not right[-held:].any()
-    assert np.linalg.norm(moments[-1].after.position - np.asarray(handover.place)) <= handover.radius
+    assert np.linalg.norm(after["position"][-1] - np.asarray(handover.place)) <= handover.radius
 
 
 def test_a_toss_within_the_drop_grace_is_a_handover_with_a_negative_transfer_time():

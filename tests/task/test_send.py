@@ -7,8 +7,10 @@ import numpy as np
 
 from microg.task.observation import Observation
 from microg.task.rules import SendRules, TaskRules
-from microg.task.send import CARRY, DRIFT, PICK_UP, SendState, advance, measures
-from microg.task.stages import COMPLETED, TIMEOUT
+from microg.task import COMPLETED, KINDS, TIMEOUT
+
+KIND = KINDS["send"]
+CARRY, DRIFT, PICK_UP = "carry", "drift", "pick_up"
 
 RATE = 100.0
 HELD_AT = np.array([0.0, 0.2, 0.0])
@@ -25,13 +27,13 @@ RULES = TaskRules(start=tuple(HELD_AT), start_orientation=(1.0, 0.0, 0.0, 0.0), 
 def play(velocity, seconds: float = 6.5):
     """The send over ``seconds``: held still at HELD_AT until LET_GO, then drifting at ``velocity``
     from there. Returns the final state and the events."""
-    state, events = SendState(), []
+    state, events = KIND.start(), []
     for k in range(round(seconds * RATE)):
         t = k / RATE
         held = t < LET_GO - 1e-9
         position = HELD_AT if held else HELD_AT + velocity * (t - LET_GO)
         obs = Observation(t, held, position, velocity=np.zeros(3) if held else velocity)
-        state, new = advance(state, obs, RULES)
+        state, new = KIND.advance(state, obs, RULES)
         events += new
         if state.finished:
             break
@@ -52,7 +54,7 @@ def test_a_release_toward_the_target_arrives_with_the_errors_its_line_gives():
     velocity = (TARGET + np.array([0.0, 0.02, 0.0]) - HELD_AT) / 1.5  # 2 cm off centre, a little fast
     state, events = play(velocity)
     assert state.stage == COMPLETED and state.attempts == 0
-    got = measures(state)
+    got = KIND.measured(state.record)
     assert abs(got["send_error_m"] - closest_approach(velocity)) < 1e-9
     assert abs(got["release_speed_error"] - speed_error(velocity)) < 1e-9
     assert 0.015 < got["send_error_m"] < 0.02 and got["release_speed_error"] > 0  # aimed 2 cm off, on a slant
@@ -69,7 +71,7 @@ def test_a_release_beside_the_target_misses_by_its_closest_approach_and_times_ou
     state, events = play(velocity)
     assert state.stage == TIMEOUT and state.attempts == 1
     assert [e.kind for e in events].count("miss") == 1
-    got = measures(state)
+    got = KIND.measured(state.record)
     assert abs(got["send_error_m"] - closest_approach(velocity)) < 1e-9
     assert got["send_error_m"] > RADIUS
     assert abs(got["release_speed_error"] - speed_error(velocity)) < 1e-9
@@ -81,10 +83,10 @@ def test_a_release_away_from_the_target_misses_at_once():
     assert state.stage == TIMEOUT and state.attempts == 1
     miss = next(e for e in events if e.kind == "miss")
     assert miss.t < LET_GO + GRACE_S + 2 / RATE  # as soon as the hold has ended
-    assert abs(measures(state)["send_error_m"] - np.linalg.norm(TARGET - HELD_AT)) < 1e-9  # the release point
+    assert abs(KIND.measured(state.record)["send_error_m"] - np.linalg.norm(TARGET - HELD_AT)) < 1e-9  # the release point
 
 
 def test_a_task_never_released_has_no_send_measures():
     state, _ = play(np.zeros(3), seconds=0.4)
     assert state.stage == CARRY
-    assert measures(state) == {"send_error_m": None, "release_speed_error": None}
+    assert KIND.measured(state.record) == {"send_error_m": None, "release_speed_error": None}

@@ -7,7 +7,10 @@ import math
 import pytest
 
 from microg.task.rules import TaskRules
-from microg.task.stages import COMPLETED, MAINTENANCE, MANIPULATION, RELEASE, TIMEOUT, Observation, TaskState, advance
+from microg.task import COMPLETED, KINDS, TIMEOUT, Observation, TaskState
+
+KIND = KINDS["pick_and_place"]
+MANIPULATION, MAINTENANCE, RELEASE = "manipulation", "maintenance", "release"
 
 RATE = 100.0
 START = (0.0, 0.2, 0.0)
@@ -19,10 +22,10 @@ RULES = TaskRules(start=START, start_orientation=(1.0, 0.0, 0.0, 0.0), places=PL
 
 def play(script, rules=RULES):
     """Feed ``script``: a list of (duration_s, grasped, position); returns final state and events."""
-    state, events, t = TaskState(), [], 0.0
+    state, events, t = KIND.start(), [], 0.0
     for duration, is_grasped, position in script:
         for _ in range(round(duration * RATE)):
-            state, new = advance(state, Observation(t, is_grasped, position), rules)
+            state, new = KIND.advance(state, Observation(t, is_grasped, position), rules)
             events += new
             t = round(t + 1 / RATE, 9)
     return state, events
@@ -108,10 +111,12 @@ def test_a_timeout_ends_the_task_as_not_completed():
 
 def test_nothing_happens_after_the_task_ended():
     state, _ = play(CLEAN)
-    after, events = advance(state, Observation(100.0, True, PLACES[0]), RULES)
+    after, events = KIND.advance(state, Observation(100.0, True, PLACES[0]), RULES)
     assert after == state and events == []
 
 
 def test_the_place_timer_reads_zero_when_dark():
-    assert TaskState().place_timer(3.0) == 0.0
-    assert math.isclose(TaskState(lit_since=1.0).place_timer(3.5), 2.5)
+    assert KIND.start().place_timer(3.0) == 0.0
+    lit = KIND.new_task()
+    lit["lit_since"] = 1.0
+    assert math.isclose(TaskState(KIND, lit).place_timer(3.5), 2.5)

@@ -9,8 +9,10 @@ import pytest
 
 from microg.task.observation import Observation
 from microg.task.rules import StopSpinRules, TaskRules
-from microg.task.stages import COMPLETED, TIMEOUT
-from microg.task.stop_spin import RESTING, SPINNING, StopSpinState, advance, measures
+from microg.task import COMPLETED, KINDS, TIMEOUT
+
+KIND = KINDS["stop_spin"]
+RESTING, SPINNING = "resting", "spinning"
 
 RATE = 100.0
 SPIN, REST_OMEGA, HOLD_S = 4.0, 0.3, 1.0
@@ -33,9 +35,9 @@ def about_x(angle: float) -> np.ndarray:
 
 def play(observe, seconds: float = 6.0):
     """Feed ``observe(t) -> Observation`` at RATE for ``seconds``; the final state and the events."""
-    state, events = StopSpinState(), []
+    state, events = KIND.start(), []
     for k in range(round(seconds * RATE)):
-        state, new = advance(state, observe(k / RATE), RULES)
+        state, new = KIND.advance(state, observe(k / RATE), RULES)
         events += new
     return state, events
 
@@ -58,7 +60,7 @@ def test_a_grip_that_slows_the_spin_brings_it_to_rest_when_the_slowing_says():
     assert state.stage == COMPLETED and not state.flipped and state.attempts == 0
     assert state.time_to_rest == pytest.approx(rest, abs=1e-9)
     assert state.completion_time == pytest.approx(rest + HOLD_S, abs=1e-9)
-    assert measures(state) == {"time_to_rest_s": state.time_to_rest, "flipped": False}
+    assert KIND.measured(state.record) == {"time_to_rest_s": state.time_to_rest, "flipped": False}
     assert [e.data["stage"] for e in events if e.kind == "stage"] == [SPINNING, RESTING]
 
 
@@ -70,7 +72,7 @@ def test_a_stopped_object_let_go_at_rest_in_its_place_stays_stopped():
 def test_a_stopped_object_let_go_drifting_is_not_at_rest_and_the_task_times_out():
     state, events = play(lambda t: slowed(t, release=True, drift=0.05))
     assert state.stage == TIMEOUT and state.time_to_rest is None
-    assert measures(state)["time_to_rest_s"] is None
+    assert KIND.measured(state.record)["time_to_rest_s"] is None
     assert [e.data["stage"] for e in events if e.kind == "stage"][-1] == SPINNING
 
 
@@ -87,7 +89,7 @@ def flipping(t: float) -> Observation:
 
 def test_an_object_that_turns_over_flips_and_never_rests():
     state, events = play(flipping)
-    assert state.stage == TIMEOUT and state.flipped and measures(state)["flipped"] is True
+    assert state.stage == TIMEOUT and state.flipped and KIND.measured(state.record)["flipped"] is True
     # its own spin axis is R^T y: at an angle equal to the turn; past 90 degrees at FLIP_S / 2
     flip = next(e for e in events if e.kind == "flip")
     assert flip.t == pytest.approx(math.floor(FLIP_S / 2 * RATE + 1e-9) / RATE + 1 / RATE, abs=1e-9)
@@ -147,11 +149,11 @@ def free_tumble(name: str, seconds: float):
     rules = dataclasses.replace(protocol.rules("stopping"), timeout_s=seconds)
     world = task_world(protocol, PlannedTask(0, "stopping", "impulse_penetration", name,
                                              protocol.object(name).code, 1))
-    state, events, k = StopSpinState(), [], 0
+    state, events, k = KIND.start(), [], 0
     while not state.finished:
         k += 1
         world = step(world, HandFrame.made(k * FRAME_S, ()))
-        state, new = advance(state, seen_in(snapshot(world)), rules)
+        state, new = KIND.advance(state, seen_in(snapshot(world)), rules)
         events += [e._replace(data={**e.data, "physics_t": world.time}) for e in new]
     return state, events, protocol
 
