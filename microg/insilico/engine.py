@@ -175,7 +175,7 @@ def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:
         _load(lanes, players, 0, protocol, unit)
         from microg.participant.runner import runner
 
-        runner(lanes.kind, lanes.effects, lanes.meshes, lanes.record).compile(
+        runner(lanes.kind, lanes.effects, lanes.meshes).compile(
             _signature(lanes.arrays(), players.arrays()))
 
 

@@ -153,10 +153,10 @@ def {name}(lanes, players, until, stop_on_events):
 
 
 @lru_cache(maxsize=None)
-def runner(kind: Kind, effects: frozenset[str], meshes: bool, record: bool):
+def runner(kind: Kind, effects: frozenset[str], meshes: bool):
     """The compiled ``run(lanes, players, until, stop_on_events)`` for lanes of a kind's tasks on worlds
     of ``effects`` (module docstring)."""
-    take = frame_path(kind, effects, meshes, record)
+    take = frame_path(kind, effects, meshes)
     name = "run_" + take.py_func.__name__[len("take_"):]
     return specialised(_RUN.replace("{final}", str(kind.index(COMPLETED))), name, {"take": take}, __file__,
                        globals())
@@ -165,5 +165,4 @@ def runner(kind: Kind, effects: frozenset[str], meshes: bool, record: bool):
 def run(lanes: Lanes, players: Players, until: int, stop_on_events: bool = False) -> None:
     """Play ``lanes`` with ``players`` until a lane ends, a lane keeps ``until`` frames, or (with
     ``stop_on_events``) a frame made events."""
-    runner(lanes.kind, lanes.effects, lanes.meshes, lanes.record)(lanes.arrays(), players.arrays(), until,
-                                                                  stop_on_events)
+    runner(lanes.kind, lanes.effects, lanes.meshes)(lanes.arrays(), players.arrays(), until, stop_on_events)

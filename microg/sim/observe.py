@@ -23,11 +23,11 @@ from .vec import add, cell, dot, entry, kernel, mat_vec, rotation, row, scale, s
 from .world import World
 
 OPPOSITION = -0.5
-SNAPSHOT = np.dtype([("t", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("velocity", "f8", (3,)),
+SNAPSHOT = np.dtype([("t", "f8"), ("time", "f8"), ("position", "f8", (3,)), ("orientation", "f8", (4,)), ("velocity", "f8", (3,)),
                      ("angular_velocity", "f8", (3,)), ("touching", "u1", (SLOTS,)), ("grasped_by", "u1", (2,)),
                      ("rendered", "f8", (SLOTS, 3))], align=True)
-"""One object of a world after a step as a record (``Snapshot``'s fields), what compiled code reads:
-the task's rules, the simulated participant, the frame log."""
+"""One object of a world after a step as a record (``Snapshot``'s fields, and the world's simulated
+``time``), what compiled code reads: the task's rules, the simulated participant, the frame log."""
 
 
 class Snapshot(NamedTuple):
@@ -83,6 +83,7 @@ def observe(reals, flags, counts, n, index, out, render):
     ``render``, the rendered phalanges (else left as they were)."""
     s = unpack(reals, flags, counts, n)
     out.t = s.clock[CLOCK_FRAME] if s.counter[COUNT_FRAMES] else s.clock[CLOCK_TIME]
+    out.time = s.clock[CLOCK_TIME]
     for i in range(3):
         out.position[i], out.velocity[i], out.angular_velocity[i] = s.position[index, i], s.velocity[index, i], \
             s.angular_velocity[index, i]

@@ -92,7 +92,7 @@ def note(moment, task, after_t, n):
 _FRAME_PATH = """
 def {name}(lanes, b, frame, ending):
     (config, guards, pending, decided, filters, period, params, ints, reals, flags, counts, tasks, rules, starts,
-     admitted, smoothed, seen, moments, events, times, n_frames) = lanes
+     admitted, smoothed, seen, moments, events, times, n_frames, record) = lanes
     if ending:
         released = finish(guards[b], pending[b], decided[b], admitted[b])
     else:
@@ -103,15 +103,16 @@ def {name}(lanes, b, frame, ending):
         smooth(filters[b], period, admitted[b, r], smoothed[b])
         {step}(params[b], ints[b], reals[b], flags[b], counts[b], smoothed[b])
         n_objects, i = ints[b, {object_count}], n_frames[b]
+        written = events[b, i if record else 0]  # (without a record, only the last frame's events)
         observe(reals[b], flags[b], counts[b], n_objects, 0, seen[b], False)
-        n = {judge}(tasks[b], rules[b], seen[b], events[b, i])
+        n = {judge}(tasks[b], rules[b], seen[b], written)
         if lost(rules[b], tasks[b].held, seen[b].position):
-            n = emit(events[b, i], n, {respawn}, seen[b].t, seen[b].position[0], seen[b].position[1],
+            n = emit(written, n, {respawn}, seen[b].t, seen[b].position[0], seen[b].position[1],
                      seen[b].position[2])
             set_motion(reals[b], flags[b], counts[b], n_objects, 0, starts[b])
             observe(reals[b], flags[b], counts[b], n_objects, 0, seen[b], False)
         times[b, i] = seen[b].t
-        if {record}:
+        if record:
             copy_hands(admitted[b, r], moments[b, i].hands)
             observe(reals[b], flags[b], counts[b], n_objects, 0, moments[b, i].after, True)
             note(moments[b, i], tasks[b], seen[b].t, n)
@@ -121,16 +122,15 @@ def {name}(lanes, b, frame, ending):
 
 
 @lru_cache(maxsize=None)
-def frame_path(kind: Kind, effects: frozenset[str], meshes: bool, record: bool = True):
+def frame_path(kind: Kind, effects: frozenset[str], meshes: bool):
     """The compiled ``take(lanes, b, frame, ending)`` of a kind's task on a world of ``effects`` (module
-    docstring); returns how many frames the guard released. With ``record``, every frame is
-    written whole (``MOMENT``), else its time only (what an in-silico study keeps)."""
+    docstring); returns how many frames the guard released. Lanes that ``record`` write every frame
+    whole (``MOMENT``), others its time only (what an in-silico study keeps)."""
     from microg.sim.pipeline import specialise
 
-    name = "take_" + _key(kind, effects, meshes) + ("_recorded" if record else "")
+    name = "take_" + _key(kind, effects, meshes)
     return specialised(_FRAME_PATH.replace("{final}", str(kind.index(COMPLETED)))
-                       .replace("{respawn}", str(len(kind.events))).replace("{record}", str(record))
-                       .replace("{object_count}", str(OBJECT_COUNT)),
+                       .replace("{respawn}", str(len(kind.events))).replace("{object_count}", str(OBJECT_COUNT)),
                        name, {"step": specialise(effects, meshes), "judge": kind.judge}, __file__, globals())
 
 
@@ -173,13 +173,13 @@ class Lanes:
         self.moments = np.zeros((size, capacity if record else 1), MOMENT)
         self.events = np.zeros((size, capacity if record else 1, MAX_EVENTS), EVENT)
         self.times, self.n_frames = np.zeros((size, capacity)), np.zeros(size, dtype=np.int64)
-        self.take = frame_path(kind, self.effects, self.meshes, record)
+        self.take = frame_path(kind, self.effects, self.meshes)
 
     def arrays(self) -> tuple:
         """The lanes' records and arrays, in the order the compiled frame path takes them."""
         return (self.config, self.guards, self.pending, self.decided, self.filters, self.period, self.params,
                 self.ints, self.reals, self.flags, self.counts, self.tasks, self.rules, self.starts, self.admitted,
-                self.smoothed, self.seen, self.moments, self.events, self.times, self.n_frames)
+                self.smoothed, self.seen, self.moments, self.events, self.times, self.n_frames, self.record)
 
     def load(self, b: int, world: World, rules) -> None:
         """Put a task in lane ``b``: ``world`` (its object at its start, moving as the task starts it)

@@ -37,10 +37,13 @@ def study_trials(folder: Path, protocol, seed: int, batched: bool) -> pd.DataFra
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("protocol", [PROTOCOLS / "tiny.toml", protocol_file("paper")], ids=["tiny", "paper"])
+@pytest.mark.parametrize("protocol", [PROTOCOLS / "tiny.toml", protocol_file("paper"), PROTOCOLS / "kinds-simulated.toml",
+                                      PROTOCOLS / "send.toml", PROTOCOLS / "handover.toml"],
+                         ids=["tiny", "paper", "kinds", "send", "handover"])
 def test_a_batched_in_silico_study_gives_the_trials_table_of_the_logged_sessions(tmp_path, protocol):
-    """The same seeds, the same table: every task's status, completion time, attempts, and its
-    start and end on the session's clock, to the last bit (a left-handed participant among them)."""
+    """One frame path run two ways: the same seeds, the same table. Every task's status, completion
+    time, attempts, its kind's measures, and its start and end on the session's clock, to the last
+    bit (a left-handed participant among them), for every kind of task."""
     sized = sized_protocol(load_protocol(protocol), 2)
     logged = study_trials(tmp_path / "logged", sized, 7, batched=False)
     batched = study_trials(tmp_path / "batched", sized, 7, batched=True)

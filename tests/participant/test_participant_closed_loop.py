@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from microg.hands.guard import GuardConfig
-from microg.hands.tracking import Tracking
+from microg.hands.filter import FILTER_WINDOW
 from microg.participant import BEGINNER, VETERAN, SimulatedParticipant, TaskPlan
 from microg.participant.bench import EARTH, PLACES, START, ZERO_G, bench_plan, bench_rules, \
     bench_world, run_once
 from microg.participant.noise import TrackingNoiseLevels
 from microg.sim import PlacedObject, World, compose_scene, grasped, make_world, step
-from microg.task import COMPLETED, observe, play
+from microg.task import COMPLETED, KINDS, Lanes, observe, play
 
 STILL = TrackingNoiseLevels(palm_position=0.0, palm_rotation=0.0, digit_angle=0.0)
 
@@ -157,6 +157,14 @@ def test_after_a_forced_drop_the_participant_grasps_the_object_again(gravity):
     assert np.linalg.norm(world.data.position[0] - np.asarray(PLACES[0])) <= plan.rules.place_radius
 
 
+def lanes_of(plan, world) -> Lanes:
+    """One lane of the plan's task on ``world``, tracked as a session tracks it."""
+    lanes = Lanes(KINDS[plan.rules.kind], world, 1, guard=GuardConfig(nominal_rate=world.model.scene.tracking_rate),
+                  window=FILTER_WINDOW)
+    lanes.load(0, world, plan.rules)
+    return lanes
+
+
 def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and_stops_when_it_is_over():
     """Through the task loop (``microg.task.play``): the participant counts a place done on the
     frame after the task shows it done (not by its own clock, which runs at least ``hold_margin_s``
@@ -164,20 +172,22 @@ def test_with_the_task_display_the_participant_holds_until_the_task_moves_on_and
     plan = bench_plan("cube", EARTH)
     participant = SimulatedParticipant(plan, "veteran", 2)
     world = bench_world(plan, "impulse_penetration")
-    tracked = Tracking(participant, GuardConfig(nominal_rate=world.model.scene.tracking_rate))
+    lanes = lanes_of(plan, world)
     shown_places, own_places = [], []
-    for moment in play(world, tracked, plan.rules):
+    for moments in play(lanes, participant):
         own_places.append(participant.state["place"])
-        shown_places.append(moment.observation.display.place)
-    assert moment.state.stage == COMPLETED and moment.state.attempts == 0
+        shown_places.append(moments.display(len(moments) - 1).place)
+    state = lanes.state(0)
+    assert state.stage == COMPLETED and state.attempts == 0
     # own_places[i] was decided on the display of frame i - 1.
     for i in range(1, len(own_places)):
         if own_places[i] > own_places[i - 1]:
             assert shown_places[i - 1] == own_places[i] and shown_places[i - 2] < own_places[i]
     assert own_places[-1] == 3
-    assert moment.observation.display.stage == COMPLETED
-    assert participant.next_frame(moment.observation) is not None
-    assert participant.action == "done" and participant.next_frame(moment.observation) is None
+    last = lanes.observation(0)
+    assert last.display.stage == COMPLETED
+    assert participant.next_frame(last) is not None
+    assert participant.action == "done" and participant.next_frame(last) is None
 
 
 @pytest.mark.parametrize("gravity", [ZERO_G, EARTH], ids=["zero_g", "earth"])
@@ -191,11 +201,11 @@ def test_a_grip_that_lapses_drops_the_object_in_its_carry_once_and_the_task_is_d
     for lapse in (0.0, 0.95):
         participant = SimulatedParticipant(plan, dataclasses.replace(VETERAN, grip_lapse=lapse), 2)
         world = bench_world(plan, "impulse_penetration")
-        drops = []
-        for moment in play(world, Tracking(participant, GuardConfig(nominal_rate=world.model.scene.tracking_rate)),
-                           plan.rules):
-            drops += [e.data for e in moment.events if e.kind == "drop"]
-        results[lapse] = moment.state.stage, moment.state.attempts, drops
+        lanes, drops = lanes_of(plan, world), []
+        for moments in play(lanes, participant):
+            drops += [e.data for i in range(len(moments)) for e in moments.task_events(i) if e.kind == "drop"]
+        state = lanes.state(0)
+        results[lapse] = state.stage, state.attempts, drops
     assert results[0.0][:2] == (COMPLETED, 0)
     stage, attempts, drops = results[0.95]
     assert (stage, attempts) == (COMPLETED, 1), results[0.95]

@@ -94,11 +94,11 @@ def test_the_grip_is_sized_for_the_weight_through_the_friction_its_contacts_can_
     a ball pressed at latitude theta only mu cos(theta) - sin(theta) (the rest of each press pushes it
     out of the grip), so the same ball-weight load takes a deeper squeeze; each drop in the task
     raises the grip by ``drop_grip_gain`` of itself (closed form)."""
-    from microg.participant.actions import BELIEVED_STIFFNESS, CATCHING, PLAYER, SEEN, STATE, _squeeze_depth
+    from microg.participant.actions import BELIEVED_STIFFNESS, KEEP_IT, PLAYER, SEEN, STATE, _squeeze_depth
     from microg.participant.grasp import ROUND_LATITUDE
 
     p, s, seen = np.zeros(1, PLAYER)[0], np.zeros(1, STATE)[0], np.zeros(1, SEEN)[0]
-    p["kind"], p["round_object"], p["mass"], p["static_friction"] = CATCHING, round_object, 0.126, 0.8
+    p["then"], p["round_object"], p["mass"], p["static_friction"] = KEEP_IT, round_object, 0.126, 0.8
     p["gravity"], p["grip_safety"], p["stiffness_belief_sd"], p["drop_grip_gain"] = (0.0, -9.81, 0.0), 1.4, 0.0, 0.5
     s["attempts"] = drops
     seen["touching"][[3, 7, 11]] = 1  # the thumb's and two fingers' distal phalanges

@@ -10,15 +10,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from microg.hands import Tracking
 from microg.participant import SimulatedParticipant
-from microg.sim import PlacedObject, compose_scene, grasped, make_world
+from microg.sim import PlacedObject, compose_scene, make_world
 from microg.sim.rotation import quat_to_matrix
 from microg.study.inputs import participant_plan
 from microg.study.protocol import load_protocol
 from microg.study.session import task_world
 from microg.study.store import PlannedTask
-from microg.task import COMPLETED, TIMEOUT, play
+from microg.skeleton import SIDES
+from microg.task import COMPLETED, KINDS, TIMEOUT, Lanes, play
 
 PROTOCOLS = Path(__file__).parents[1] / "study" / "protocols"
 PROTOCOL = load_protocol(PROTOCOLS / "kinds-simulated.toml")
@@ -32,27 +32,27 @@ def plan_and_world(phase: str, protocol=PROTOCOL):
 
 
 def played(plan, world, seed):
-    """The task played by a veteran: its moments and, per frame, the time (and the physics'), the object's position,
-    velocity and angular velocity, the tracked palm and whether the physics had the object grasped."""
+    """The task played by a veteran: its final state, its events and, per frame, the time (and the
+    physics'), the object's position, velocity and angular velocity, the tracked palm and whether the
+    physics had the object grasped."""
     participant = SimulatedParticipant(plan, "veteran", seed, time_limit_s=plan.rules.timeout_s + 10.0)
-    moments = list(play(world, Tracking(participant, PROTOCOL.guard), plan.rules))
+    lanes = Lanes(KINDS[plan.rules.kind], world, 1, guard=PROTOCOL.guard, window=PROTOCOL.filter_window)
+    lanes.load(0, world, plan.rules)
+    batches = list(play(lanes, participant))
+    records = np.concatenate([moments.records for moments in batches])
+    after, side = records["after"], SIDES.index(plan.hand)
     record = {
-        "t": np.array([m.after.t for m in moments]),
-        "physics_t": np.array([m.world.time for m in moments]),
-        "position": np.array([m.after.position for m in moments]),
-        "velocity": np.array([m.after.velocity for m in moments]),
-        "omega": np.array([m.after.angular_velocity for m in moments]),
-        "palm": np.array([m.frame.hands[0].palm_position for m in moments]),
-        "grasped": np.array([bool(grasped(m.world)[0]) for m in moments]),
-        "touched": np.array([bool(np.any(m.after.touching)) for m in moments]),
+        "t": after["t"], "physics_t": after["time"], "position": after["position"], "velocity": after["velocity"],
+        "omega": after["angular_velocity"], "palm": records["hands"]["points"][:, side, 0],
+        "grasped": after["grasped_by"].any(axis=1), "touched": after["touching"].any(axis=1),
     }
-    return moments, record
+    events = [e for moments in batches for i in range(len(moments)) for e in moments.task_events(i)]
+    return lanes.state(0), events, record
 
 
 def test_a_veteran_catches_the_launched_cube_and_holds_it_moving_with_its_hand():
     plan, world = plan_and_world("catching")
-    moments, r = played(plan, world, 2)
-    state = moments[-1].state
+    state, _, r = played(plan, world, 2)
     assert state.stage == COMPLETED and state.attempts == 0
     catch = PROTOCOL.task.catch
     launch = catch.launch_speed * np.asarray(catch.direction)
@@ -80,8 +80,7 @@ def test_a_veteran_catches_the_launched_cube_and_holds_it_moving_with_its_hand()
 
 def test_a_veteran_stops_the_spinning_cube_and_it_rests_in_the_grip():
     plan, world = plan_and_world("stopping")
-    moments, r = played(plan, world, 3)
-    state = moments[-1].state
+    state, _, r = played(plan, world, 3)
     spin = PROTOCOL.task.stop_spin
     assert state.stage == COMPLETED
     np.testing.assert_allclose(np.linalg.norm(r["omega"][0]), spin.spin_rate, rtol=1e-9)
@@ -103,11 +102,10 @@ def test_a_launch_away_from_the_hand_beyond_its_reach_times_out_untouched():
     start, orientation = PROTOCOL.start_pose("cube")
     launched = PlacedObject(plan.object, start, orientation, (0.0, 0.0, -1.0), (0.0, 0.0, 0.0))
     world = make_world(compose_scene([launched], "impulse_penetration", gravity=PROTOCOL.gravity))
-    moments, r = played(plan, world, 2)
-    state = moments[-1].state
+    state, events, r = played(plan, world, 2)
     assert state.stage == TIMEOUT and state.attempts == 0
     assert not r["touched"].any() and not r["grasped"].any()
-    assert sum(e.kind == "respawn" for m in moments for e in m.events) >= 3
+    assert sum(e.kind == "respawn" for e in events) >= 3
 
 
 def _drift_line(r, since, until):
@@ -131,9 +129,8 @@ def test_a_veteran_sends_the_cube_misses_once_and_sends_it_again_into_the_target
     approach to the target, the release is where the recorded grasp went, and the second send
     arrives in the zone."""
     plan, world = plan_and_world("sending", SENDING)
-    moments, r = played(plan, world, 2)
-    state, send = moments[-1].state, SENDING.task.send
-    events = [e for m in moments for e in m.events]
+    state, events, r = played(plan, world, 2)
+    send = SENDING.task.send
     releases, misses = [e for e in events if e.kind == "release"], [e for e in events if e.kind == "miss"]
     assert state.stage == COMPLETED and state.attempts == len(misses) == 1 and len(releases) == 2
     for release in releases:  # where and as fast as the object moved at the first frame the grasp was gone
@@ -169,11 +166,13 @@ def test_a_veterans_two_hands_hand_the_cube_over_and_the_measures_follow_their_g
     plan, world = plan_and_world("passing", protocol)
     handover = protocol.task.handover
     participant = HandingParticipant(plan, "veteran", 1, time_limit_s=plan.rules.timeout_s + 10.0)
-    moments = list(play(world, Tracking(participant, protocol.guard), plan.rules))
-    state = moments[-1].state
+    lanes = Lanes(KINDS[plan.rules.kind], world, 1, guard=protocol.guard, window=protocol.filter_window)
+    lanes.load(0, world, plan.rules)
+    records = np.concatenate([moments.records for moments in play(lanes, participant)])
+    state, after, hands = lanes.state(0), records["after"], records["hands"]
     assert state.stage == COMPLETED
-    t = np.array([m.after.t for m in moments])
-    left, right = np.array([m.after.grasped_by for m in moments]).T
+    t = after["t"]
+    left, right = after["grasped_by"].astype(bool).T
     assert np.argmax(right) < np.argmax(left)  # the first hand took it first
     let_go = np.flatnonzero(right)[-1] + 1
     took = _run_through(left, let_go - 1)
@@ -181,11 +180,10 @@ def test_a_veterans_two_hands_hand_the_cube_over_and_the_measures_follow_their_g
     rules = plan.rules
     assert state.both_held == pytest.approx((t[let_go] + rules.drop_grace_s) - (t[took] + rules.grasp_settle_s), abs=0.02)
     # Taken from below, palm up: the left palm under the cube, facing up, as the right let go.
-    at = moments[let_go]
-    left_hand = at.frame.hand("left")
-    assert left_hand.palm_position[1] < at.after.position[1] - plan.object.half_extents[1]
-    assert quat_to_matrix(left_hand.palm_orientation)[1, 1] < -0.9  # the back of the hand (its y) faces down
+    palm, palm_orientation = hands["points"][let_go, 0, 0], hands["orientation"][let_go, 0]  # the left hand's
+    assert palm[1] < after["position"][let_go, 1] - plan.object.half_extents[1]
+    assert quat_to_matrix(palm_orientation)[1, 1] < -0.9  # the back of the hand (its y) faces down
     # It ends held by the left hand alone, in the zone, for the hold.
     last = t >= t[-1] - handover.hold_s + 0.02
     assert left[last].all() and not right[last].any()
-    assert np.linalg.norm(moments[-1].after.position - np.asarray(handover.place)) <= handover.radius
+    assert np.linalg.norm(after["position"][-1] - np.asarray(handover.place)) <= handover.radius

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from microg.skeleton import HandFrame
-from microg.sim import HandFrames, SceneError, World, make_batch, step, step_batch
+from microg.sim import SceneError, World, make_batch, stack_frames, step, step_batch
 from microg.participant.scripted import probe_hand
 from tests.physics import placed, world_of
 
@@ -36,7 +36,7 @@ def test_a_batch_of_worlds_follows_exactly_the_trajectories_of_single_worlds(int
     for t in np.arange(0.0, 0.4, 1 / 110):
         frames = [HandFrame(float(t), hand_at(t, i)) for i in range(4)]
         singles = [step(w, f) for w, f in zip(singles, frames)]
-        batch = step_batch(batch, HandFrames.stack(frames))
+        batch = step_batch(batch, stack_frames(frames))
         for i, single in enumerate(singles):
             assert np.array_equal(batch.reals[i], single.data.reals, equal_nan=True)
             assert np.array_equal(batch.flags[i], single.data.flags)

@@ -75,23 +75,6 @@ def test_a_simulated_participant_hands_the_cube_over_with_both_hands_in_a_sessio
     assert holds.index("right") < holds.index("left")  # the protocol's first_hand took it first
 
 
-def test_in_silico_studies_refuse_a_kind_they_do_not_play():
-    from microg.insilico.engine import TaskUnit, play_tasks
-    from microg.participant.skill import PROFILES
-    from microg.study.inputs import participant_plan
-    from microg.study.protocol import load_protocol
-    from microg.study.store import PlannedTask
-
-    from .conftest import PROTOCOLS
-
-    protocol = load_protocol(PROTOCOLS / "kinds.toml")
-    task = PlannedTask(0, "catching", "impulse_penetration", "cube", "C", 1)
-    unit = TaskUnit(participant_plan(protocol, task), PROFILES["veteran"], 0, 15.0, "impulse_penetration", "cube")
-    with pytest.raises(ValueError, match="phase 'catching' runs catch tasks: in-silico studies play only "
-                                         "pick_and_place tasks"):
-        play_tasks(protocol, [unit])
-
-
 def test_a_pick_and_place_session_logs_no_measures_and_leaves_the_kinds_columns_empty(make_study):
     store, record = make_study("tiny", gender="male")
     session = store.create_session(record.id, input_spec="scripted", simulated=True, clock="simulation")
