@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import product
 
 import numpy as np
@@ -62,7 +62,8 @@ class TrialModel:
     ``anova``: one row per fixed term (MODEL_ANOVA_COLUMNS; type 3 F tests, Satterthwaite df2);
     ``coefficients``: one row per coefficient (COEFFICIENT_COLUMNS); ``random``: the random effects'
     variances, SDs and correlation, then the residual's (RANDOM_COLUMNS); ``formula``: the model in
-    lme4's notation; ``note``: what was fitted and why (a random slope dropped, a singular fit).
+    lme4's notation; ``note``: what was fitted and why (a random slope dropped, a singular fit);
+    ``fit``: the REML fit itself, for contrasts of the fixed effects (:meth:`MixedFit.satterthwaite`).
     """
 
     anova: pd.DataFrame
@@ -72,6 +73,7 @@ class TrialModel:
     n_trials: int
     n_subjects: int
     note: str
+    fit: MixedFit | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -246,6 +248,7 @@ def trial_model(
         n_trials=len(rows),
         n_subjects=len(set(groups)),
         note=note,
+        fit=fit,
     )
 
 
