@@ -280,9 +280,9 @@ def power_law_fits(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACT
     >>> noise = np.array([0.4, -0.3, 0.2, -0.1, 0.0, 0.3, -0.2, -0.1])
     >>> tasks = pd.DataFrame({"participant": "T1", "group": "P", "practice": practice,
     ...                       "time_s": 20 + 40 * practice ** -0.8 + noise})
-    >>> power_law_fits(tasks)[["n", "a", "b", "c", "converged"]].round(3)
-       n       a       b      c  converged
-    0  8  20.176  40.185  0.826       True
+    >>> power_law_fits(tasks)[["n", "a", "b", "c", "a_se", "converged"]].round(3)
+       n       a       b      c   a_se  converged
+    0  8  20.434  39.914  0.826  0.693       True
     """
     rows = []
     for (who, team), part in data.groupby([subject, group], observed=True, sort=True):
@@ -326,18 +326,18 @@ def practice_model(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACT
     --------
     >>> import numpy as np, pandas as pd
     >>> from microg.analysis.training import practice_model
-    >>> rng = np.random.default_rng(4)
     >>> tasks = pd.DataFrame({"participant": np.repeat([f"T{i}" for i in range(8)], 10),
     ...                       "group": np.repeat(["B", "P"], 40), "practice": np.tile(np.arange(1, 11), 8)})
-    >>> rate = np.where(tasks["group"] == "P", -0.5, -0.3) + np.repeat(rng.normal(0, 0.05, 8), 10)
-    >>> tasks["time_s"] = 60 * tasks["practice"] ** rate * np.exp(rng.normal(0, 0.1, 80))
+    >>> rate = np.where(tasks["group"] == "P", -0.5, -0.3) + np.repeat(np.linspace(-0.06, 0.06, 8), 10)
+    >>> wiggle = 0.1 * np.sin(np.arange(80)) + np.repeat(0.1 * np.cos(np.arange(8)), 10)
+    >>> tasks["time_s"] = 60 * tasks["practice"] ** rate * np.exp(wiggle)
     >>> model, curves = practice_model(tasks)
     >>> model.formula
     'log(time_s) ~ group * log_practice + (1 + log_practice | participant)'
-    >>> curves[curves["parameter"] == "slope"][["group", "estimate"]].round(2)
-      group  estimate
-    1     B     -0.30
-    3     P     -0.49
+    >>> curves[curves["parameter"] == "slope"][["group", "estimate", "SE"]].round(3)
+      group  estimate     SE
+    1     B    -0.330  0.018
+    3     P    -0.474  0.018
     """
     logged = f"log_{practice}"
     rows = data.assign(**{logged: np.log(pd.to_numeric(data[practice]).astype(float))})
@@ -500,7 +500,7 @@ def retention_loss(cells: pd.DataFrame, dv: str = "time_s", posttest: str = "pos
     ...                       "time_s": [20.0, 24.0, 22.0, 23.0, 25.0, 26.5]})
     >>> retention_loss(cells)[["group", "n", "mean_diff", "T", "dof"]].round(3)
       group  n  mean_diff      T  dof
-    0     P  3      2.833  3.229    2
+    0     P  3      2.833  2.795    2
     """
     rows = []
     renamed = {"mean_interaction": "mean_retention", "sd_interaction": "sd_retention",
@@ -571,11 +571,26 @@ def analyse_training(
 
     Examples
     --------
+    Eight trainees in two groups, four sessions of four tasks; in the training session trainee k meets
+    the criterion on its task 1 + k % 4:
+
+    >>> import pandas as pd
     >>> from microg.analysis.training import analyse_training
-    >>> from tests.analysis.training_data import make_training  # doctest: +SKIP
-    >>> training = analyse_training(make_training(2026))  # doctest: +SKIP
-    >>> training.roles  # doctest: +SKIP
-    {'pretest': 'pretest', 'posttest': 'posttest', 'retention': 'retention'}
+    >>> sessions = ("pre", "train", "post", "week")
+    >>> trials = pd.DataFrame([
+    ...     {"participant": f"T{k}", "group": "BP"[k % 2], "interaction": "s", "session": name,
+    ...      "session_index": index + 1, "phase": "training" if name == "train" else "test", "task_index": task,
+    ...      "task_in_phase": task + 1, "completed": True, "attempts": 0,
+    ...      "time_s": 20 + 40 / (4 * index + task + 1) ** 0.7 + k + 2 * (name == "week") + (task * k) % 3,
+    ...      "criterion_met": task >= k % 4 if name == "train" else None}
+    ...     for k in range(8) for index, name in enumerate(sessions) for task in range(4)])
+    >>> training = analyse_training(trials)
+    >>> training.roles
+    {'pretest': 'pre', 'posttest': 'post', 'retention': 'week'}
+    >>> training.medians[["group", "n", "events", "median"]]
+      group  n  events  median
+    0     B  4       4     2.0
+    1     P  4       4     3.0
     """
     checked = check_trials(trials, source, subject=subject, group=group, within=session, interaction=interaction,
                            dv=(dv, attempts), counts=(attempts,), completed=completed, design=False)  # fmt: skip
