@@ -822,7 +822,8 @@ def learning_paragraph(training: TrainingAnalysis) -> str:
     parts = []
     for name in sorted(t.group_curves[t.group].unique()):
         slope = curves.loc[(name, "slope")]
-        parts.append(f"{t.group} {name}: {label.split(' (')[0]} = {number(np.exp(curves.loc[(name, 'intercept'), 'estimate']))}"
+        scale = np.exp(curves.loc[(name, "intercept"), "estimate"])
+        parts.append(f"{t.group} {name}: {label.split(' (')[0]} = {number(scale)}"
                      f" \u00d7 practice^{number(slope['estimate'])} (slope b = {number(slope['estimate'], 3)}, "
                      f"SE = {number(slope['SE'], 3)}, {t_test(slope['t'], slope['df'], slope['p_unc'])})")
     crossed = model.anova.set_index("source").iloc[-1]
@@ -893,8 +894,8 @@ def tests_paragraph(training: TrainingAnalysis) -> str:
         row, choice = anova.loc[source], chosen.loc[source]
         wording = "a significant" if choice["p"] < t.alpha else "no significant"
         effect = (f"{wording} {names[source]}, {f_test(row['F'], choice['df1'], choice['df2'], choice['p'])}, "
-                  f"{ETA_P} = {bounded(row['np2'])}, 95 % CI {interval(row['np2_ci_low'], row['np2_ci_high'], bounded)}, "
-                  f"{ETA_G} = {bounded(row['ges'])}")
+                  f"{ETA_P} = {bounded(row['np2'])}, 95 % CI "
+                  f"{interval(row['np2_ci_low'], row['np2_ci_high'], bounded)}, {ETA_G} = {bounded(row['ges'])}")
         if choice["correction"] == "Greenhouse-Geisser":
             effect += f" (Greenhouse-Geisser corrected, {EPSILON} = {bounded(choice['epsilon'])})"
         effects.append(effect)
@@ -992,8 +993,9 @@ def criterion_table(training: TrainingAnalysis) -> pd.DataFrame:
     return pd.DataFrame({
         "Session": table[t.session], "Phase": table["phase"], t.group.capitalize(): table[t.group],
         "n": table["n"].astype(int), "Met the criterion": table["events"].astype(int),
-        "Median tasks to criterion [95 % CI]": [f"{tasks_text(m)} [{tasks_text(lo)}, {tasks_text(hi)}]"
-                                                for m, lo, hi in zip(table["median"], table["ci_low"], table["ci_high"])],
+        "Median tasks to criterion [95 % CI]": [
+            f"{tasks_text(m)} [{tasks_text(lo)}, {tasks_text(hi)}]"
+            for m, lo, hi in zip(table["median"], table["ci_low"], table["ci_high"])],
     })  # fmt: skip
 
 
@@ -1023,8 +1025,8 @@ def retention_table(training: TrainingAnalysis) -> pd.DataFrame:
     table = t.retention
     return pd.DataFrame({
         t.group.capitalize(): table[t.group], "n": table["n"].astype(int),
-        f"M {t.roles.get('posttest', 'posttest')} (SD)": [f"{number(m)} ({number(sd)})"
-                                                          for m, sd in zip(table["mean_posttest"], table["sd_posttest"])],
+        f"M {t.roles.get('posttest', 'posttest')} (SD)": [
+            f"{number(m)} ({number(sd)})" for m, sd in zip(table["mean_posttest"], table["sd_posttest"])],
         f"M {t.roles.get('retention', 'retention')} (SD)": [
             f"{number(m)} ({number(sd)})" for m, sd in zip(table["mean_retention"], table["sd_retention"])],
         "Loss M [95 % CI]": [f"{number(m)} {interval(lo, hi)}"

@@ -571,9 +571,6 @@ def analyse_training(
 
     Examples
     --------
-    Eight trainees in two groups, four sessions of four tasks; in the training session trainee k meets
-    the criterion on its task 1 + k % 4:
-
     >>> import pandas as pd
     >>> from microg.analysis.training import analyse_training
     >>> sessions = ("pre", "train", "post", "week")
@@ -584,7 +581,7 @@ def analyse_training(
     ...      "time_s": 20 + 40 / (4 * index + task + 1) ** 0.7 + k + 2 * (name == "week") + (task * k) % 3,
     ...      "criterion_met": task >= k % 4 if name == "train" else None}
     ...     for k in range(8) for index, name in enumerate(sessions) for task in range(4)])
-    >>> training = analyse_training(trials)
+    >>> training = analyse_training(trials)  # 8 trainees, 4 sessions; T<k> meets the criterion on task 1 + k % 4
     >>> training.roles
     {'pretest': 'pre', 'posttest': 'post', 'retention': 'week'}
     >>> training.medians[["group", "n", "events", "median"]]
@@ -608,7 +605,7 @@ def analyse_training(
     practised = add_practice(checked, subject, session_index, task_index, attempts)
     finished = practised[completed].astype(bool) & practised[dv].notna()
 
-    in_curve = practised[phase].isin(list(curve_phases)) if curve_phases is not None else pd.Series(True, practised.index)
+    in_curve = pd.Series(True, practised.index) if curve_phases is None else practised[phase].isin(list(curve_phases))
     curve_tasks = practised[in_curve & practised[PRACTICE].notna()].reset_index(drop=True)
     timed = curve_tasks[finished[in_curve & practised[PRACTICE].notna()].to_numpy()]
     curve = learning_curve(curve_tasks.assign(**{dv: curve_tasks[dv].where(curve_tasks[completed].astype(bool))}),
@@ -635,7 +632,8 @@ def analyse_training(
         except AnalysisInputError as error:
             notes.append(f"No log-rank test for {name}, {step}: {error}.")
 
-    test_part = _tests(checked, roles, dv, subject, group, session, completed, excluded_phases, phase, alpha, notes)
+    test_part = _tests(checked, roles, dv, subject, group, session, completed, excluded_phases, phase, alpha,
+                       notes)  # drops from roles a test session left without tasks to analyse
     keys = [session, phase]
     return TrainingAnalysis(
         subject=subject, group=group, session=session, dv=dv, attempts=attempts, alpha=alpha,
@@ -662,6 +660,13 @@ def _tests(trials, roles, dv, subject, group, session, completed, excluded_phase
         return empty
     rows = exclude_phases(trials[trials[session].isin(order)], excluded_phases, phase)
     rows = rows[rows[completed].astype(bool) & rows[dv].notna()]
+    empty_roles = [role for role in ROLES if roles.get(role) and roles[role] not in set(rows[session])]
+    for role in empty_roles:
+        notes.append(f"The {role} session {roles.pop(role)} has no completed task outside the phases left out "
+                     f"({', '.join(excluded_phases) or 'none'}): it is not analysed.")
+    if len(roles) < 2:
+        notes.append(f"{len(roles)} test session(s) with completed tasks: no comparison of tests.")
+        return empty
     cells = rows.groupby([subject, group, session], observed=True, sort=True)[dv].mean().reset_index()
     found = dict(empty, test_cells=cells, test_cell_means=cell_means(cells, dv, session, group))
     if cells[group].nunique() < 2:

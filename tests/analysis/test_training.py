@@ -11,6 +11,9 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
+from click.testing import CliRunner
+
+from microg.cli import main
 
 from microg.analysis import (
     AnalysisInputError,
@@ -136,10 +139,12 @@ def test_apa_sentences(program):
     assert re.search(r"log-rank χ²\(1\) = 7\.19, p = \.007\.$", first)
     tests = next(p for p in r.training_paragraphs(program) if p.startswith("Tests ("))
     assert re.search(rf"a significant main effect of session, F\({number}, {number}\) = {number}, p < \.001, ηp² = "
-                     r"\.\d{2}, 95 % CI \[\.\d{2}, \.\d{2}\], ηG² = \.\d{2} \(Greenhouse-Geisser corrected, ε = \.\d{2}\)",
+                     r"\.\d{2}, 95 % CI \[\.\d{2}, \.\d{2}\], ηG² = \.\d{2} "
+                     r"\(Greenhouse-Geisser corrected, ε = \.\d{2}\)",
                      tests)
     retention = r.training_paragraphs(program)[-1]
-    assert re.search(rf"^Retention loss \(retention − posttest, .*group B \(n = 8\): M = {number} vs {number}, loss M "
+    assert re.search(rf"^Retention loss \(retention − posttest, .*group B \(n = 8\): M = {number} vs {number}, "
+                     rf"loss M "
                      rf"= {number}, 95 % CI \[{number}, {number}\], t\(7\) = {number}, p = \.\d{{3}}, d_z = {number}, "
                      rf"95 % CI \[{number}, {number}\]; Wilcoxon signed-rank V = \d+\.\d, p = \.\d{{3}}", retention)
     assert r.median_text(2.0, 2.0, float("nan")) == "Mdn = 2, 95 % CI [2, not reached]"
@@ -174,3 +179,27 @@ def test_a_session_with_two_indexes_is_refused():
     with pytest.raises(AnalysisInputError, match=r"participant 'T01' has 1 and 3 in column 'session_index' for session "
                                                  r"'pretest'; one is allowed"):
         analyse_training(trials)
+
+
+def test_microg_report_names_the_test_sessions(tmp_path):
+    args = ["report", "--trials", str(TRAINING_CSV), "--out", str(tmp_path / "r")]
+    result = CliRunner().invoke(main, [*args, "--posttest", "train3", "--exclude-phase", "warm-up"])
+    assert result.exit_code == 0, result.output
+    sessions = pd.read_csv(tmp_path / "r" / "training" / "sessions.csv")
+    assert dict(zip(sessions["session"], sessions["role"])) == {
+        "pretest": "pretest", "train1": "training", "train2": "training", "train3": "posttest", "posttest": "test",
+        "retention": "retention"}
+    assert "Retention loss (retention \u2212 train3" in (tmp_path / "r" / "report.md").read_text(encoding="utf-8")
+    result = CliRunner().invoke(main, [*args, "--retention", "week"])
+    assert result.exit_code == 1
+    assert "the retention session 'week' is not in column 'session'" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_a_test_session_without_tasks_to_analyse_is_said():
+    """The last training session named the post-test while its phase (training) is left out of the tests."""
+    program = analyse_training(pd.read_csv(TRAINING_CSV), posttest="train3", excluded_phases=("training",))
+    assert "The posttest session train3 has no completed task outside the phases left out (training): it is not " \
+           "analysed." in program.notes
+    assert program.test_order() == ["pretest", "retention"] and program.retention.empty
+    assert set(program.test_cells["session"]) == {"pretest", "retention"} and len(program.test_anova) == 3
