@@ -801,7 +801,7 @@ def training_paragraphs(training: TrainingAnalysis) -> list[str]:
     phase with one, the tests and the retention loss."""
     t = training
     paragraphs = [learning_paragraph(t)] if t.practice_model is not None else []
-    for session, phase in t.logrank[[t.session, "phase"]].itertuples(index=False):
+    for session, phase in t.medians[[t.session, "phase"]].drop_duplicates().itertuples(index=False):
         paragraphs.append(criterion_paragraph(t, session, phase))
     if len(t.test_anova):
         paragraphs.append(tests_paragraph(t))
@@ -826,8 +826,14 @@ def learning_paragraph(training: TrainingAnalysis) -> str:
         parts.append(f"{t.group} {name}: {label.split(' (')[0]} = {number(scale)}"
                      f" \u00d7 practice^{number(slope['estimate'])} (slope b = {number(slope['estimate'], 3)}, "
                      f"SE = {number(slope['SE'], 3)}, {t_test(slope['t'], slope['df'], slope['p_unc'])})")
-    crossed = model.anova.set_index("source").iloc[-1]
-    wording = "differed significantly" if crossed["p_unc"] < t.alpha else "did not differ significantly"
+    tests = model.anova.set_index("source")
+    crossed = tests.iloc[-1] if ":" in tests.index[-1] else None
+    if crossed is not None:
+        wording = "differed significantly" if crossed["p_unc"] < t.alpha else "did not differ significantly"
+        test = f_test(crossed["F"], crossed["df1"], crossed["df2"], crossed["p_unc"])
+        slopes = f" The groups' slopes {wording}, {test} ({_model_term(crossed.name)})."
+    else:
+        slopes = ""
     fits = t.power_law[t.power_law["converged"]]
     per_group = "; ".join(
         f"{name}, median c = {number(rows['c'].median())} (IQR {number(rows['c'].quantile(0.25))}-"
@@ -837,8 +843,7 @@ def learning_paragraph(training: TrainingAnalysis) -> str:
         f"Learning curves ({label.split(' (')[0]} of every completed task against practice, the tasks a trainee had "
         "done; "
         f"{model.n_trials} tasks of {model.n_subjects} trainees): a linear mixed model, {model.formula} (REML; "
-        f"Satterthwaite df; {model.note}), gave " + "; ".join(parts) + f". The groups' slopes {wording}, "
-        f"{f_test(crossed['F'], crossed['df1'], crossed['df2'], crossed['p_unc'])} ({_model_term(crossed.name)}). "
+        f"Satterthwaite df; {model.note}), gave " + "; ".join(parts) + f".{slopes} "
         f"Each trainee's power law, time = a + b \u00d7 practice^\u2212c (bounded least squares; a, b \u2265 0, "
         f"0 \u2264 c \u2264 {POWER_LAW_UPPER_C:g}): {per_group}; {bounded_fits} of {len(fits)} fits at a bound."
     )
@@ -849,15 +854,19 @@ def criterion_paragraph(training: TrainingAnalysis, session: str, phase: str) ->
     CIs, and the log-rank test."""
     t = training
     medians = t.medians[(t.medians[t.session] == session) & (t.medians["phase"] == phase)]
-    test = t.logrank[(t.logrank[t.session] == session) & (t.logrank["phase"] == phase)].iloc[0]
+    tests = t.logrank[(t.logrank[t.session] == session) & (t.logrank["phase"] == phase)]
     met = ", ".join(f"{int(row.events)} of {int(row.n)} in {row[t.group]}" for _, row in medians.iterrows())
     middles = "; ".join(f"{row[t.group]}, {median_text(row['median'], row['ci_low'], row['ci_high'])}"
                         for _, row in medians.iterrows())
-    wording = "differed significantly" if test["p_unc"] < t.alpha else "did not differ significantly"
+    if len(tests):
+        test = tests.iloc[0]
+        wording = "differed significantly" if test["p_unc"] < t.alpha else "did not differ significantly"
+        compared = f"The groups {wording}, log-rank {chi_square(test['chi2'], test['df'], test['p_unc'])}."
+    else:
+        compared = "No log-rank test (one group, or nobody met the criterion)."
     return (
         f"Tasks to criterion, {session} ({phase}): {met} met the criterion (the others censored at the tasks "
-        f"they did). Kaplan-Meier median tasks to criterion: {middles}. The groups {wording}, log-rank "
-        f"{chi_square(test['chi2'], test['df'], test['p_unc'])}."
+        f"they did). Kaplan-Meier median tasks to criterion: {middles}. {compared}"
     )
 
 

@@ -314,8 +314,8 @@ def practice_model(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACT
     -------
     tuple of (TrialModel, pandas.DataFrame)
         The model (its F tests: group, log practice and their crossed term, the difference between
-        the groups' slopes), and per group its ``intercept`` and ``slope`` (columns ``group,
-        parameter, estimate, SE, df, t, p_unc``).
+        the groups' slopes; log practice alone for a single group), and per group its ``intercept``
+        and ``slope`` (columns ``group, parameter, estimate, SE, df, t, p_unc``).
 
     Raises
     ------
@@ -341,12 +341,13 @@ def practice_model(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACT
     """
     logged = f"log_{practice}"
     rows = data.assign(**{logged: np.log(pd.to_numeric(data[practice]).astype(float))})
-    fixed = f"{group} * {logged}"
-    model = trial_model(rows, dv, fixed, subject, "log", slope=logged)
     levels = sorted(rows[group].astype(str).unique())
+    fixed = f"{group} * {logged}" if len(levels) > 1 else logged  # one group: its curve alone
+    model = trial_model(rows, dv, fixed, subject, "log", slope=logged)
     at = {value: pd.DataFrame({group: levels, logged: value}) for value in (0.0, 1.0)}
     terms = parse_fixed(fixed)
-    design = {value: fixed_design(frame, terms, {group: levels}).sum_coded for value, frame in at.items()}
+    factors = {group: levels} if len(levels) > 1 else {}
+    design = {value: fixed_design(frame, terms, factors).sum_coded for value, frame in at.items()}
     contrasts = {"intercept": design[0.0], "slope": design[1.0] - design[0.0]}
     found = []
     for index, level in enumerate(levels):

@@ -203,3 +203,14 @@ def test_a_test_session_without_tasks_to_analyse_is_said():
            "analysed." in program.notes
     assert program.test_order() == ["pretest", "retention"] and program.retention.empty
     assert set(program.test_cells["session"]) == {"pretest", "retention"} and len(program.test_anova) == 3
+
+
+def test_a_phase_nobody_passed_is_reported_without_a_test():
+    trials = pd.read_csv(TRAINING_CSV)
+    trials.loc[trials["session"] == "train1", "criterion_met"] = False
+    program = analyse_training(trials)
+    assert "No log-rank test for train1, training: log-rank test: 2 group(s) in column 'group' and 0 event(s) in " \
+           "column 'criterion_met': it needs two groups and an event." in program.notes
+    first = next(p for p in r.training_paragraphs(program) if p.startswith("Tasks to criterion, train1"))
+    assert "0 of 8 in B, 0 of 8 in P met the criterion" in first and "B, Mdn not reached, 95 % CI [not reached, " \
+           "not reached]" in first and first.endswith("No log-rank test (one group, or nobody met the criterion).")
