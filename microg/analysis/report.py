@@ -31,7 +31,13 @@ from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
 from microg.analysis.tables import read_table
-from microg.analysis.training import POWER_LAW_UPPER_C, TrainingAnalysis, analyse_training, is_training
+from microg.analysis.training import (
+    POWER_LAW_UPPER_C,
+    PRACTICE,
+    TrainingAnalysis,
+    analyse_training,
+    is_training,
+)
 
 MEASURE_FILES = {"time_s": "time"}
 INTERACTION_DESCRIPTIONS = {
@@ -575,9 +581,7 @@ def write_training_figures(training: TrainingAnalysis, folder: Path) -> list[dic
     t = training
     label = r.measure_label(t.dv)
     figures = []
-    fig = plot_learning_curves(t.curve_tasks.assign(**{t.dv: t.curve_tasks[t.dv].where(t.curve_tasks["completed"]
-                                                                                          .astype(bool))}),
-                               t.power_law, t.group_curves, t.dv, "practice", t.subject, t.group, label)
+    fig = plot_learning_curves(t.curve_tasks, t.power_law, t.group_curves, t.dv, PRACTICE, t.subject, t.group, label)
     figures.append(_figure(fig, folder / "training_learning_time",
                            f"Learning curves: {label} of every completed task against practice (tasks done), per "
                            f"{t.group}; thin lines each trainee's power law a + b \u00d7 practice^\u2212c, the thick "
@@ -588,7 +592,7 @@ def write_training_figures(training: TrainingAnalysis, folder: Path) -> list[dic
                            "practice, band \u00b1 SE (fewer trainees at more practice: those who met the criteria "
                            "sooner did fewer tasks)"))
     if len(t.criterion):
-        fig = plot_criterion(t.kaplan_meier, t.criterion, (t.session, "phase"), t.group)
+        fig = plot_criterion(t.kaplan_meier, t.criterion, (t.session, t.phase), t.group)
         figures.append(_figure(fig, folder / "training_criterion",
                                "Reaching the criterion: the share of each group that had met it against the tasks in "
                                "the phase (1 \u2212 the Kaplan-Meier curve), 95 % band shaded (R's log band); ticks "

@@ -801,7 +801,7 @@ def training_paragraphs(training: TrainingAnalysis) -> list[str]:
     phase with one, the tests and the retention loss."""
     t = training
     paragraphs = [learning_paragraph(t)] if t.practice_model is not None else []
-    for session, phase in t.medians[[t.session, "phase"]].drop_duplicates().itertuples(index=False):
+    for session, phase in t.medians[[t.session, t.phase]].drop_duplicates().itertuples(index=False):
         paragraphs.append(criterion_paragraph(t, session, phase))
     if len(t.test_anova):
         paragraphs.append(tests_paragraph(t))
@@ -853,8 +853,8 @@ def criterion_paragraph(training: TrainingAnalysis, session: str, phase: str) ->
     """Tasks to criterion in one session's phase: who met it, the Kaplan-Meier medians with their 95 %
     CIs, and the log-rank test."""
     t = training
-    medians = t.medians[(t.medians[t.session] == session) & (t.medians["phase"] == phase)]
-    tests = t.logrank[(t.logrank[t.session] == session) & (t.logrank["phase"] == phase)]
+    medians = t.medians[(t.medians[t.session] == session) & (t.medians[t.phase] == phase)]
+    tests = t.logrank[(t.logrank[t.session] == session) & (t.logrank[t.phase] == phase)]
     met = ", ".join(f"{int(row.events)} of {int(row.n)} in {row[t.group]}" for _, row in medians.iterrows())
     middles = "; ".join(f"{row[t.group]}, {median_text(row['median'], row['ci_low'], row['ci_high'])}"
                         for _, row in medians.iterrows())
@@ -1000,7 +1000,7 @@ def criterion_table(training: TrainingAnalysis) -> pd.DataFrame:
     t = training
     table = t.medians
     return pd.DataFrame({
-        "Session": table[t.session], "Phase": table["phase"], t.group.capitalize(): table[t.group],
+        "Session": table[t.session], "Phase": table[t.phase], t.group.capitalize(): table[t.group],
         "n": table["n"].astype(int), "Met the criterion": table["events"].astype(int),
         "Median tasks to criterion [95 % CI]": [
             f"{tasks_text(m)} [{tasks_text(lo)}, {tasks_text(hi)}]"
@@ -1012,7 +1012,7 @@ def logrank_table(training: TrainingAnalysis) -> pd.DataFrame:
     """The log-rank test of each session's phase with a criterion."""
     t = training
     table = t.logrank
-    return pd.DataFrame({"Session": table[t.session], "Phase": table["phase"], CHI2: table["chi2"].map(number),
+    return pd.DataFrame({"Session": table[t.session], "Phase": table[t.phase], CHI2: table["chi2"].map(number),
                          "df": table["df"].map(degrees), "p": table["p_unc"].map(p_cell),
                          "Trainees (met)": [f"{int(n)} ({int(e)})" for n, e in zip(table["n"], table["events"])]})
 

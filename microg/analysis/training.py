@@ -63,9 +63,9 @@ POWER_LAW_UPPER_C = 3.0
 falls with practice towards an asymptote of 0 or more. Practice rarely gives exponents above 1
 (Newell and Rosenbloom 1981: 0.2-0.8); 3 leaves room for a trainee who learns in a few tasks."""
 POWER_LAW_COLUMNS = ("n", "a", "b", "c", "a_se", "b_se", "c_se", "rss", "sigma", "at_bound", "converged", "note")
-CURVE_COLUMNS = ("practice", "measure", "n", "mean", "sd", "se")
+CURVE_COLUMNS = ("measure", "n", "mean", "sd", "se")
 GROUP_CURVE_COLUMNS = ("parameter", "estimate", "SE", "df", "t", "p_unc")
-CRITERION_COLUMNS = ("session", "session_index", "phase", "tasks", "criterion_met", "tasks_to_criterion", "at_tasks")
+CRITERION_COLUMNS = ("tasks", "criterion_met", "tasks_to_criterion", "at_tasks")
 RETENTION_COLUMNS = (
     "measure", "n", "mean_posttest", "sd_posttest", "mean_retention", "sd_retention", "mean_diff", "diff_ci_low",
     "diff_ci_high", "T", "dof", "p_t", "d_z", "d_z_ci_low", "d_z_ci_high", "cohen_d", "V", "p_wilcoxon", "rbc",
@@ -83,7 +83,8 @@ class TrainingAnalysis:
     """Every table of a training program's analysis, each a tidy DataFrame (see :func:`analyse_training`).
 
     ``sessions``: each session's order, whether it has a criterion and its role (pretest, training,
-    posttest, retention, test). Learning curves: ``curve_tasks`` (the tasks, with ``practice``),
+    posttest, retention, test). Learning curves: ``curve_tasks`` (the tasks that ran, with
+    ``practice``; the time of completed ones only),
     ``learning_curve`` (per group and practice), ``power_law`` (per trainee), ``practice_model``
     (the linear mixed model) and ``group_curves`` (each group's intercept and slope on the log-log
     scale). Tasks to criterion: ``criterion`` (per trainee, session and phase), ``kaplan_meier``,
@@ -96,6 +97,7 @@ class TrainingAnalysis:
     subject: str
     group: str
     session: str
+    phase: str
     dv: str
     attempts: str
     alpha: float
@@ -237,10 +239,10 @@ def learning_curve(data: pd.DataFrame, measures: Sequence[str] = ("time_s", "att
     parts = []
     for measure in measures:
         rows = data[data[measure].notna() & data[practice].notna()]
-        stats_ = rows.groupby([group, practice], observed=True)[measure].agg(n="count", mean="mean", sd="std",
-                                                                             se="sem")  # fmt: skip
-        parts.append(stats_.reset_index().assign(measure=measure))
-    columns = [group, *CURVE_COLUMNS]
+        summary = rows.groupby([group, practice], observed=True)[measure].agg(n="count", mean="mean", sd="std",
+                                                                              se="sem")  # fmt: skip
+        parts.append(summary.reset_index().assign(measure=measure))
+    columns = [group, practice, *CURVE_COLUMNS]
     return pd.concat(parts, ignore_index=True)[columns] if parts else pd.DataFrame(columns=columns)
 
 
@@ -399,7 +401,7 @@ def criterion_tasks(trials: pd.DataFrame, subject: str = "participant", group: s
         to_criterion = int(met[task_in_phase].min()) if len(met) else pd.NA
         tasks = int(part[attempts].notna().sum())
         rows.append((*key, tasks, bool(len(met)), to_criterion, tasks if to_criterion is pd.NA else to_criterion))
-    table = pd.DataFrame(rows, columns=[subject, group, *CRITERION_COLUMNS])
+    table = pd.DataFrame(rows, columns=[*keys, *CRITERION_COLUMNS])
     table["tasks_to_criterion"] = table["tasks_to_criterion"].astype("Int64")
     return table.sort_values([session_index, session, phase, subject], kind="stable").reset_index(drop=True)
 
@@ -604,13 +606,12 @@ def analyse_training(
     sessions = session_roles(checked, pretest, posttest, retention, session, session_index, criterion, subject)
     roles = {role: name for name, role in zip(sessions[session], sessions["role"]) if role in ROLES}
     practised = add_practice(checked, subject, session_index, task_index, attempts)
-    finished = practised[completed].astype(bool) & practised[dv].notna()
 
     in_curve = pd.Series(True, practised.index) if curve_phases is None else practised[phase].isin(list(curve_phases))
     curve_tasks = practised[in_curve & practised[PRACTICE].notna()].reset_index(drop=True)
-    timed = curve_tasks[finished[in_curve & practised[PRACTICE].notna()].to_numpy()]
-    curve = learning_curve(curve_tasks.assign(**{dv: curve_tasks[dv].where(curve_tasks[completed].astype(bool))}),
-                           (dv, attempts), PRACTICE, group)  # fmt: skip
+    curve_tasks[dv] = curve_tasks[dv].where(curve_tasks[completed].astype(bool))  # an unfinished task has no time
+    timed = curve_tasks[curve_tasks[dv].notna()]
+    curve = learning_curve(curve_tasks, (dv, attempts), PRACTICE, group)
     fits = power_law_fits(timed, dv, PRACTICE, subject, group)
     for who, note in zip(fits[subject], fits["note"]):
         if note:
@@ -637,7 +638,7 @@ def analyse_training(
                        notes)  # drops from roles a test session left without tasks to analyse
     keys = [session, phase]
     return TrainingAnalysis(
-        subject=subject, group=group, session=session, dv=dv, attempts=attempts, alpha=alpha,
+        subject=subject, group=group, session=session, phase=phase, dv=dv, attempts=attempts, alpha=alpha,
         simulated=is_simulated(checked), roles=roles, sessions=sessions, curve_tasks=curve_tasks,
         learning_curve=curve, power_law=fits, practice_model=model, group_curves=curves, criterion=reached,
         kaplan_meier=_joined(km, [*keys, group, *KAPLAN_MEIER_COLUMNS]),

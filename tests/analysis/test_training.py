@@ -18,7 +18,6 @@ from microg.cli import main
 from microg.analysis import (
     AnalysisInputError,
     analyse_training,
-    criterion_tasks,
     is_training,
     kaplan_meier,
     median_survival,
@@ -214,3 +213,20 @@ def test_a_phase_nobody_passed_is_reported_without_a_test():
     first = next(p for p in r.training_paragraphs(program) if p.startswith("Tasks to criterion, train1"))
     assert "0 of 8 in B, 0 of 8 in P met the criterion" in first and "B, Mdn not reached, 95 % CI [not reached, " \
            "not reached]" in first and first.endswith("No log-rank test (one group, or nobody met the criterion).")
+
+
+def test_every_column_may_have_another_name(program):
+    names = {"participant": "pid", "group": "cohort", "session": "visit", "session_index": "visit_order",
+             "task_index": "trial", "task_in_phase": "trial_in_block", "criterion_met": "proficient", "phase": "block",
+             "time_s": "rt", "attempts": "drops", "completed": "done"}  # fmt: skip
+    trials = pd.read_csv(TRAINING_CSV).rename(columns=names)
+    renamed = analyse_training(trials, subject="pid", group="cohort", session="visit", session_index="visit_order",
+                               task_index="trial", task_in_phase="trial_in_block", criterion="proficient",
+                               phase="block", dv="rt", attempts="drops", completed="done")  # fmt: skip
+    back = {new: old for old, new in names.items()}
+    for table in ("medians", "logrank", "power_law", "retention", "test_anova", "kaplan_meier", "criterion"):
+        sources = {"cohort": "group", "visit": "session", "cohort:visit": "group:session"}
+        ours = getattr(renamed, table).rename(columns=back).replace({"measure": {"rt": "time_s"}, "source": sources})
+        pd.testing.assert_frame_equal(ours, getattr(program, table), check_dtype=False, obj=table)
+    assert renamed.practice_model.formula == "log(rt) ~ cohort * log_practice + (1 + log_practice | pid)"
+    assert len(r.training_paragraphs(renamed)) == len(r.training_paragraphs(program))
