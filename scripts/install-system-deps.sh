@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
 # System packages some tests use: Chromium and its driver (the 3D view's browser test) and R with afex,
-# emmeans, car, rstatix, effectsize, geepack and lmerTest (the live cross-check of the statistics), then the
+# emmeans, car, rstatix, effectsize, geepack, lmerTest and survival (the live cross-check of the statistics), then the
 # R packages Debian lacks, ARTool and Superpower, built from the source tarballs in ../shared/reference/r/
 # when ../shared is there (their dependencies are the Debian packages below). Installed when this machine
 # allows; otherwise the tests that need them skip and say why.
 set -u
 packages=(chromium chromium-driver r-base-core r-cran-afex r-cran-emmeans r-cran-car r-cran-rstatix r-cran-effectsize
           r-cran-geepack r-cran-lme4 r-cran-lmertest r-cran-plyr r-cran-magrittr r-cran-dplyr r-cran-ggplot2
-          r-cran-reshape2 r-cran-tidyselect r-cran-tidyr r-cran-mass)
+          r-cran-reshape2 r-cran-tidyselect r-cran-tidyr r-cran-mass r-cran-survival)
 tarballs=(ARTool_0.11.2 Superpower_0.2.4.1)
 shared="$(cd "$(dirname "$0")/.." && pwd)/../shared/reference/r"
 

@@ -1,7 +1,7 @@
 """Statistics and reports for microg studies: reads tidy tables (trials, questionnaire, answers), never the
 simulation. Like pingouin, every function takes a tidy DataFrame and the names of its columns and
 returns one tidy DataFrame; the numbers match R (afex, emmeans, car, effectsize, geepack, ARTool,
-lme4 and lmerTest)."""
+lme4 and lmerTest, survival, nls)."""
 
 from microg.analysis.analyse import StudyAnalysis, analyse_study, choose_interactions, kinds_present
 from microg.analysis.anova import (
@@ -32,6 +32,7 @@ from microg.analysis.questionnaires import (
     score_summary,
 )
 from microg.analysis.report import write_report
+from microg.analysis.survival import kaplan_meier, logrank, median_survival
 from microg.analysis.scoring import check_answers, missing_items, score_answers
 from microg.analysis.tables import (
     AnalysisInputError,
@@ -43,6 +44,16 @@ from microg.analysis.tables import (
     read_questionnaire,
     read_trials,
 )
+from microg.analysis.training import (
+    TrainingAnalysis,
+    analyse_training,
+    criterion_tasks,
+    is_training,
+    power_law_fits,
+    practice_model,
+    retention_loss,
+    session_roles,
+)
 
 __all__ = [
     "ANOVA_COLUMNS",
@@ -53,9 +64,11 @@ __all__ = [
     "POSTHOC_COLUMNS",
     "AnalysisInputError",
     "StudyAnalysis",
+    "TrainingAnalysis",
     "TrialModel",
     "analyse_questionnaires",
     "analyse_study",
+    "analyse_training",
     "art_anova",
     "art_contrasts",
     "assumption_checks",
@@ -68,11 +81,16 @@ __all__ = [
     "compare_scores",
     "complete_cases",
     "count_model",
+    "criterion_tasks",
     "incomplete_cases",
     "internal_consistency",
+    "is_training",
+    "kaplan_meier",
     "kinds_present",
     "likert_summary",
     "likert_tests",
+    "logrank",
+    "median_survival",
     "missing_items",
     "mixed_anova",
     "paired_means",
@@ -82,11 +100,15 @@ __all__ = [
     "plot_ratings",
     "plot_scores",
     "posthoc",
+    "power_law_fits",
+    "practice_model",
     "read_questionnaire",
     "read_trials",
+    "retention_loss",
     "score_answers",
     "score_changes",
     "score_summary",
+    "session_roles",
     "signed_rank",
     "simple_effects",
     "sphericity_correction",

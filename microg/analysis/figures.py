@@ -1,16 +1,18 @@
 """The report's figures: bars per object and group with every participant's value and significance
-marks (the paper's Fig. 11), the diverging stacked rating distribution (the paper's Fig. 12), and
-each instrument's scores per administration and interaction model with every participant's score."""
+marks (the paper's Fig. 11), the diverging stacked rating distribution (the paper's Fig. 12),
+each instrument's scores per administration and interaction model with every participant's score,
+and a training program's learning curves and curves of reaching the criterion."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter
+from matplotlib.ticker import FuncFormatter, MaxNLocator
 
 from microg.analysis.likert import SCALE
 
@@ -26,6 +28,7 @@ def plot_bars(
     between: str = "group",
     ylabel: str | None = None,
     title: str | None = None,
+    order: Sequence[str] | None = None,
 ) -> Figure:
     """Bars of the mean +- SE of ``dv`` per ``within`` level and group, every participant's value a dot.
 
@@ -42,6 +45,8 @@ def plot_bars(
         :func:`microg.analysis.posthoc` of the same cells.
     ylabel, title : str, optional
         Axis label (default ``dv``) and title.
+    order : sequence of str, optional
+        The ``within`` levels from left to right (default: sorted), e.g. sessions in their order.
 
     Returns
     -------
@@ -57,7 +62,7 @@ def plot_bars(
     ['Control (n = 30)', 'Meditation (n = 30)']
     """
     summary = cells.groupby([within, between], observed=True)[dv].agg(["mean", "sem", "count", "max"])
-    levels = sorted(cells[within].unique())
+    levels = list(order) if order is not None else sorted(cells[within].unique())
     groups = sorted(cells[between].unique())
     width = 0.8 / len(groups)
     fig = Figure(figsize=(2.6 + 1.5 * len(levels), 3.6), layout="constrained")
@@ -213,6 +218,174 @@ def plot_scores(scores: pd.DataFrame, title: str | None = None, labels: dict[str
         ax.set_visible(False)
     if title:
         fig.suptitle(title, fontsize="medium")
+    return fig
+
+
+def plot_learning_curves(tasks: pd.DataFrame, fits: pd.DataFrame, curves: pd.DataFrame, dv: str = "time_s",
+                         practice: str = "practice", subject: str = "participant", group: str = "group",
+                         ylabel: str | None = None) -> Figure:
+    """One panel per group: every task's ``dv`` against practice (dots), each participant's power law
+    a + b practice^-c (thin lines) and the group's curve exp(intercept) practice^slope from the mixed
+    model (thick).
+
+    Parameters
+    ----------
+    tasks : pandas.DataFrame
+        One row per task with ``dv`` (empty for an unfinished task) and ``practice``.
+    fits : pandas.DataFrame
+        :func:`microg.analysis.power_law_fits` (columns ``subject, group, a, b, c``).
+    curves : pandas.DataFrame
+        :func:`microg.analysis.practice_model`'s per group ``intercept`` and ``slope`` (may be empty).
+    dv, practice, subject, group : str
+        The columns.
+    ylabel : str, optional
+        Axis label (default ``dv``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.figures import plot_learning_curves
+    >>> tasks = pd.DataFrame({"participant": "T1", "group": "P", "practice": [1, 2, 3, 4],
+    ...                       "time_s": [60.0, 41.0, 35.0, 30.0]})
+    >>> fits = pd.DataFrame({"participant": ["T1"], "group": ["P"], "a": [20.0], "b": [40.0], "c": [0.8]})
+    >>> curves = pd.DataFrame({"group": ["P", "P"], "parameter": ["intercept", "slope"], "estimate": [4.1, -0.5]})
+    >>> fig = plot_learning_curves(tasks, fits, curves)
+    >>> fig.axes[0].get_title(), len(fig.axes[0].get_lines())
+    ('P (n = 1)', 2)
+    """
+    groups = sorted(tasks[group].unique())
+    fig = Figure(figsize=(3.4 * len(groups) + 0.6, 3.4), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(groups), sharey=True, squeeze=False).ravel())
+    span = np.linspace(1, max(float(tasks[practice].max()), 2.0), 200)
+    for index, (ax, name) in enumerate(zip(axes, groups)):
+        colour = GROUP_COLOURS[index % len(GROUP_COLOURS)]
+        rows = tasks[(tasks[group] == name) & tasks[dv].notna()]
+        ax.scatter(rows[practice].astype(float), rows[dv].astype(float), s=5, color=colour, alpha=0.35, linewidth=0)
+        for fit in fits[(fits[group] == name) & fits["a"].notna()].itertuples(index=False):
+            ax.plot(span, fit.a + fit.b * span**-fit.c, color=colour, linewidth=0.8, alpha=0.8)
+        own = curves[curves[group] == name].set_index("parameter")["estimate"] if len(curves) else pd.Series()
+        if {"intercept", "slope"} <= set(own.index):
+            ax.plot(span, np.exp(own["intercept"]) * span ** own["slope"], color="black", linewidth=2.2,
+                    label="group (mixed model)")  # fmt: skip
+            ax.legend(frameon=False, fontsize="small", loc="upper right")
+        ax.set_title(f"{name} (n = {rows[subject].nunique()})", fontsize="medium")
+        ax.set_xlabel(f"{practice} (tasks done)")
+        ax.spines[["top", "right"]].set_visible(False)
+    axes[0].set_ylabel(ylabel or dv)
+    axes[0].set_ylim(bottom=0)
+    return fig
+
+
+def plot_practice_means(curve: pd.DataFrame, measure: str, group: str = "group", practice: str = "practice",
+                        ylabel: str | None = None) -> Figure:
+    """Each group's mean of ``measure`` at each amount of practice, with a band of +- SE.
+
+    Parameters
+    ----------
+    curve : pandas.DataFrame
+        A learning curve table (columns ``group, practice, measure, n, mean, se``).
+    measure : str
+        The measure shown (a value of the ``measure`` column).
+    group, practice : str
+        The columns.
+    ylabel : str, optional
+        Axis label (default ``measure``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.figures import plot_practice_means
+    >>> curve = pd.DataFrame({"group": "P", "practice": [1, 2], "measure": "attempts", "n": 2, "mean": [1.0, 0.5],
+    ...                       "se": [0.5, 0.5]})
+    >>> [text.get_text() for text in plot_practice_means(curve, "attempts").axes[0].get_legend().get_texts()]
+    ['P']
+    """
+    rows = curve[curve["measure"] == measure]
+    fig = Figure(figsize=(6.0, 3.2), layout="constrained")
+    ax = fig.subplots()
+    for index, (name, part) in enumerate(rows.groupby(group, sort=True)):
+        colour = GROUP_COLOURS[index % len(GROUP_COLOURS)]
+        part = part.sort_values(practice)
+        x, mean, se = (part[column].to_numpy(float) for column in (practice, "mean", "se"))
+        ax.plot(x, mean, color=colour, linewidth=1.2, label=str(name))
+        ax.fill_between(x, mean - np.nan_to_num(se), mean + np.nan_to_num(se), color=colour, alpha=0.2, linewidth=0)
+    ax.set_xlabel(f"{practice} (tasks done)")
+    ax.set_ylabel(ylabel or measure)
+    ax.set_ylim(bottom=0)
+    ax.legend(title=group, frameon=False, fontsize="small")
+    ax.spines[["top", "right"]].set_visible(False)
+    return fig
+
+
+def plot_criterion(km: pd.DataFrame, reached: pd.DataFrame, keys: Sequence[str] = ("session", "phase"),
+                   group: str = "group", time: str = "at_tasks", event: str = "criterion_met") -> Figure:
+    """One panel per session and phase: the share of each group that has met the criterion against the
+    tasks done (1 - the Kaplan-Meier curve), its 95 % band shaded, censored participants as ticks.
+
+    Parameters
+    ----------
+    km : pandas.DataFrame
+        :func:`microg.analysis.kaplan_meier` per group, keyed by ``keys``.
+    reached : pandas.DataFrame
+        One row per participant and key: ``time`` and ``event`` (:func:`microg.analysis.criterion_tasks`).
+    keys, group, time, event : str
+        The columns.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis import criterion_tasks, kaplan_meier
+    >>> from microg.analysis.figures import plot_criterion
+    >>> reached = pd.DataFrame({"session": "train1", "phase": "training", "group": ["P", "P", "B"],
+    ...                         "at_tasks": [3, 6, 8], "criterion_met": [True, True, False]})
+    >>> km = kaplan_meier(reached, "at_tasks", "criterion_met", "group").assign(session="train1", phase="training")
+    >>> plot_criterion(km, reached).axes[0].get_title()
+    'train1, training'
+    """
+    panels = list(dict.fromkeys(reached[list(keys)].itertuples(index=False, name=None)))
+    groups = sorted(reached[group].unique())
+    fig = Figure(figsize=(3.2 * len(panels) + 0.6, 3.2), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True, squeeze=False).ravel())
+    for ax, panel in zip(axes, panels):
+        here = np.logical_and.reduce([km[k] == v for k, v in zip(keys, panel)]) if len(km) else []
+        people = reached[np.logical_and.reduce([reached[k] == v for k, v in zip(keys, panel)])]
+        end = float(people[time].max())
+        for index, name in enumerate(groups):
+            colour = GROUP_COLOURS[index % len(GROUP_COLOURS)]
+            steps = km[here & (km[group] == name)] if len(km) else km
+            x = np.concatenate([[0.0], steps["time"].to_numpy(float), [end]])
+            share = 1 - np.concatenate([[1.0], steps["surv"].to_numpy(float), steps["surv"].to_numpy(float)[-1:]
+                                        if len(steps) else [1.0]])  # fmt: skip
+            low = 1 - np.concatenate([[1.0], steps["ci_high"].to_numpy(float), steps["ci_high"].to_numpy(float)[-1:]
+                                      if len(steps) else [1.0]])  # fmt: skip
+            high = 1 - np.concatenate([[1.0], steps["ci_low"].to_numpy(float), steps["ci_low"].to_numpy(float)[-1:]
+                                       if len(steps) else [1.0]])  # fmt: skip
+            mine = people[people[group] == name]
+            ax.step(x, share, where="post", color=colour, linewidth=1.5, label=f"{name} (n = {len(mine)})")
+            ax.fill_between(x, np.nan_to_num(low), np.nan_to_num(high, nan=1.0), step="post", color=colour,
+                            alpha=0.15, linewidth=0)  # fmt: skip
+            censored = mine[~mine[event].astype(bool)][time].to_numpy(float)
+            heights = [share[np.searchsorted(x, value, side="right") - 1] for value in censored]
+            ax.scatter(censored, heights, marker="|", s=60, color=colour, zorder=3)
+        ax.set_title(", ".join(map(str, panel)), fontsize="medium")
+        ax.set_xlabel("tasks in the phase")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_ylim(0, 1.02)
+        ax.spines[["top", "right"]].set_visible(False)
+    axes[0].set_ylabel("share that met the criterion")
+    axes[-1].legend(title=group, frameon=False, fontsize="small", loc="lower right")
     return fig
 
 

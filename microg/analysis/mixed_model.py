@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from itertools import product
 
 import numpy as np
@@ -62,7 +62,8 @@ class TrialModel:
     ``anova``: one row per fixed term (MODEL_ANOVA_COLUMNS; type 3 F tests, Satterthwaite df2);
     ``coefficients``: one row per coefficient (COEFFICIENT_COLUMNS); ``random``: the random effects'
     variances, SDs and correlation, then the residual's (RANDOM_COLUMNS); ``formula``: the model in
-    lme4's notation; ``note``: what was fitted and why (a random slope dropped, a singular fit).
+    lme4's notation; ``note``: what was fitted and why (a random slope dropped, a singular fit);
+    ``fit``: the REML fit itself, for contrasts of the fixed effects (:meth:`MixedFit.satterthwaite`).
     """
 
     anova: pd.DataFrame
@@ -72,6 +73,7 @@ class TrialModel:
     n_trials: int
     n_subjects: int
     note: str
+    fit: MixedFit | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -246,6 +248,7 @@ def trial_model(
         n_trials=len(rows),
         n_subjects=len(set(groups)),
         note=note,
+        fit=fit,
     )
 
 
@@ -276,7 +279,8 @@ def parse_fixed(fixed: str) -> list[tuple[str, ...]]:
 def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.ndarray) -> MixedFit | None:
     """REML fit of y = x beta + z_j b_j + e, b_j ~ N(0, G) per group j, e ~ N(0, s2 I).
 
-    statsmodels' MixedLM fits it; its optimisers stop about 1e-5 short of the optimum and creep
+    statsmodels' MixedLM fits it (BFGS, then L-BFGS when the search from BFGS's fit stalls:
+    START_METHODS); its optimisers stop about 1e-5 short of the optimum and creep
     towards a boundary (a variance at 0) without reaching it, where lme4 stops exactly. So the fit
     is finished by scipy's trust-region Newton (``trust-exact``) on MixedLM's own REML likelihood
     and score in lme4's parametrisation (the Cholesky factor of G / s2, with the fixed effects and
@@ -291,13 +295,23 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            start = model.fit(reml=True, method="bfgs")  # a start: converged or not, the searches below finish it
-            packed = MixedLMParams.from_components(cov_re=np.atleast_2d(start.cov_re) / start.scale)
-            found = optimize.minimize(
-                lambda p: -model.loglike(p), packed.get_packed(use_sqrt=True, has_fe=False),
-                jac=lambda p: -model.score(p), hess=lambda p: _symmetric(approx_fprime(p, model.score)),
-                method="trust-exact", options={"gtol": SCORE_TOLERANCE / 10, "maxiter": 200},
-            )  # fmt: skip
+            found = None
+            for method in START_METHODS:  # a start: converged or not, the searches below finish it
+                try:
+                    start = model.fit(reml=True, method=method)
+                    packed = MixedLMParams.from_components(cov_re=np.atleast_2d(start.cov_re) / start.scale)
+                    searched = optimize.minimize(
+                        lambda p: -model.loglike(p), packed.get_packed(use_sqrt=True, has_fe=False),
+                        jac=lambda p: -model.score(p), hess=lambda p: _symmetric(approx_fprime(p, model.score)),
+                        method="trust-exact", options={"gtol": SCORE_TOLERANCE / 10, "maxiter": 200},
+                    )  # fmt: skip
+                except (np.linalg.LinAlgError, ValueError):
+                    continue  # this optimiser's start is singular: the next may not be
+                found = searched if found is None or searched.fun < found.fun else found
+                if np.max(np.abs(model.score(found.x))) <= SCORE_TOLERANCE:
+                    break
+            if found is None:
+                return None
             if np.max(np.abs(model.score(found.x))) > SCORE_TOLERANCE:  # stalled by a boundary: search within it
                 rows, columns = np.tril_indices(model.k_re)
                 bounds = [(BOUNDARY, None) if row == column else (None, None) for row, column in zip(rows, columns)]
@@ -320,6 +334,10 @@ def fit_mixed(y: np.ndarray, x: np.ndarray, names, groups: np.ndarray, z: np.nda
 
 
 SCORE_TOLERANCE = 1e-6
+START_METHODS = ("bfgs", "lbfgs")
+"""MixedLM's optimisers that give the Newton search its start, the next tried when the search from one
+stalls: BFGS can stop far from the optimum (a random slope of log practice: a start from which the
+search fails), L-BFGS then starts it well."""
 BOUNDARY = 1e-8
 """The bounded search keeps the Cholesky factor's diagonal at this or more rather than 0, where MixedLM's
 computations are singular; far below SINGULAR, so such a fit is singular all the same."""

@@ -18,11 +18,26 @@ from microg.analysis import results as r
 from microg.analysis.analyse import EXCLUDED_PHASES, PICK_AND_PLACE, StudyAnalysis, analyse_study, kinds_present
 from microg.analysis.anova import ANOVA_COLUMNS, SPHERICITY_ALPHA
 from microg.analysis.assumptions import BOX_M_ALPHA
-from microg.analysis.figures import plot_bars, plot_ratings, plot_scores, save_figure
+from microg.analysis.figures import (
+    plot_bars,
+    plot_criterion,
+    plot_learning_curves,
+    plot_practice_means,
+    plot_ratings,
+    plot_scores,
+    save_figure,
+)
 from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
 from microg.analysis.tables import read_table
+from microg.analysis.training import (
+    POWER_LAW_UPPER_C,
+    PRACTICE,
+    TrainingAnalysis,
+    analyse_training,
+    is_training,
+)
 
 MEASURE_FILES = {"time_s": "time"}
 INTERACTION_DESCRIPTIONS = {
@@ -45,6 +60,19 @@ KIND_TITLES = {"catch": "Catch", "stop_spin": "Stop of a spin", "send": "Send"}
 """How a reader sees a task kind other than the pick-and-place (whose sections read as they always did)."""
 QUESTIONNAIRE_TABLES = {"scores": "scores", "summary": "score_summary", "consistency": "consistency"}
 """The questionnaire section's CSV files (the comparisons and changes go together into score_tests.csv)."""
+TRAINING_FOLDER = "training"
+TRAINING_TABLES = {"sessions": "sessions", "learning_curve": "learning_curve", "power_law": "power_law",
+                   "group_curves": "group_curves", "criterion": "criterion", "kaplan_meier": "kaplan_meier",
+                   "medians": "medians", "logrank": "logrank", "test_cells": "session_cells",
+                   "test_cell_means": "session_cell_means", "test_anova": "session_anova",
+                   "test_corrections": "session_corrections", "test_posthoc": "session_posthoc",
+                   "retention": "retention"}
+"""The training section's tidy tables (TrainingAnalysis field -> CSV file name in training/); its two
+mixed models go to practice_model_*.csv and session_model_*.csv."""
+TRAINING_COLUMNS = {"subject": "subject", "group": "group", "phase": "phase", "interaction_column": "interaction",
+                    "completed": "completed", "alpha": "alpha"}
+"""The report's column options (:func:`microg.analysis.analyse_study`'s) that the training section shares:
+option -> :func:`microg.analysis.training.analyse_training`'s parameter."""
 
 
 def write_report(
@@ -58,6 +86,7 @@ def write_report(
     title: str = "Study report",
     answers: pd.DataFrame | None = None,
     instruments: dict | None = None,
+    training: dict | None = None,
     **columns,
 ) -> Path:
     """Analyse a study's tables and write the report into ``out_dir``.
@@ -72,6 +101,9 @@ def write_report(
         section (:func:`microg.analysis.questionnaires.analyse_questionnaires`).
     instruments : dict, optional
         The instruments of ``answers`` by id (a study's own); the shipped ones serve the rest.
+    training : dict, optional
+        Options of the training section (:func:`microg.analysis.training.analyse_training`: e.g.
+        ``{"posttest": "post", "retention": "week"}``, or its session columns' names).
     out_dir : str or Path
         Folder for report.html, report.md, the CSV tables and figures/.
     title : str
@@ -88,6 +120,12 @@ def write_report(
 
     Notes
     -----
+    A training program's trials table (a participant with several sessions, or a phase with a
+    proficiency criterion: :func:`microg.analysis.training.is_training`) adds the training section:
+    learning curves, tasks to criterion, and the pre-test, post-test and retention test
+    (:func:`microg.analysis.training.analyse_training`), its CSV tables in training/. Any other table's
+    report has no such section.
+
     A trials table whose analysed tasks are all pick-and-place (or that has no ``task_kind``) is
     analysed as one study. Otherwise each task kind is analysed apart
     (:func:`microg.analysis.analyse_study`'s ``kind``; pick-and-place first), its sections titled by
@@ -118,6 +156,12 @@ def write_report(
                                   excluded_phases, kind=kind, **columns)
                     for kind in kinds]  # fmt: skip
     analysis = analyses[0]
+    program = None
+    if is_training(table, columns.get("subject", "participant")):
+        shared = {parameter: columns[option] for option, parameter in TRAINING_COLUMNS.items() if option in columns}
+        source = "trials table" if isinstance(trials, pd.DataFrame) else str(trials)
+        program = analyse_training(table, excluded_phases=excluded_phases, source=source,
+                                   **{**shared, **(training or {})})  # fmt: skip
     found = None
     if answers is not None and len(answers):
         found = analyse_questionnaires(answers, instruments, analysis.interaction, analysis.baseline, analysis.alpha)
@@ -130,8 +174,14 @@ def write_report(
         folder.mkdir(exist_ok=True)
         write_tables(each, folder, found if each is analysis else None)
         figures += write_figures(each, out / "figures", found if each is analysis else None)
+    if program is not None:
+        write_training_tables(program, out / TRAINING_FOLDER)
+        figures += write_training_figures(program, out / "figures")
     sections = merged_sections(analyses, found)
     sections["no_questionnaire"] = no_questionnaire
+    sections["training"] = training_section(program) if program is not None else None
+    if program is not None:
+        sections["methods"] = sections["methods"] + training_methods(program)
     (out / MARKDOWN_FILE).write_text(render_markdown(analysis, title, sections), encoding="utf-8")
     path = out / REPORT_FILE
     path.write_text(render_html(analysis, figures, title, sections), encoding="utf-8")
@@ -285,6 +335,7 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
         "warnings": list(a.warnings),
         "kinds": [],
         "no_questionnaire": "",
+        "training": None,
         "interactions": [
             f"{label} ({role})"
             + (f": {name}" if label != name else "")
@@ -496,8 +547,125 @@ def render_markdown(analysis: StudyAnalysis, title: str, sections: dict | None =
         lines += [f"### {block['title']}", "", f"Source: {block['source']}", "", *[p + "\n" for p in block["results"]]]
         for caption, table in block["tables"]:
             lines += [f"**{caption}**", "", markdown_table(table), ""]
+    if sections["training"] is not None:
+        lines += ["## Training program", "", *[p + "\n" for p in sections["training"]["results"]]]
+        for caption, table in sections["training"]["tables"]:
+            lines += [f"**{caption}**", "", markdown_table(table), ""]
     lines += ["## Methods", "", *[f"- {line}" for line in sections["methods"]], ""]
     return "\n".join(lines)
+
+
+def write_training_tables(training: TrainingAnalysis, out: Path) -> list[Path]:
+    """The training section's CSV tables at full precision in ``out`` (training/); returns the files.
+
+    sessions.csv (each session's order and role), learning_curve.csv (per group and practice),
+    power_law.csv (per trainee), group_curves.csv and practice_model_{anova,coefficients,random}.csv
+    (the learning curves' mixed model), criterion.csv (per trainee, session and phase: tasks to
+    criterion), kaplan_meier.csv, medians.csv, logrank.csv, session_cells.csv, session_cell_means.csv,
+    session_anova.csv, session_corrections.csv, session_posthoc.csv,
+    session_model_{anova,coefficients,random}.csv and retention.csv; a table whose analysis did not
+    apply has its header only.
+    """
+    out.mkdir(parents=True, exist_ok=True)
+    written = [_csv(getattr(training, name), out / f"{file}.csv") for name, file in TRAINING_TABLES.items()]
+    for prefix, model in (("practice_model", training.practice_model), ("session_model", training.session_model)):
+        if model is not None:
+            written += [_csv(getattr(model, part), out / f"{prefix}_{part}.csv")
+                        for part in ("anova", "coefficients", "random")]  # fmt: skip
+    return written
+
+
+def write_training_figures(training: TrainingAnalysis, folder: Path) -> list[dict]:
+    """The learning curves (time with the fits; attempts), the curves of reaching the criterion and the
+    test sessions' bars."""
+    t = training
+    label = r.measure_label(t.dv)
+    figures = []
+    fig = plot_learning_curves(t.curve_tasks, t.power_law, t.group_curves, t.dv, PRACTICE, t.subject, t.group, label)
+    figures.append(_figure(fig, folder / "training_learning_time",
+                           f"Learning curves: {label} of every completed task against practice (tasks done), per "
+                           f"{t.group}; thin lines each trainee's power law a + b \u00d7 practice^\u2212c, the thick "
+                           "line the group's curve from the mixed model of log time on log practice"))
+    fig = plot_practice_means(t.learning_curve, t.attempts, t.group, ylabel=r.measure_label(t.attempts))
+    figures.append(_figure(fig, folder / "training_learning_attempts",
+                           f"Learning curves: mean {r.measure_label(t.attempts)} per {t.group} at each amount of "
+                           "practice, band \u00b1 SE (fewer trainees at more practice: those who met the criteria "
+                           "sooner did fewer tasks)"))
+    if len(t.criterion):
+        fig = plot_criterion(t.kaplan_meier, t.criterion, (t.session, t.phase), t.group)
+        figures.append(_figure(fig, folder / "training_criterion",
+                               "Reaching the criterion: the share of each group that had met it against the tasks in "
+                               "the phase (1 \u2212 the Kaplan-Meier curve), 95 % band shaded (R's log band); ticks "
+                               "mark trainees who reached the phase's bound without it (censored)"))
+    if len(t.test_posthoc):
+        fig = plot_bars(t.test_cells, t.dv, t.test_posthoc, t.session, t.group, ylabel=label,
+                        order=t.test_order())  # fmt: skip
+        figures.append(_figure(fig, folder / "training_tests",
+                               f"{label.capitalize()} in the test sessions per {t.group}: bars mean \u00b1 SE, dots "
+                               "each trainee's mean; brackets mark Bonferroni-significant comparisons"))
+    return figures
+
+
+def training_section(training: TrainingAnalysis) -> dict:
+    """The training section as the page and report.md show it: Results paragraphs and tables."""
+    t = training
+    tables = [("Sessions", r.training_sessions_table(t))]
+    if t.practice_model is not None:
+        tables += [("Learning curves: each group's curve (mixed model of log time on log practice)",
+                    r.group_curves_table(t)),
+                   ("Learning curves: type 3 F tests (Satterthwaite df)", r.model_tests_table(t.practice_model))]
+    tables.append(("Learning curves: each trainee's power law, time = a + b \u00d7 practice^\u2212c",
+                   r.power_law_table(t)))
+    if len(t.medians):
+        tables += [("Tasks to criterion (Kaplan-Meier; censored: the bound reached without the criterion)",
+                    r.criterion_table(t)), ("Log-rank tests", r.logrank_table(t))]
+    if len(t.test_anova):
+        tables += [("Test sessions: means of the trainees' means", r.test_means_table(t)),
+                   ("Test sessions: mixed ANOVA", r.anova_display(t.test_anova, t.test_corrections)),
+                   ("Test sessions: post hoc comparisons (Bonferroni within each family)",
+                    r.contrasts_display(t.test_posthoc, t.group))]
+    if t.session_model is not None:
+        tables.append(("Test sessions, every completed task: type 3 F tests (Satterthwaite df)",
+                       r.model_tests_table(t.session_model)))
+    if len(t.retention):
+        tables.append(("Retention loss (paired, within each group)", r.retention_table(t)))
+    return {"results": r.training_paragraphs(t), "notes": list(t.notes), "tables": tables}
+
+
+def training_methods(training: TrainingAnalysis) -> list[str]:
+    """The training section's method statements."""
+    t = training
+    roles = ", ".join(f"{role} {name}" for role, name in t.roles.items())
+    return [
+        (
+            "Training program (microg.analysis.training): practice is the number of tasks a trainee had done, this "
+            "one included, counted across their sessions in session order, then task order (a task that never ran, "
+            "with no count of attempts, adds none). Learning curves: every completed task's time against practice. "
+            "Each trainee's power law, time = a + b \u00d7 practice^\u2212c, by bounded nonlinear least squares "
+            f"(a \u2265 0, b \u2265 0, 0 \u2264 c \u2264 {POWER_LAW_UPPER_C:g}; scipy's trust-region reflective "
+            "least_squares, as R's nls with the port algorithm), standard errors as R's summary.nls. Each group's "
+            "curve from a linear mixed model of log time on log practice with a random intercept and slope per "
+            "trainee (the slope dropped when the fit is singular), REML, Satterthwaite df, as lme4/lmerTest; the "
+            "group \u00d7 log practice term tests whether the groups learn at different rates."
+        ),
+        (
+            "Tasks to criterion: per session and phase with a proficiency criterion, the task's place in the phase "
+            "on which the criterion was first met; a trainee who reached the phase's bound without meeting it is "
+            "censored at the tasks done. Kaplan-Meier curves per group with R's pointwise log band, S exp(\u00b1z "
+            "SE(log S)) with Greenwood's variance (survfit's default conf.type \"log\"); the median and its 95 % CI "
+            "read off the curve and the band as R's quantile.survfit (where a curve is 0.5 over an interval, its "
+            "middle; \"not reached\" when a curve or bound never falls to 0.5). Log-rank test, as R's survdiff."
+        ),
+        (
+            f"Tests: the sessions without a criterion, in order the first the pre-test, the second-to-last the "
+            f"post-test, the last the retention test ({roles}). Each trainee's mean time of the session's completed "
+            f"tasks; mixed ANOVA, {t.group} between x {t.session} within (type 3, as afex), with the "
+            "Greenhouse-Geisser correction when Mauchly's test rejects sphericity, and Bonferroni-adjusted pairs "
+            f"(as emmeans); a linear mixed model of every completed test task, log time ~ {t.group} * {t.session} "
+            "with a random intercept per trainee (lmerTest). Retention loss: retention minus post-test per trainee, "
+            "within each group a paired t-test with d_z and its CI, and the Wilcoxon signed-rank test."
+        ),
+    ]
 
 
 def methods(analysis: StudyAnalysis) -> list[str]:

@@ -59,6 +59,12 @@ number at full precision; report.md holds the Results and tables as Markdown.</p
 {% if comparison %}<h3>{{ interaction }} vs {{ baseline }}</h3>{% for p in comparison %}<p class="results">{{ p }}</p>{% endfor %}{% endif %}
 {% if likert %}<h3>Questionnaire</h3><p class="results">{{ likert }}</p>{% endif %}
 {% if art %}<p class="results">{{ art }}</p>{% endif %}
+{% if training %}
+<h2>Training program</h2>
+{% for p in training.results %}<p class="results">{{ p }}</p>{% endfor %}
+{% if training.notes %}<ul class="warnings">{% for note in training.notes %}<li>{{ note }}</li>{% endfor %}</ul>{% endif %}
+{% for caption, table in training.tables %}<p class="caption">{{ caption }}</p><div class="table">{{ table | html }}</div>{% endfor %}
+{% endif %}
 
 <h2>Methods</h2>
 <ul class="method">{% for m in methods %}<li>{{ m }}</li>{% endfor %}</ul>

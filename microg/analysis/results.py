@@ -23,6 +23,7 @@ from microg.analysis.art import CELL_SEPARATOR
 from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.likert import SCALE
 from microg.analysis.questionnaires import PAIRED_T, QuestionnaireAnalysis
+from microg.analysis.training import POWER_LAW_UPPER_C, TrainingAnalysis
 from microg.schema import KIND_ATTEMPTS
 
 MEASURE_LABELS = {"time_s": "completion time (s)", "time_to_catch_s": "time to catch (s)",
@@ -164,8 +165,12 @@ def likert_paragraph(analysis: StudyAnalysis) -> str:
 def anova_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.DataFrame:
     """The ANOVA table with readable headers; df and p are those of the test read (Greenhouse-Geisser
     corrected where sphericity is violated, as in the Results paragraph)."""
-    table = analysis.table("anova", interaction, dv)
-    chosen = analysis.table("corrections", interaction, dv)
+    return anova_display(analysis.table("anova", interaction, dv), analysis.table("corrections", interaction, dv))
+
+
+def anova_display(table: pd.DataFrame, chosen: pd.DataFrame) -> pd.DataFrame:
+    """A :func:`microg.analysis.mixed_anova` table with readable headers, df and p those of the test
+    read (``chosen``, its :func:`microg.analysis.sphericity_correction`)."""
     return pd.DataFrame(
         {
             "Effect": _sources(table["source"]),
@@ -204,13 +209,17 @@ def sphericity_table(analysis: StudyAnalysis, interaction: str, dv: str) -> pd.D
 
 def contrasts_table(analysis: StudyAnalysis, table: pd.DataFrame) -> pd.DataFrame:
     """Post hoc comparisons (or the simple effects' pairs) with readable headers."""
-    a = analysis
+    return contrasts_display(table, analysis.group)
+
+
+def contrasts_display(table: pd.DataFrame, group: str) -> pd.DataFrame:
+    """A :func:`microg.analysis.posthoc` table with readable headers (``group`` the between factor)."""
 
     def comparison(row) -> str:
         pair = f"{row['A']}{MINUS}{row['B']}"
-        if row["factor"] == a.group:
+        if row["factor"] == group:
             return f"{pair} at {row['at']}"
-        return pair if pd.isna(row["at"]) else f"{pair} in {a.group} {row['at']}"
+        return pair if pd.isna(row["at"]) else f"{pair} in {group} {row['at']}"
 
     return pd.DataFrame(
         {
@@ -780,3 +789,262 @@ def _model_sources(a: StudyAnalysis, sources: pd.Series) -> list[str]:
 
 def _rows(table: pd.DataFrame, kind: str, interaction: str, measure: str) -> pd.DataFrame:
     return table[(table["analysis"] == kind) & (table["interaction"] == interaction) & (table["measure"] == measure)]
+
+
+# Training programs (microg.analysis.training)
+
+NOT_REACHED = "not reached"
+
+
+def training_paragraphs(training: TrainingAnalysis) -> list[str]:
+    """The training section's Results in words: the learning curves, the tasks to criterion of each
+    phase with one, the tests and the retention loss."""
+    t = training
+    paragraphs = [learning_paragraph(t)] if t.practice_model is not None else []
+    for session, phase in t.medians[[t.session, t.phase]].drop_duplicates().itertuples(index=False):
+        paragraphs.append(criterion_paragraph(t, session, phase))
+    if len(t.test_anova):
+        paragraphs.append(tests_paragraph(t))
+    if t.session_model is not None:
+        paragraphs.append(session_model_paragraph(t))
+    if len(t.retention):
+        paragraphs.append(retention_paragraph(t))
+    return paragraphs
+
+
+def learning_paragraph(training: TrainingAnalysis) -> str:
+    """The learning curves: each group's curve from the mixed model of log time on log practice, the
+    test of the groups' slopes, and the trainees' own power laws."""
+    t = training
+    model = t.practice_model
+    label = measure_label(t.dv)
+    curves = t.group_curves.set_index([t.group, "parameter"])
+    parts = []
+    for name in sorted(t.group_curves[t.group].unique()):
+        slope = curves.loc[(name, "slope")]
+        scale = np.exp(curves.loc[(name, "intercept"), "estimate"])
+        parts.append(f"{t.group} {name}: {label.split(' (')[0]} = {number(scale)}"
+                     f" \u00d7 practice^{number(slope['estimate'])} (slope b = {number(slope['estimate'], 3)}, "
+                     f"SE = {number(slope['SE'], 3)}, {t_test(slope['t'], slope['df'], slope['p_unc'])})")
+    tests = model.anova.set_index("source")
+    crossed = tests.iloc[-1] if ":" in tests.index[-1] else None
+    if crossed is not None:
+        wording = "differed significantly" if crossed["p_unc"] < t.alpha else "did not differ significantly"
+        test = f_test(crossed["F"], crossed["df1"], crossed["df2"], crossed["p_unc"])
+        slopes = f" The groups' slopes {wording}, {test} ({_model_term(crossed.name)})."
+    else:
+        slopes = ""
+    fits = t.power_law[t.power_law["converged"]]
+    per_group = "; ".join(
+        f"{name}, median c = {number(rows['c'].median())} (IQR {number(rows['c'].quantile(0.25))}-"
+        f"{number(rows['c'].quantile(0.75))}, n = {len(rows)})" for name, rows in fits.groupby(t.group, sort=True))
+    bounded_fits = int((fits["at_bound"] != "").sum())
+    return (
+        f"Learning curves ({label.split(' (')[0]} of every completed task against practice, the tasks a trainee had "
+        "done; "
+        f"{model.n_trials} tasks of {model.n_subjects} trainees): a linear mixed model, {model.formula} (REML; "
+        f"Satterthwaite df; {model.note}), gave " + "; ".join(parts) + f".{slopes} "
+        f"Each trainee's power law, time = a + b \u00d7 practice^\u2212c (bounded least squares; a, b \u2265 0, "
+        f"0 \u2264 c \u2264 {POWER_LAW_UPPER_C:g}): {per_group}; {bounded_fits} of {len(fits)} fits at a bound."
+    )
+
+
+def criterion_paragraph(training: TrainingAnalysis, session: str, phase: str) -> str:
+    """Tasks to criterion in one session's phase: who met it, the Kaplan-Meier medians with their 95 %
+    CIs, and the log-rank test."""
+    t = training
+    medians = t.medians[(t.medians[t.session] == session) & (t.medians[t.phase] == phase)]
+    tests = t.logrank[(t.logrank[t.session] == session) & (t.logrank[t.phase] == phase)]
+    met = ", ".join(f"{int(row.events)} of {int(row.n)} in {row[t.group]}" for _, row in medians.iterrows())
+    middles = "; ".join(f"{row[t.group]}, {median_text(row['median'], row['ci_low'], row['ci_high'])}"
+                        for _, row in medians.iterrows())
+    if len(tests):
+        test = tests.iloc[0]
+        wording = "differed significantly" if test["p_unc"] < t.alpha else "did not differ significantly"
+        compared = f"The groups {wording}, log-rank {chi_square(test['chi2'], test['df'], test['p_unc'])}."
+    else:
+        compared = "No log-rank test (one group, or nobody met the criterion)."
+    return (
+        f"Tasks to criterion, {session} ({phase}): {met} met the criterion (the others censored at the tasks "
+        f"they did). Kaplan-Meier median tasks to criterion: {middles}. {compared}"
+    )
+
+
+def median_text(median: float, low: float, high: float) -> str:
+    """A median time to the criterion with its 95 % CI: "Mdn = 4.5, 95 % CI [3, not reached]".
+
+    Examples
+    --------
+    >>> from microg.analysis.results import median_text
+    >>> median_text(4.5, 3.0, float("nan")), median_text(float("nan"), 14.0, float("nan"))
+    ('Mdn = 4.5, 95 % CI [3, not reached]', 'Mdn not reached, 95 % CI [14, not reached]')
+    """
+    head = "Mdn not reached" if pd.isna(median) else f"Mdn = {tasks_text(median)}"
+    return f"{head}, 95 % CI [{tasks_text(low)}, {tasks_text(high)}]"
+
+
+def tasks_text(value: float) -> str:
+    """A number of tasks: whole, or with its half (a median between two tasks); "not reached" for none."""
+    if pd.isna(value):
+        return NOT_REACHED
+    return f"{value:.0f}" if float(value).is_integer() else number(value, 1)
+
+
+def tests_paragraph(training: TrainingAnalysis) -> str:
+    """The test sessions' mixed ANOVA in words, with the pairs of sessions."""
+    t = training
+    anova = t.test_anova.set_index("source")
+    chosen = t.test_corrections.set_index("source")
+    crossed = f"{t.group}:{t.session}"
+    names = {t.group: f"main effect of {t.group}", t.session: f"main effect of {t.session}",
+             crossed: f"{t.group} \u00d7 {t.session} interaction"}  # fmt: skip
+    effects = []
+    for source in (t.group, t.session, crossed):
+        row, choice = anova.loc[source], chosen.loc[source]
+        wording = "a significant" if choice["p"] < t.alpha else "no significant"
+        effect = (f"{wording} {names[source]}, {f_test(row['F'], choice['df1'], choice['df2'], choice['p'])}, "
+                  f"{ETA_P} = {bounded(row['np2'])}, 95 % CI "
+                  f"{interval(row['np2_ci_low'], row['np2_ci_high'], bounded)}, {ETA_G} = {bounded(row['ges'])}")
+        if choice["correction"] == "Greenhouse-Geisser":
+            effect += f" (Greenhouse-Geisser corrected, {EPSILON} = {bounded(choice['epsilon'])})"
+        effects.append(effect)
+    n_groups, n_sessions = t.test_cells[t.group].nunique(), t.test_cells[t.session].nunique()
+    sizes = t.test_cells.drop_duplicates(t.subject).groupby(t.group).size()
+    text = (f"Tests ({', '.join(t.test_order())}; each trainee's mean {measure_label(t.dv).split(' (')[0]} of the "
+            f"session's completed tasks; N = {int(sizes.sum())}: "
+            + ", ".join(f"{g}: {n}" for g, n in sizes.items())
+            + f"): a {n_groups} \u00d7 {n_sessions} mixed ANOVA ({t.group} between, {t.session} within; type 3 sums "
+            f"of squares) showed {effects[0]}; {effects[1]}; and {effects[2]}.")
+    pairs = t.test_posthoc[t.test_posthoc["factor"] == t.session]
+    if chosen.loc[t.session, "p"] < t.alpha and len(pairs):
+        text += (f" Pairwise comparisons of {t.session} (averaged over {t.group}s; p and 95 % CIs Bonferroni-adjusted "
+                 f"over {len(pairs)} pairs): " + "; ".join(_contrast(row) for _, row in pairs.iterrows()) + ".")
+    return text
+
+
+def session_model_paragraph(training: TrainingAnalysis) -> str:
+    """The linear mixed model of every completed test task in words."""
+    t = training
+    model = t.session_model
+    effects = []
+    for row in model.anova.itertuples(index=False):
+        wording = "a significant" if row.p_unc < t.alpha else "no significant"
+        effects.append(f"{wording} effect of {_model_term(row.source)}, {f_test(row.F, row.df1, row.df2, row.p_unc)}")
+    return (f"Every completed test task ({model.n_trials} tasks of {model.n_subjects} trainees), a linear mixed model "
+            f"{model.formula} (REML; type 3 F tests with Satterthwaite df; {model.note}): " + "; ".join(effects) + ".")
+
+
+def retention_paragraph(training: TrainingAnalysis) -> str:
+    """The retention loss (retention minus post-test) of each group in words."""
+    t = training
+    parts = []
+    for _, row in t.retention.iterrows():
+        parts.append(
+            f"{t.group} {row[t.group]} (n = {int(row['n'])}): M = {number(row['mean_posttest'])} vs "
+            f"{number(row['mean_retention'])}, loss M = {number(row['mean_diff'])}, 95 % CI "
+            f"{interval(row['diff_ci_low'], row['diff_ci_high'])}, {t_test(row['T'], row['dof'], row['p_t'])}, "
+            f"d_z = {number(row['d_z'])}, 95 % CI {interval(row['d_z_ci_low'], row['d_z_ci_high'])}; Wilcoxon "
+            f"signed-rank V = {number(row['V'], 1)}, p {p_value(row['p_wilcoxon'])}"
+        )
+    return (f"Retention loss ({t.roles['retention']}{MINUS}{t.roles['posttest']}, each trainee's mean "
+            f"{measure_label(t.dv).split(' (')[0]}; paired tests within each {t.group}): " + "; ".join(parts) + ".")
+
+
+def training_sessions_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Each session in order, its role and whether it trains to a criterion."""
+    table = training.sessions
+    return pd.DataFrame({"Session": table[training.session], "Order": table["order"].astype(int),
+                         "Role": table["role"], "Criterion": table["criterion"].map({True: "yes", False: "no"}),
+                         "Trainees": table["participants"].astype(int)})  # fmt: skip
+
+
+def group_curves_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Each group's learning curve from the mixed model: time = exp(intercept) practice^slope."""
+    t = training
+    rows = []
+    for name, part in t.group_curves.groupby(t.group, sort=True):
+        curve = part.set_index("parameter")
+        slope, intercept = curve.loc["slope"], curve.loc["intercept"]
+        rows.append({t.group.capitalize(): name,
+                     "Curve": f"{number(np.exp(intercept['estimate']))} \u00d7 practice^{number(slope['estimate'], 3)}",
+                     "Intercept (log) [SE]": f"{number(intercept['estimate'], 3)} [{number(intercept['SE'], 3)}]",
+                     "Slope [SE]": f"{number(slope['estimate'], 3)} [{number(slope['SE'], 3)}]",
+                     "df": degrees(slope["df"]), "t": number(slope["t"]), "p": p_cell(slope["p_unc"])})
+    return pd.DataFrame(rows)
+
+
+def model_tests_table(model) -> pd.DataFrame:
+    """A linear mixed model's type 3 F tests (:class:`microg.analysis.TrialModel`)."""
+    table = model.anova
+    return pd.DataFrame({"Effect": [_model_term(source) for source in table["source"]], "F": table["F"].map(number),
+                         "df": table["df1"].map(degrees), "df error": table["df2"].map(degrees),
+                         "p": table["p_unc"].map(p_cell)})  # fmt: skip
+
+
+def power_law_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Each trainee's power law of practice with the standard errors."""
+    t = training
+    table = t.power_law
+    return pd.DataFrame({
+        t.subject.capitalize(): table[t.subject], t.group.capitalize(): table[t.group], "Tasks": table["n"],
+        "a [SE]": [f"{number(v)} [{number(se)}]" for v, se in zip(table["a"], table["a_se"])],
+        "b [SE]": [f"{number(v)} [{number(se)}]" for v, se in zip(table["b"], table["b_se"])],
+        "c [SE]": [f"{number(v, 3)} [{number(se, 3)}]" for v, se in zip(table["c"], table["c_se"])],
+        "Residual SD": table["sigma"].map(number), "At a bound": table["at_bound"],
+        "Note": table["note"],
+    })  # fmt: skip
+
+
+def criterion_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Per session, phase and group: who met the criterion and the median tasks to it."""
+    t = training
+    table = t.medians
+    return pd.DataFrame({
+        "Session": table[t.session], "Phase": table[t.phase], t.group.capitalize(): table[t.group],
+        "n": table["n"].astype(int), "Met the criterion": table["events"].astype(int),
+        "Median tasks to criterion [95 % CI]": [
+            f"{tasks_text(m)} [{tasks_text(lo)}, {tasks_text(hi)}]"
+            for m, lo, hi in zip(table["median"], table["ci_low"], table["ci_high"])],
+    })  # fmt: skip
+
+
+def logrank_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """The log-rank test of each session's phase with a criterion."""
+    t = training
+    table = t.logrank
+    return pd.DataFrame({"Session": table[t.session], "Phase": table[t.phase], CHI2: table["chi2"].map(number),
+                         "df": table["df"].map(degrees), "p": table["p_unc"].map(p_cell),
+                         "Trainees (met)": [f"{int(n)} ({int(e)})" for n, e in zip(table["n"], table["events"])]})
+
+
+def test_means_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Mean, SD and SE of the trainees' means per group and test session, in session order."""
+    t = training
+    order = {name: index for index, name in enumerate(t.test_order())}
+    table = t.test_cell_means.assign(_order=t.test_cell_means[t.session].map(order)).sort_values(
+        [t.group, "_order"])
+    return pd.DataFrame({t.group.capitalize(): table[t.group], "Session": table[t.session],
+                         "n": table["n"].astype(int), "M": table["mean"].map(number), "SD": table["sd"].map(number),
+                         "SE": table["se"].map(number)})  # fmt: skip
+
+
+def retention_table(training: TrainingAnalysis) -> pd.DataFrame:
+    """Each group's retention loss with its paired tests."""
+    t = training
+    table = t.retention
+    return pd.DataFrame({
+        t.group.capitalize(): table[t.group], "n": table["n"].astype(int),
+        f"M {t.roles.get('posttest', 'posttest')} (SD)": [
+            f"{number(m)} ({number(sd)})" for m, sd in zip(table["mean_posttest"], table["sd_posttest"])],
+        f"M {t.roles.get('retention', 'retention')} (SD)": [
+            f"{number(m)} ({number(sd)})" for m, sd in zip(table["mean_retention"], table["sd_retention"])],
+        "Loss M [95 % CI]": [f"{number(m)} {interval(lo, hi)}"
+                             for m, lo, hi in zip(table["mean_diff"], table["diff_ci_low"], table["diff_ci_high"])],
+        "t": table["T"].map(number), "df": table["dof"].map(degrees), "p": table["p_t"].map(p_cell),
+        "d_z [95 % CI]": _with_interval(table, "d_z", number), "V": table["V"].map(lambda v: number(v, 1)),
+        "p (Wilcoxon)": table["p_wilcoxon"].map(p_cell),
+    })  # fmt: skip
+
+
+def _model_term(source: str) -> str:
+    return " \u00d7 ".join(part.replace("_", " ") for part in source.split(":"))

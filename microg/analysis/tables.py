@@ -387,6 +387,90 @@ def check_trials(
     return out
 
 
+def check_training(
+    trials: pd.DataFrame,
+    source: str = "trials table",
+    *,
+    subject: str = "participant",
+    session: str = "session",
+    session_index: str = "session_index",
+    task_index: str = "task_index",
+    task_in_phase: str = "task_in_phase",
+    criterion: str = "criterion_met",
+) -> pd.DataFrame:
+    """Check a training program's session columns of a trials table (checked by :func:`check_trials`)
+    and return a copy with them typed.
+
+    Parameters
+    ----------
+    trials : pandas.DataFrame
+        One row per task with ``session`` (the session's name), ``session_index`` (its 1-based
+        order for the participant) and ``task_index``; optionally ``task_in_phase`` (the task's
+        1-based place in its phase) and ``criterion`` (True, False, or empty for a phase without a
+        criterion).
+    source : str
+        How the error messages name the table (its file).
+    subject, session, session_index, task_index, task_in_phase, criterion : str
+        The column names.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The checked copy: ``session`` text, ``session_index`` and ``task_in_phase`` integers,
+        ``criterion`` nullable booleans.
+
+    Raises
+    ------
+    AnalysisInputError
+        Naming the source, column, value and data row: a missing column, an empty session name, a
+        session index or a place in the phase that is not a whole number of 1 or more, a criterion
+        that is not True, False or empty, a participant's session with two indexes or an index
+        with two sessions.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.tables import check_training
+    >>> trials = pd.DataFrame({"participant": "P1", "session": ["pre", "train1"], "session_index": [1, 0],
+    ...                        "task_index": [0, 0]})
+    >>> check_training(trials)
+    Traceback (most recent call last):
+    ...
+    microg.analysis.tables.AnalysisInputError: trials table: column 'session_index' value 0 is not a whole number \
+of 1 or more (data row 2, participant 'P1')
+    """
+    trials = trials.reset_index(drop=True)
+    _require_columns(trials, [subject, session, session_index, task_index], source)
+    out = trials.copy()
+    out[session] = _labels(trials, session, source, subject)
+    for column in (session_index, task_in_phase):
+        if column not in trials.columns:
+            continue
+        values = _numbers(trials, column, source, subject)
+        bad = values.isna() | (values < 1) | (values != np.round(values))
+        _require(trials, column, bad, source, "is not a whole number of 1 or more", subject)
+        out[column] = values.astype(int)
+    out[task_index] = _numbers(trials, task_index, source, subject)
+    _require(trials, task_index, out[task_index].isna(), source, "is empty", subject)
+    if criterion in trials.columns:
+        raw = trials[criterion]
+        blank = raw.isna() | (raw.astype(str).str.strip() == "")
+        words = {"true": True, "false": False, "1": True, "0": False, "1.0": True, "0.0": False}
+        mapped = raw.astype(str).str.strip().str.lower().map(words)
+        _require(trials, criterion, mapped.isna() & ~blank, source, "is not True, False or empty", subject)
+        out[criterion] = mapped.where(~blank).astype("boolean")
+    for key, column in ((session, session_index), (session_index, session)):
+        per_participant = out.groupby([subject, key], observed=True)[column].nunique()
+        several = per_participant[per_participant > 1]
+        if len(several):
+            who, value = several.index[0]
+            names = " and ".join(repr(_plain(v)) for v in sorted(out.loc[(out[subject] == who) & (out[key] == value),
+                                                                          column].unique()))
+            raise AnalysisInputError(f"{source}: {subject} {who!r} has {names} in column {column!r} for {key} "
+                                     f"{_plain(value)!r}; one is allowed")
+    return out
+
+
 def check_questionnaire(
     answers: pd.DataFrame,
     source: str = "questionnaire table",

@@ -49,6 +49,12 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
 @click.option("--practice-column", "practice", default=None,
               help="Column of a task's place in the participant's session: the trial model's practice term and "
                    "random slope [task_index].")
+@click.option("--pretest", default=None,
+              help="A training program's pre-test session by name [the first session without a criterion].")
+@click.option("--posttest", default=None,
+              help="A training program's post-test session by name [the second-to-last session without a criterion].")
+@click.option("--retention", default=None,
+              help="A training program's retention test session by name [the last session without a criterion].")
 @click.option("--columns", "columns_file", type=FILE,
               help="TOML file of column names (subject, group, within, interaction_column, dv, counts, completed, "
                    "phase, label, item, rating, practice); the options above win.")  # fmt: skip
@@ -74,11 +80,15 @@ def report(
     counts: tuple[str, ...],
     drop_duplicates: bool,
     practice: str | None,
+    pretest: str | None,
+    posttest: str | None,
+    retention: str | None,
     columns_file: Path | None,
 ) -> None:
     """Mixed ANOVA, post hoc tests, the trial model of every task, interaction model vs baseline, Likert
     analysis with the aligned rank transform, the questionnaires' scores and their comparisons, and
-    figures of a study.
+    figures of a study; for a training program (several sessions per participant, or phases trained to a
+    criterion) also its learning curves, tasks to criterion and the pre-test, post-test and retention test.
 
     Give a STUDY folder (a study, or an export of one) or --trials (and optionally --likert, --answers). Writes
     OUT/report.html (self-contained),
@@ -126,6 +136,8 @@ def report(
     try:
         path = write_report(trials_table, questionnaire, out, interaction, baseline, int(ss_type), excluded_phases,
                             drop_duplicates=drop_duplicates, answers=answers, instruments=instruments,
+                            training={key: value for key, value in (("pretest", pretest), ("posttest", posttest),
+                                                                    ("retention", retention)) if value is not None},
                             **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""

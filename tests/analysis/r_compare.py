@@ -117,3 +117,47 @@ def assert_models_match(ours: Path, theirs: Path) -> None:
         table = pd.read_csv(ours / f"{name}.csv")
         for item, rows in table.groupby("item"):
             assert_same_numbers(rows, pd.read_csv(theirs / f"{name}_{item}.csv"), keys, numbers)
+
+
+TRAINING = R_DIR / "expected" / "training"
+TRAINING_CSV = R_DIR / "training_trials.csv"
+R_POWER_LAW_NUMBERS = ["n", "a", "b", "c", "a_se", "b_se", "c_se", "rss", "sigma"]
+R_KAPLAN_MEIER_NUMBERS = ["n_risk", "n_event", "surv", "se", "ci_low", "ci_high"]
+R_MEDIAN_NUMBERS = ["n", "events", "median", "ci_low", "ci_high"]
+R_LOGRANK_NUMBERS = ["chi2", "df", "p_unc", "n", "events"]
+R_RETENTION_NUMBERS = ["n", "mean_posttest", "sd_posttest", "mean_retention", "sd_retention", "mean_diff",
+                       "diff_ci_low", "diff_ci_high", "T", "dof", "p_t", "d_z", "d_z_ci_low", "d_z_ci_high", "cohen_d",
+                       "V", "p_wilcoxon", "rbc", "rbc_ci_low", "rbc_ci_high", "n_nonzero", "p_shapiro"]  # fmt: skip
+TRAINING_FILES = {  # our file in the report's training/ -> R's file, keys, numbers
+    "power_law": ("power_law", ["participant", "group"], R_POWER_LAW_NUMBERS),
+    "group_curves": ("group_curves", ["group", "parameter"], R_MODEL_COEFFICIENT_NUMBERS),
+    "practice_model_coefficients": ("practice_model_coefficients", ["term"], R_MODEL_COEFFICIENT_NUMBERS),
+    "practice_model_anova": ("practice_model_anova", ["source"], R_ART_NUMBERS),
+    "practice_model_random": ("practice_model_random", ["name"], R_MODEL_RANDOM_NUMBERS),
+    "kaplan_meier": ("kaplan_meier", ["session", "phase", "group", "time"], R_KAPLAN_MEIER_NUMBERS),
+    "medians": ("medians", ["session", "phase", "group"], R_MEDIAN_NUMBERS),
+    "logrank": ("logrank", ["session", "phase"], R_LOGRANK_NUMBERS),
+    "session_anova": ("session_anova", ["source"], R_ANOVA_NUMBERS),
+    "session_posthoc": ("session_posthoc", ["factor", "at", "A", "B"], R_POSTHOC_NUMBERS),
+    "session_cell_means": ("session_cell_means", ["group", "session"], ["n", "mean", "sd", "se"]),
+    "session_model_coefficients": ("session_model_coefficients", ["term"], R_MODEL_COEFFICIENT_NUMBERS),
+    "session_model_anova": ("session_model_anova", ["source"], R_ART_NUMBERS),
+    "session_model_random": ("session_model_random", ["name"], R_MODEL_RANDOM_NUMBERS),
+    "retention": ("retention", ["group"], R_RETENTION_NUMBERS),
+}
+
+
+def assert_training_matches(ours: Path, theirs: Path) -> None:
+    """Every table of the report's training section (``ours``: its training/ folder) equals R's
+    (reference.R "training" mode, in ``theirs``); a power law only where R's nls converged."""
+    for name, (file, keys, numbers) in TRAINING_FILES.items():
+        table = pd.read_csv(ours / f"{name}.csv", dtype={"at": str})
+        expected = pd.read_csv(theirs / f"{file}.csv", dtype={"at": str})
+        if name == "power_law":
+            assert set(table["participant"]) == set(expected["participant"])
+            expected = expected[expected["converged"]]
+            assert table.set_index("participant").loc[expected["participant"], "converged"].all()
+            table = table[table["participant"].isin(expected["participant"])]
+        if name.endswith("_random"):
+            assert table.shape[0] == expected.shape[0]  # the random slope kept or dropped alike
+        assert_same_numbers(table, expected, keys, numbers)

@@ -1,7 +1,8 @@
 """Live comparison with R: freshly generated studies (other seeds, other group sizes, more unfinished
-tasks) analysed by microg and by tests/analysis/r/reference.R (afex, emmeans, car, rstatix,
-effectsize, geepack, stats, lme4/lmerTest, ARTool). Skips when Rscript or those R packages are not
-installed (scripts/install-system-deps.sh installs them: Debian's, and ARTool from ../shared)."""
+tasks; training programs of other seeds and sizes) analysed by microg and by tests/analysis/r/reference.R
+(afex, emmeans, car, rstatix, effectsize, geepack, stats, lme4/lmerTest, ARTool, survival). Skips when
+Rscript or those R packages are not installed (scripts/install-system-deps.sh installs them: Debian's,
+and ARTool from ../shared)."""
 
 from __future__ import annotations
 
@@ -12,11 +13,12 @@ from pathlib import Path
 import pytest
 
 from microg.analysis.report import write_report
-from tests.analysis.r_compare import INTERACTIONS, assert_study_matches
+from tests.analysis.r_compare import INTERACTIONS, assert_study_matches, assert_training_matches
 from tests.analysis.study_data import make_study
+from tests.analysis.training_data import make_training
 
 REFERENCE = Path(__file__).parent / "r" / "reference.R"
-R_PACKAGES = ("afex", "emmeans", "car", "rstatix", "effectsize", "geepack", "lmerTest", "ARTool")
+R_PACKAGES = ("afex", "emmeans", "car", "rstatix", "effectsize", "geepack", "lmerTest", "ARTool", "survival")
 
 
 def _r_ready() -> bool:
@@ -43,3 +45,15 @@ def test_whole_analysis_matches_r(tmp_path, seed, n_veteran, n_beginner, unfinis
     subprocess.run(command, check=True, capture_output=True, timeout=300)
     write_report(tmp_path / "trials.csv", tmp_path / "answers.csv", tmp_path / "ours")
     assert_study_matches(tmp_path / "ours", r_out)
+
+
+@pytest.mark.filterwarnings("ignore")
+@pytest.mark.parametrize("seed, n_per_group", [(7, 8), (11, 6)])
+def test_training_section_matches_r(tmp_path, seed, n_per_group):
+    make_training(seed, n_per_group).to_csv(tmp_path / "trials.csv", index=False)
+    r_out = tmp_path / "r"
+    r_out.mkdir()
+    subprocess.run(["Rscript", str(REFERENCE), "training", str(tmp_path / "trials.csv"), str(r_out)], check=True,
+                   capture_output=True, timeout=300)  # fmt: skip
+    write_report(tmp_path / "trials.csv", None, tmp_path / "ours")
+    assert_training_matches(tmp_path / "ours" / "training", r_out)

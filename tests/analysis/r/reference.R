@@ -21,6 +21,14 @@
 #   Rscript reference.R trials TRIALS.csv FIXED SLOPE OUT_PREFIX
 #     the linear mixed model of log(time_s) ~ FIXED with a random intercept and slope of SLOPE per
 #     participant (the intercept alone when singular) -> OUT_PREFIX{coefficients,anova,random}.csv
+#   Rscript reference.R training TRIALS.csv OUT_DIR
+#     a training program's section (microg.analysis.training, rules in its docstring): each
+#     participant's power law of practice (nls, port) -> power_law.csv; the learning curves' mixed
+#     model (lme4/lmerTest) -> practice_model_{coefficients,anova,random}.csv and group_curves.csv;
+#     tasks to criterion per session and phase with a criterion (survival: survfit, conf.type "log",
+#     quantile; survdiff) -> kaplan_meier.csv, medians.csv, logrank.csv; the test sessions' mixed
+#     ANOVA (afex, emmeans) -> session_{anova,posthoc,cell_means}.csv, their mixed model ->
+#     session_model_{coefficients,anova,random}.csv, retention minus post-test per group -> retention.csv
 # Factor levels are R's sorted levels; contrasts are "A - B" in that order.
 # Confidence intervals of partial eta squared and d_z are computed twice: by inverting R's
 # noncentral F / t with uniroot (np2_ci_low ...; exact) and by effectsize (*_effectsize; its
@@ -34,6 +42,7 @@ suppressMessages({
   library(rstatix)
   library(effectsize)
   library(geepack)
+  library(survival)
 })
 
 noncentral_root <- function(cdf, p, floor) {
@@ -241,6 +250,11 @@ trial_model_reference <- function(trials, fixed, slope, prefix) {
   with_slope <- !isSingular(fit)
   if (!with_slope) fit <- lmer(as.formula(paste(fixed, "+ (1 | participant)")), data = rows, REML = TRUE,
                                control = control)
+  write_model(fit, with_slope, nrow(rows), prefix)
+}
+
+write_model <- function(fit, with_slope, n_trials, prefix) {
+  # lmerTest's coefficients and type 3 F tests, and the random effects -> PREFIX{coefficients,anova,random}.csv
   coefficients <- as.data.frame(coef(summary(fit)))
   write.csv(data.frame(term = rownames(coefficients), estimate = coefficients$Estimate,
                        SE = coefficients$`Std. Error`, df = coefficients$df, t = coefficients$`t value`,
@@ -251,7 +265,7 @@ trial_model_reference <- function(trials, fixed, slope, prefix) {
             paste0(prefix, "anova.csv"), row.names = FALSE)
   random <- as.data.frame(VarCorr(fit))
   variances <- random[is.na(random$var2), ]
-  write.csv(data.frame(slope = with_slope, n_trials = nrow(rows),
+  write.csv(data.frame(slope = with_slope, n_trials = n_trials,
                        name = ifelse(variances$grp == "Residual", "Residual", paste(variances$grp, variances$var1)),
                        variance = variances$vcov, sd = variances$sdcor,
                        correlation = c(NA, random$sdcor[!is.na(random$var2)], NA)),
@@ -373,6 +387,160 @@ study_reference <- function(trials_file, answers_file, interaction, baseline, ou
                         file.path(out, "trial_model_"))
 }
 
+flag <- function(v) v %in% c(TRUE, "True", "true")
+
+power_law_reference <- function(x, y) {
+  # y = a + b x^-c, a >= 0, b >= 0, 0 <= c <= 3: nls's port search from the start microg uses, finished
+  # by nls's Gauss-Newton on the parameters not at a bound (port stops up to 1e-5 short of the optimum);
+  # standard errors by summary.nls's formula at the estimate, sqrt(diag((J'J)^-1) rss / (n - 3))
+  law <- deriv(~ a + b * x^(-c), c("a", "b", "c"), function(x, a, b, c) {})
+  a0 <- min(y) / 2
+  line <- coef(lm(log(y - a0) ~ log(x)))
+  start <- list(a = a0, b = exp(line[[1]]), c = min(max(-line[[2]], 0.01), 3 - 0.01))
+  port <- tryCatch(nls(y ~ law(x, a, b, c), start = start, algorithm = "port", lower = c(0, 0, 0),
+                       upper = c(Inf, Inf, 3), control = list(maxiter = 1000)), error = function(e) NULL)
+  if (is.null(port) || !port$convInfo$isConv) return(NULL)
+  estimate <- coef(port)
+  bound <- c(a = estimate[["a"]] <= 0, b = estimate[["b"]] <= 0, c = estimate[["c"]] >= 3)
+  free <- names(bound)[!bound]
+  body <- "a + b * x^(-c)"
+  for (name in names(bound)[bound]) {
+    body <- gsub(paste0("\\b", name, "\\b"), format(estimate[[name]], digits = 17), body, perl = TRUE)
+  }
+  polish <- deriv(as.formula(paste("~", body)), free, function.arg = c("x", free))
+  finish <- NULL
+  for (tol in c(1e-10, 1e-9, 1e-8, 1e-7)) {  # the tightest Gauss-Newton reaches (its step halves below minFactor)
+    finish <- tryCatch(nls(as.formula(paste0("y ~ polish(x, ", paste(free, collapse = ", "), ")")),
+                           start = as.list(estimate[free]), control = nls.control(tol = tol, maxiter = 100)),
+                       error = function(e) NULL)
+    if (!is.null(finish)) break
+  }
+  if (!is.null(finish)) estimate[free] <- coef(finish)[free]
+  fitted <- law(x, estimate[["a"]], estimate[["b"]], estimate[["c"]])
+  rss <- sum((y - fitted)^2)
+  jacobian <- attr(fitted, "gradient")
+  se <- tryCatch(sqrt(diag(solve(crossprod(jacobian))) * rss / (length(x) - 3)), error = function(e) rep(NA, 3))
+  data.frame(a = estimate[["a"]], b = estimate[["b"]], c = estimate[["c"]], a_se = se[1], b_se = se[2],
+             c_se = se[3], rss = rss, sigma = sqrt(rss / (length(x) - 3)), polished = !is.null(finish))
+}
+
+training_reference <- function(trials_file, out) {
+  trials <- read.csv(trials_file, stringsAsFactors = FALSE)
+  if ("withdrawn" %in% names(trials)) trials <- trials[!flag(trials$withdrawn), ]
+  trials <- trials[order(trials$participant, trials$session_index, trials$task_index), ]
+  ran <- !is.na(trials$attempts)
+  trials$practice <- ave(as.integer(ran), trials$participant, FUN = cumsum)
+  trials$practice[!ran] <- NA
+  timed <- trials[flag(trials$completed) & !is.na(trials$time_s) & !is.na(trials$practice), ]
+  old <- options(contrasts = c("contr.sum", "contr.poly"))
+  on.exit(options(old))
+  # the REML surface of a random slope is flat: bobyqa (rhoend 1e-12) stops up to 1e-5 short of the
+  # optimum in a correlation, nloptwrap at these tolerances about 1e-7
+  control <- lmerControl(optimizer = "nloptwrap", optCtrl = list(xtol_abs = 1e-14, ftol_abs = 1e-16,
+                                                                 xtol_rel = 1e-14, ftol_rel = 1e-16, maxeval = 1e5))
+
+  laws <- do.call(rbind, lapply(sort(unique(timed$participant)), function(who) {
+    d <- timed[timed$participant == who, ]
+    fit <- if (nrow(d) >= 4 && length(unique(d$practice)) >= 3) power_law_reference(d$practice, d$time_s)
+    if (is.null(fit)) fit <- data.frame(a = NA, b = NA, c = NA, a_se = NA, b_se = NA, c_se = NA, rss = NA,
+                                        sigma = NA, polished = FALSE)
+    data.frame(participant = who, group = d$group[1], n = nrow(d), fit, converged = !is.na(fit$a))
+  }))
+  write.csv(laws, file.path(out, "power_law.csv"), row.names = FALSE)
+
+  timed$log_practice <- log(timed$practice)
+  timed$group <- factor(timed$group)
+  timed$participant <- factor(timed$participant)
+  random <- "(1 + log_practice | participant)"
+  fit <- lmer(as.formula(paste("log(time_s) ~ group * log_practice +", random)), data = timed, REML = TRUE,
+              control = control)
+  with_slope <- !isSingular(fit)
+  if (!with_slope) random <- "(1 | participant)"
+  if (!with_slope) fit <- lmer(as.formula(paste("log(time_s) ~ group * log_practice +", random)), data = timed,
+                               REML = TRUE, control = control)
+  write_model(fit, with_slope, nrow(timed), file.path(out, "practice_model_"))
+  per_group <- lmer(as.formula(paste("log(time_s) ~ 0 + group + group:log_practice +", random)), data = timed,
+                    REML = TRUE, control = control)
+  coefficients <- as.data.frame(coef(summary(per_group)))
+  terms <- rownames(coefficients)
+  write.csv(data.frame(group = sub("^group", "", sub(":log_practice$", "", terms)),
+                       parameter = ifelse(grepl(":log_practice$", terms), "slope", "intercept"),
+                       estimate = coefficients$Estimate, SE = coefficients$`Std. Error`, df = coefficients$df,
+                       t = coefficients$`t value`, p_unc = coefficients$`Pr(>|t|)`),
+            file.path(out, "group_curves.csv"), row.names = FALSE)
+
+  has_criterion <- !is.na(trials$criterion_met) & trials$criterion_met != ""
+  flagged <- trials[has_criterion, ]
+  keys <- unique(flagged[c("participant", "group", "session", "phase")])
+  reached <- do.call(rbind, lapply(seq_len(nrow(keys)), function(i) {
+    part <- merge(flagged, keys[i, ])
+    met <- flag(part$criterion_met)
+    tasks <- sum(!is.na(part$attempts))
+    data.frame(keys[i, ], tasks = tasks, met = any(met), at = if (any(met)) min(part$task_in_phase[met]) else tasks)
+  }))
+  km <- list(); medians <- list(); tests <- list()
+  for (pair in split(reached, list(reached$session, reached$phase), drop = TRUE)) {
+    where <- data.frame(session = pair$session[1], phase = pair$phase[1])
+    fit <- survfit(Surv(at, met) ~ group, data = pair)
+    s <- summary(fit)
+    km[[length(km) + 1]] <- data.frame(where, group = sub("^group=", "", as.character(s$strata)), time = s$time,
+                                       n_risk = s$n.risk, n_event = s$n.event, surv = s$surv, se = s$std.err,
+                                       ci_low = s$lower, ci_high = s$upper)
+    q <- quantile(fit, 0.5)
+    medians[[length(medians) + 1]] <- data.frame(where, group = sub("^group=", "", names(fit$strata)), n = fit$n,
+                                                 events = as.numeric(tapply(pair$met, pair$group, sum)),
+                                                 median = q$quantile[, 1], ci_low = q$lower[, 1],
+                                                 ci_high = q$upper[, 1])
+    lr <- survdiff(Surv(at, met) ~ group, data = pair)
+    df <- length(lr$n) - 1
+    tests[[length(tests) + 1]] <- data.frame(where, chi2 = lr$chisq, df = df,
+                                             p_unc = pchisq(lr$chisq, df, lower.tail = FALSE), n = sum(lr$n),
+                                             events = sum(lr$obs))
+  }
+  write.csv(do.call(rbind, km), file.path(out, "kaplan_meier.csv"), row.names = FALSE)
+  write.csv(do.call(rbind, medians), file.path(out, "medians.csv"), row.names = FALSE)
+  write.csv(do.call(rbind, tests), file.path(out, "logrank.csv"), row.names = FALSE)
+
+  sessions <- aggregate(cbind(order = session_index, criterion = has_criterion) ~ session, data = trials,
+                        FUN = function(v) if (is.logical(v)) any(v) else min(v))
+  sessions <- sessions[order(sessions$order), ]
+  test_names <- sessions$session[!sessions$criterion]
+  roles <- c(pretest = test_names[1], posttest = test_names[length(test_names) - 1],
+             retention = test_names[length(test_names)])
+  tested <- trials[trials$session %in% roles & tolower(trials$phase) != "training" & flag(trials$completed) &
+                     !is.na(trials$time_s), ]
+  cells <- aggregate(time_s ~ participant + group + session, data = tested, FUN = mean)
+  res <- mixed_reference(cells, "time_s", "session", "group", "participant", 3)
+  for (table in c("anova", "posthoc", "cell_means")) {
+    write.csv(res[[table]], file.path(out, paste0("session_", table, ".csv")), row.names = FALSE)
+  }
+  tested$group <- factor(tested$group)
+  tested$session <- factor(tested$session)
+  session_fit <- lmer(log(time_s) ~ group * session + (1 | participant), data = tested, REML = TRUE,
+                      control = control)
+  write_model(session_fit, FALSE, nrow(tested), file.path(out, "session_model_"))
+
+  retention <- do.call(rbind, lapply(sort(unique(cells$group)), function(g) {
+    c1 <- cells[cells$group == g, ]
+    post <- c1[c1$session == roles[["posttest"]], ]
+    later <- c1[c1$session == roles[["retention"]], ]
+    ids <- sort(intersect(post$participant, later$participant))
+    x <- later$time_s[match(ids, later$participant)]
+    y <- post$time_s[match(ids, post$participant)]
+    tt <- t.test(x, y, paired = TRUE)
+    sr <- signed_rank(x, y)
+    dz <- dz_ci(unname(tt$statistic), length(ids))
+    data.frame(group = g, measure = "time_s", n = length(ids), mean_posttest = mean(y), sd_posttest = sd(y),
+               mean_retention = mean(x), sd_retention = sd(x), mean_diff = mean(x - y),
+               diff_ci_low = tt$conf.int[1], diff_ci_high = tt$conf.int[2], T = unname(tt$statistic),
+               dof = unname(tt$parameter), p_t = tt$p.value, d_z = mean(x - y) / sd(x - y), d_z_ci_low = dz[1],
+               d_z_ci_high = dz[2], cohen_d = mean(x - y) / sqrt((var(x) + var(y)) / 2), V = sr$V,
+               p_wilcoxon = sr$p, rbc = sr$rbc, rbc_ci_low = sr$rbc_ci_low, rbc_ci_high = sr$rbc_ci_high,
+               n_nonzero = sr$n_nonzero, p_shapiro = shapiro.test(x - y)$p.value)
+  }))
+  write.csv(retention, file.path(out, "retention.csv"), row.names = FALSE)
+}
+
 args <- commandArgs(trailingOnly = TRUE)
 if (length(args) == 8 && args[1] == "mixed") {
   data <- read.csv(args[2], stringsAsFactors = FALSE)
@@ -381,10 +549,12 @@ if (length(args) == 8 && args[1] == "mixed") {
   for (table in names(res)) write.csv(res[[table]], paste0(args[8], "_", table, ".csv"), row.names = FALSE)
 } else if (length(args) == 6 && args[1] == "study") {
   study_reference(args[2], args[3], args[4], args[5], args[6])
+} else if (length(args) == 3 && args[1] == "training") {
+  training_reference(args[2], args[3])
 } else if (length(args) == 5 && args[1] == "trials") {
   trial_model_reference(read.csv(args[2], stringsAsFactors = FALSE), args[3], args[4], args[5])
 } else {
   stop("usage: reference.R mixed DATA DV WITHIN BETWEEN SUBJECT SS_TYPE OUT_PREFIX | ",
        "reference.R study TRIALS QUESTIONNAIRE INTERACTION BASELINE OUT_DIR | ",
-       "reference.R trials TRIALS FIXED SLOPE OUT_PREFIX")
+       "reference.R trials TRIALS FIXED SLOPE OUT_PREFIX | reference.R training TRIALS OUT_DIR")
 }

@@ -10,11 +10,15 @@
 #     (made once with tests/analysis/study_data.py: make_study(seed=11)), ART and the trial model included
 #   - expected/practice/: lme4/lmerTest on practice_trials.csv (make_practice(seed=3)), whose
 #     participants practise at rates of their own: a random slope that is not singular
+#   - expected/training/: a training program's section (nls, lme4/lmerTest, survival, afex/emmeans) on
+#     training_trials.csv, made once with tests/analysis/training_data.py: make_training(seed=2026)
+#     (PYTHONPATH=../../.. python -c "from tests.analysis.training_data import make_training;
+#     make_training(2026).to_csv('training_trials.csv', index=False)"); needs R's survival too
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 python="${PYTHON:-$here/../../../.venv/bin/python}"
 datasets="$("$python" -c 'import os, pingouin; print(os.path.join(os.path.dirname(pingouin.__file__), "datasets"))')"
-mkdir -p "$here/expected/mixed" "$here/expected/study" "$here/expected/practice"
+mkdir -p "$here/expected/mixed" "$here/expected/study" "$here/expected/practice" "$here/expected/training"
 for dataset in mixed_anova mixed_anova_unbalanced; do
   for type in 2 3; do
     Rscript "$here/reference.R" mixed "$datasets/$dataset.csv" Scores Time Group Subject $type \
@@ -27,3 +31,4 @@ Rscript "$here/reference.R" study "$here/study_trials.csv" "$here/study_question
   impulse_penetration soft_hand "$here/expected/study"
 Rscript "$here/reference.R" trials "$here/practice_trials.csv" "group * object + task_index" task_index \
   "$here/expected/practice/trial_model_"
+Rscript "$here/reference.R" training "$here/training_trials.csv" "$here/expected/training"
