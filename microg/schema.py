@@ -3,11 +3,12 @@
 Each table is a tuple of :class:`Column` (name, pandas dtype, one-line description; unit, allowed
 values or range, where its values come from) in the order the export writes them: the export's
 ``codebook.csv`` and ``dataset_description.json`` are made from them (``microg.study.codebook``).
-``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` / ``ANSWER_COLUMNS`` are the names in that order, ``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` / ``ANSWER_DTYPES`` map each name to its
-dtype. The questionnaire table holds the paper's kind of 0-10 items (the Likert analysis reads it);
-the answers table holds every answer to every instrument, and ``SCORES`` their scores
-(``microg.analysis.scoring``). Columns marked optional
-may be absent from a table; readers must not require them.
+``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` / ``ANSWER_COLUMNS`` are the names in that order,
+``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` / ``ANSWER_DTYPES`` map each name to its dtype. The
+questionnaire table holds the paper's kind of 0-10 items (the Likert analysis reads it); the answers
+table holds every answer to every instrument, and ``SCORES`` their scores
+(``microg.analysis.scoring``). Columns marked optional may be absent from a table; readers must not
+require them.
 """
 
 from __future__ import annotations
@@ -86,7 +87,8 @@ TRIALS = (
     Column("time_s", "float64", "completion time, from the task's first frame to its completion, by the frames' "
            "timestamps; empty unless completed", unit="s", minimum=0, source=SESSION_LOG),
     Column("attempts", "Int64", "number of attempts (" + "; ".join(f"{kind}: {what}" for kind, what in
-           KIND_ATTEMPTS.items()) + "); empty for a task that never ran or was skipped", minimum=0, source=SESSION_LOG),
+           KIND_ATTEMPTS.items()) + "); empty unless the task's last run completed, timed out or was aborted",
+           minimum=0, source=SESSION_LOG),
     Column("started_at", "float64", f"when the task's last run started, {SESSION_CLOCK}; empty unless that run ended",
            unit="s", minimum=0, source=SESSION_LOG),
     Column("ended_at", "float64", f"when the task's last run ended, {SESSION_CLOCK}; empty unless it ended", unit="s",

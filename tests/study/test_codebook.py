@@ -78,8 +78,8 @@ def test_the_codebook_says_what_the_tables_hold(export):
     """Each column's type is the type written, and every value written is among the allowed
     values or within the range the codebook gives."""
     book = pd.read_csv(export / CODEBOOK, keep_default_na=False)
-    kinds = {"text": lambda t: pa.types.is_string(t) or pa.types.is_large_string(t), "integer": pa.types.is_integer, "number": pa.types.is_floating,
-             "true/false": pa.types.is_boolean}
+    kinds = {"text": lambda t: pa.types.is_string(t) or pa.types.is_large_string(t), "integer": pa.types.is_integer,
+             "number": pa.types.is_floating, "true/false": pa.types.is_boolean}
     checked = set()
     for table, rows in book.groupby("table", sort=False):
         data = pq.read_table(export / f"{table}.parquet")
