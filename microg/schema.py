@@ -1,12 +1,14 @@
 """The columns of the exported tables, in one place: the export writes them, the analysis reads them.
 
-Each table is a tuple of :class:`Column` (name, pandas dtype, one-line description) in the order the
-export writes them. ``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` / ``ANSWER_COLUMNS`` are the names
-in that order, ``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` / ``ANSWER_DTYPES`` map each name to its
-dtype. The questionnaire table holds the paper's kind of 0-10 items (the Likert analysis reads it);
-the answers table holds every answer to every instrument, and ``scores.csv`` their scores
-(``microg.analysis.scoring``). Columns marked optional
-may be absent from a table; readers must not require them.
+Each table is a tuple of :class:`Column` (name, pandas dtype, one-line description; unit, allowed
+values or range, where its values come from) in the order the export writes them: the export's
+``codebook.csv`` and ``dataset_description.json`` are made from them (``microg.study.codebook``).
+``TRIAL_COLUMNS`` / ``QUESTIONNAIRE_COLUMNS`` / ``ANSWER_COLUMNS`` are the names in that order,
+``TRIAL_DTYPES`` / ``QUESTIONNAIRE_DTYPES`` / ``ANSWER_DTYPES`` map each name to its dtype. The
+questionnaire table holds the paper's kind of 0-10 items (the Likert analysis reads it); the answers
+table holds every answer to every instrument, and ``SCORES`` their scores
+(``microg.analysis.scoring``). Columns marked optional may be absent from a table; readers must not
+require them.
 """
 
 from __future__ import annotations
@@ -15,106 +17,41 @@ from typing import NamedTuple
 
 
 class Column(NamedTuple):
-    """One column of an exported table."""
+    """One column of an exported table: what the export writes, the analysis reads and the
+    codebook (``microg.study.codebook``) describes."""
 
     name: str
     dtype: str
     description: str
     optional: bool = False
+    unit: str = ""
+    """Its unit, for a number that has one: s, ms, m, m/s, rad/s, years; empty for none."""
+    values: tuple[str, ...] = ()
+    """The values it may take, when the code fixes them."""
+    minimum: float | None = None
+    maximum: float | None = None
+    levels: str = ""
+    """The study's own list its values come from, filled in from the protocol at each export:
+    groups, phases, interactions, objects, object_names, instruments (``microg.study.codebook``)."""
+    source: str = ""
+    """Where its values come from (one of the sources below, or a sentence naming one)."""
 
 
-TRIALS = (
-    Column("study", "string", "the study's name"),
-    Column("participant", "string", "participant id, e.g. P01"),
-    Column("group", "string", "the participant's group code, e.g. V (trained first) or B (beginners)"),
-    Column("gender", "string", "the participant's gender as enrolled"),
-    Column("age", "Int64", "the participant's age in years"),
-    Column("handedness", "string", "left or right"),
-    Column("mr_experience", "bool", "whether the participant had used mixed reality before"),
-    Column("phase", "string", "the protocol phase the task belongs to, e.g. training, stage1, stage2"),
-    Column("interaction", "string", "code of the interaction model the task ran with, e.g. soft_hand"),
-    Column("object", "string", "the object's code in the protocol, e.g. C, F, L"),
-    Column("order_position", "Int64", "position of the task in the participant's object order"),
-    Column("completed", "bool", "whether the task was completed"),
-    Column("time_s", "float64", "completion time in seconds; empty unless completed"),
-    Column("attempts", "Int64", "number of drops; empty for a task that never ran"),
-    Column("started_at", "float64", "session-clock seconds when the task's last run started"),
-    Column("ended_at", "float64", "session-clock seconds when the task's last run ended"),
-    Column("status", "string", "completed, timeout, aborted, skipped, unfinished or not_run"),
-    Column("simulated", "bool", "whether a simulated participant did the task"),
-    Column("object_name", "string", "the object's name, e.g. cube"),
-    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
-           optional=True),
-    Column("added_latency_ms", "float64", "display latency the task's phase adds to the participant's page (ms, "
-           "the protocol's added_latency_ms); 0 for none", optional=True),
-    Column("runs", "Int64", "how many times the task was run"),
-    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
-    Column("session", "Int64", "id of the session in the study's log"),
-    Column("task_index", "Int64", "index of the task within its session"),
-    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
-           "in the study itself", optional=True),
-    Column("task_kind", "string", "the task's kind: pick_and_place, catch, stop_spin, send or handover", optional=True),
-    Column("time_to_catch_s", "float64", "a catch's seconds from its first frame to the grasp that caught the "
-           "object; empty unless a catch was completed", optional=True),
-    Column("time_to_rest_s", "float64", "a stop of a spin's seconds from its first frame to the rest that "
-           "completed it; empty unless a stop of a spin was completed", optional=True),
-    Column("flipped", "boolean", "whether a stop of a spin's object turned over its spin axis (the "
-           "intermediate-axis flip); empty for other kinds and for tasks not finished", optional=True),
-    Column("send_error_m", "float64", "a send's closest approach to the target's centre of the drift's straight "
-           "line (m; the last send's, for a task that ended without an arrival); empty for other kinds and before a "
-           "first send", optional=True),
-    Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
-           "arrival_s (m/s; negative: too slow); empty for other kinds and before a first send", optional=True),
-    Column("transfer_time_s", "float64", "a handover's seconds from the second hand's hold beginning to the first "
-           "hand letting go (the last handover's; negative: the first let go that long before the second took "
-           "it, within drop_grace_s); empty for other kinds and before a handover", optional=True),
-    Column("both_held_s", "float64", "a handover's seconds during which both hands held the object; empty for "
-           "other kinds", optional=True),
-)
+STUDY = "the study (microg study init)"
+PROTOCOL = "the protocol"
+ENROLMENT = "the participant's enrolment (microg participant add; withdraw)"
+ASSIGNMENT = "the assignment at enrolment (groups balanced by the protocol's balance)"
+SESSION_LOG = "the session log"
+TASK_RULES = "the task kind's rules over the run's frames (the run's measures event in the session log)"
+ANSWER = "the answer as given: by the participant (page or terminal) or by the rating model"
+SCORING = "computed from the answers by the instrument's key (microg.analysis.scoring)"
+FRAME_LOG = "the frame log"
+MERGE = "the station's study, at microg study merge"
 
-QUESTIONNAIRE = (
-    Column("study", "string", "the study's name"),
-    Column("participant", "string", "participant id, e.g. P01"),
-    Column("group", "string", "the participant's group code"),
-    Column("interaction", "string", "code of the interaction model the rating is about"),
-    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
-           optional=True),
-    Column("item", "string", "the questionnaire item, e.g. naturalness"),
-    Column("rating", "Int64", "the rating on the 0-10 scale"),
-    Column("source", "string", "who gave the rating: participant or model"),
-    Column("simulated", "bool", "whether the rating comes from the rating model"),
-    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
-    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
-           "in the study itself", optional=True),
-)
-
-ANSWERS = (
-    Column("study", "string", "the study's name"),
-    Column("participant", "string", "participant id, e.g. P01"),
-    Column("group", "string", "the participant's group code"),
-    Column("instrument", "string", "the instrument's id: ssq, ipq, tlx, sus, paper or a study's own"),
-    Column("administration", "string", "when it was asked, e.g. pre, post, after, end"),
-    Column("interaction", "string", "code of the interaction model it is about; empty for none"),
-    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
-           optional=True),
-    Column("item", "string", "the item's id, e.g. ssq08, SP2, pair_mental_effort, sus10"),
-    Column("value", "string", "the answer: a number on the item's scale, or the choice made"),
-    Column("source", "string", "who answered: participant or model"),
-    Column("response_time_s", "float64", "seconds from showing the item to the answer; empty for the model"),
-    Column("t", "float64", "session-clock seconds when the answer was committed"),
-    Column("simulated", "bool", "whether the answer comes from the rating model"),
-    Column("withdrawn", "bool", "whether the participant withdrew from the study"),
-    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
-           "in the study itself", optional=True),
-)
-
-TRIAL_COLUMNS = tuple(column.name for column in TRIALS)
-QUESTIONNAIRE_COLUMNS = tuple(column.name for column in QUESTIONNAIRE)
-ANSWER_COLUMNS = tuple(column.name for column in ANSWERS)
-TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
-QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
-ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
-
+SESSION_CLOCK = ("in seconds since the session started on the session's clock (the wall clock in a live session, "
+                 "carried on across a resume; simulated time, advancing with the frames, otherwise)")
+RATING_RANGE = (0, 10)
+"""The paper's kind of item: a rating from 0 to 10."""
 KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin": ("time_to_rest_s", "flipped"),
                  "send": ("send_error_m", "release_speed_error"), "handover": ("transfer_time_s", "both_held_s")}
 """Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
@@ -123,6 +60,144 @@ the same columns for the export)."""
 KIND_ATTEMPTS = {"pick_and_place": "drops", "catch": "touches that did not hold", "stop_spin": "drops",
                  "send": "misses", "handover": "drops"}
 """What a task kind's ``attempts`` count (``microg.task``'s rules)."""
+STATUSES = ("completed", "timeout", "aborted", "skipped", "unfinished", "not_run")
+"""How a planned task ended (its last run): unfinished when cut off, not_run when never started."""
+ANSWERED_BY = ("participant", "model")
+"""Who answered an item: the participant, or the rating model for a simulated participant."""
+GENDERS = ("female", "male", "diverse", "undisclosed")
+HANDEDNESS = ("left", "right", "ambidextrous")
+
+TRIALS = (
+    Column("study", "string", "the study's name", source=STUDY),
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("group", "string", "the participant's group code", levels="groups", source=ASSIGNMENT),
+    Column("gender", "string", "the participant's gender as enrolled", values=GENDERS, source=ENROLMENT),
+    Column("age", "Int64", "the participant's age", unit="years", minimum=0, source=ENROLMENT),
+    Column("handedness", "string", "the participant's dominant hand", values=HANDEDNESS, source=ENROLMENT),
+    Column("mr_experience", "bool", "whether the participant had used mixed reality before", source=ENROLMENT),
+    Column("phase", "string", "the protocol phase the task belongs to, e.g. training, stage1, stage2", levels="phases",
+           source=PROTOCOL),
+    Column("interaction", "string", "code of the interaction model the task ran with, e.g. soft_hand",
+           levels="interactions", source=PROTOCOL),
+    Column("object", "string", "the object's code in the protocol, e.g. C, F, L", levels="objects", source=PROTOCOL),
+    Column("order_position", "Int64", "position of the task's object in its phase's object order (the participant's "
+           "order for a phase of tasks, the protocol's for training), from 1", minimum=1,
+           source="the participant's object order, drawn at enrolment (the protocol's order)"),
+    Column("completed", "bool", "whether the task was completed", source=SESSION_LOG),
+    Column("time_s", "float64", "completion time, from the task's first frame to its completion, by the frames' "
+           "timestamps; empty unless completed", unit="s", minimum=0, source=SESSION_LOG),
+    Column("attempts", "Int64", "number of attempts (" + "; ".join(f"{kind}: {what}" for kind, what in
+           KIND_ATTEMPTS.items()) + "); empty unless the task's last run completed, timed out or was aborted",
+           minimum=0, source=SESSION_LOG),
+    Column("started_at", "float64", f"when the task's last run started, {SESSION_CLOCK}; empty unless that run ended",
+           unit="s", minimum=0, source=SESSION_LOG),
+    Column("ended_at", "float64", f"when the task's last run ended, {SESSION_CLOCK}; empty unless it ended", unit="s",
+           minimum=0, source=SESSION_LOG),
+    Column("status", "string", "how the task's last run ended: unfinished (cut off), not_run (never started)",
+           values=STATUSES, source=SESSION_LOG),
+    Column("simulated", "bool", "whether a simulated participant did the task", source=SESSION_LOG),
+    Column("object_name", "string", "the object's name, e.g. cube", levels="object_names", source=PROTOCOL),
+    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
+           optional=True, source=PROTOCOL),
+    Column("added_latency_ms", "float64", "display latency the task's phase adds to the participant's page "
+           "(the protocol's added_latency_ms); 0 for none", optional=True, unit="ms", minimum=0, source=PROTOCOL),
+    Column("runs", "Int64", "how many times the task was run", minimum=0, source=SESSION_LOG),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study", source=ENROLMENT),
+    Column("session", "Int64", "id of the session in the study's log", minimum=1, source=SESSION_LOG),
+    Column("task_index", "Int64", "index of the task within its session, from 0", minimum=0, source=SESSION_LOG),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True, source=MERGE),
+    Column("task_kind", "string", "the task's kind", optional=True, values=tuple(KIND_MEASURES), source=PROTOCOL),
+    Column("time_to_catch_s", "float64", "a catch's time from its first frame to the grasp that caught the "
+           "object; empty unless a catch was completed", optional=True, unit="s", minimum=0, source=TASK_RULES),
+    Column("time_to_rest_s", "float64", "a stop of a spin's time from its first frame to the rest that "
+           "completed it; empty unless a stop of a spin was completed", optional=True, unit="s", minimum=0,
+           source=TASK_RULES),
+    Column("flipped", "boolean", "whether a stop of a spin's object turned over its spin axis (the "
+           "intermediate-axis flip); empty for other kinds and for tasks not finished", optional=True,
+           source=TASK_RULES),
+    Column("send_error_m", "float64", "a send's closest approach to the target's centre of the drift's straight "
+           "line (the last send's, for a task that ended without an arrival); empty for other kinds and before a "
+           "first send", optional=True, unit="m", minimum=0, source=TASK_RULES),
+    Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
+           "arrival_s (negative: too slow); empty for other kinds and before a first send", optional=True,
+           unit="m/s", source=TASK_RULES),
+    Column("transfer_time_s", "float64", "a handover's time from the second hand's hold beginning to the first "
+           "hand letting go (the last handover's; negative: the first let go that long before the second took "
+           "it, within drop_grace_s); empty for other kinds and before a handover", optional=True, unit="s",
+           source=TASK_RULES),
+    Column("both_held_s", "float64", "a handover's time during which both hands held the object; empty for "
+           "other kinds", optional=True, unit="s", minimum=0, source=TASK_RULES),
+)
+
+QUESTIONNAIRE = (
+    Column("study", "string", "the study's name", source=STUDY),
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("group", "string", "the participant's group code", levels="groups",
+           source=ASSIGNMENT),
+    Column("interaction", "string", "code of the interaction model the rating is about", levels="interactions",
+           source=PROTOCOL),
+    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
+           optional=True, source=PROTOCOL),
+    Column("item", "string", "the questionnaire item, e.g. naturalness", source="the instrument (its item ids)"),
+    Column("rating", "Int64", "the rating on the item's 0-10 scale", minimum=RATING_RANGE[0], maximum=RATING_RANGE[1],
+           source=ANSWER),
+    Column("source", "string", "who gave the rating", values=ANSWERED_BY, source=ANSWER),
+    Column("simulated", "bool", "whether the rating comes from the rating model", source=SESSION_LOG),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study", source=ENROLMENT),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True, source=MERGE),
+)
+
+ANSWERS = (
+    Column("study", "string", "the study's name", source=STUDY),
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("group", "string", "the participant's group code", levels="groups",
+           source=ASSIGNMENT),
+    Column("instrument", "string", "the instrument's id: ssq, ipq, tlx, sus, paper or a study's own",
+           levels="instruments", source=PROTOCOL),
+    Column("administration", "string", "when it was asked, e.g. pre, post, after, end (the timeline phase's "
+           "administration)", source=PROTOCOL),
+    Column("interaction", "string", "code of the interaction model it is about; empty for none",
+           levels="interactions", source=PROTOCOL),
+    Column("interaction_label", "string", "the protocol's label for that interaction model, e.g. System 1",
+           optional=True, source=PROTOCOL),
+    Column("item", "string", "the item's id, e.g. ssq08, SP2, pair_mental_effort, sus10",
+           source="the instrument (instruments/ID.toml)"),
+    Column("value", "string", "the answer: a number on the item's scale, or the choice made (the item's scale "
+           "and anchors: instruments/ID.toml)", source=ANSWER),
+    Column("source", "string", "who answered", values=ANSWERED_BY, source=ANSWER),
+    Column("response_time_s", "float64", "time from showing the item to the answer; empty for the model", unit="s",
+           minimum=0, source=SESSION_LOG),
+    Column("t", "float64", f"when the answer was committed, {SESSION_CLOCK}", unit="s", minimum=0,
+           source=SESSION_LOG),
+    Column("simulated", "bool", "whether the answer comes from the rating model", source=SESSION_LOG),
+    Column("withdrawn", "bool", "whether the participant withdrew from the study", source=ENROLMENT),
+    Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
+           "in the study itself", optional=True, source=MERGE),
+)
+
+SCORES = (
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("instrument", "string", "the instrument's id", levels="instruments", source=PROTOCOL),
+    Column("administration", "string", "when it was asked (as in the answers table); empty for one asked once",
+           source=PROTOCOL),
+    Column("interaction", "string", "code of the interaction model it is about; empty for none",
+           levels="interactions", source=PROTOCOL),
+    Column("scale", "string", "the scale's name in the instrument's key, e.g. nausea, spatial, tlx, sus",
+           source="the instrument's key (instruments/ID.toml)"),
+    Column("score", "float64", "the scale's score by the instrument's published key (its range: the key's); empty "
+           "where an item it needs was not answered", source=SCORING),
+)
+
+TRIAL_COLUMNS = tuple(column.name for column in TRIALS)
+QUESTIONNAIRE_COLUMNS = tuple(column.name for column in QUESTIONNAIRE)
+ANSWER_COLUMNS = tuple(column.name for column in ANSWERS)
+SCORE_COLUMNS = tuple(column.name for column in SCORES)
+TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
+QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
+ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
+
 PROPORTIONS = ("flipped",)
 """Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""
 SIGNED = ("release_speed_error", "transfer_time_s")

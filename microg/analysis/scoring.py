@@ -19,11 +19,11 @@ import pandas as pd
 
 from microg.analysis.tables import AnalysisInputError
 from microg.instruments import Instrument, InstrumentError, Scale, load_instrument
+from microg.schema import SCORE_COLUMNS
 
 ANSWER_COLUMNS = ("participant", "instrument", "item", "value")
 ANSWER_KEYS = ("administration", "interaction")
 """Optional columns of the answers table; absent or empty, an answer was asked once, about no interaction model."""
-SCORE_COLUMNS = ("participant", "instrument", "administration", "interaction", "scale", "score")
 MISSING_COLUMNS = ("participant", "instrument", "administration", "interaction", "item", "scales")
 GROUP = ("participant", "instrument", "administration", "interaction")
 """One filling-in of an instrument: its answers are scored together."""

@@ -13,9 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from microg.schema import ANSWERS, QUESTIONNAIRE, TRIALS
+from microg.schema import ANSWERS, QUESTIONNAIRE, RATING_RANGE, TRIALS
 
-RATING_RANGE = (0, 10)
 LARGEST_VALUE = 1e12
 """Largest magnitude a measure may have. No task lasts 1e12 s (31 700 years) or has 1e12 drops; a
 value near float64's limit (1e308) is a logging error, and its square overflows to infinity inside

@@ -20,14 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from microg.schema import GENDERS, HANDEDNESS
+
 from .protocol import Protocol
 
-GENDERS = ("female", "male", "diverse", "undisclosed")
 MAX_ID = 64
 ID = re.compile(rf"[A-Za-z0-9]{{1,{MAX_ID}}}")
 """A participant id: exactly what a BIDS label keeps, so ids and sub-<label>s map one to one
 (the store also refuses ids that differ only in case)."""
-HANDEDNESS = ("left", "right", "ambidextrous")
 
 
 class ParticipantError(ValueError):

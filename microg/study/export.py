@@ -9,7 +9,9 @@
 - ``scores``: the answers scored by the instruments' keys (``microg.analysis.scoring``, the same
   function as ``microg questionnaire score``), with ``instruments/`` beside them: the instrument
   files the study keeps, so that the export scores and reports the same way anywhere;
-- ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``).
+- ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``);
+- ``codebook.csv`` and ``dataset_description.json`` (Psych-DS's form): every column of every table
+  written, from the declarations that make the tables (``TABLES``; ``microg.study.codebook``).
 
 ``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics and ``read_answers``
 (answers, instruments): from a study's database, or from a folder of exported files.
@@ -32,13 +34,14 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from microg.instruments import Instrument, load_instrument
-from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, TRIAL_COLUMNS, \
-    TRIAL_DTYPES
+from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, ANSWERS, ENROLMENT, PROTOCOL, QUESTIONNAIRE, \
+    QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, SCORES, SESSION_LOG, STUDY, TRIAL_COLUMNS, TRIAL_DTYPES, TRIALS, Column
 from microg.skeleton import HandFrame
 from microg.task import KINDS
 
 from . import framelog, ledger
-from .store import DATABASE, FINAL_RUN, Store, StoreError, nearest_folder, open_study, writable
+from .codebook import write_codebook
+from .store import DATABASE, FINAL_RUN, RUN_STATUSES, Store, StoreError, nearest_folder, open_study, writable
 
 
 def _status(last_status: str | None) -> str:
@@ -171,6 +174,29 @@ def run_list(store: Store) -> list[dict]:
     return [dict(r) for r in rows]
 
 
+FRAME_KEYS = (
+    Column("study", "string", "the study's name", source=STUDY),
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("session", "int64", "id of the session in the study's log (as in trials)", minimum=1, source=SESSION_LOG),
+    Column("run_id", "int64", "id of the task run in the study's log", minimum=1, source=SESSION_LOG),
+    Column("task_index", "int64", "index of the task within its session, from 0 (as in trials)", minimum=0,
+           source=SESSION_LOG),
+    Column("run", "int64", "the run's number among its task's runs, from 1 (a task cut off midway runs again)",
+           minimum=1, source=SESSION_LOG),
+    Column("run_status", "string", "how the run ended (running: not ended when exported; interrupted: cut off)",
+           values=RUN_STATUSES, source=SESSION_LOG),
+    Column("phase", "string", "the protocol phase the task belongs to", levels="phases", source=PROTOCOL),
+    Column("interaction", "string", "code of the interaction model the run used", levels="interactions",
+           source=PROTOCOL),
+    Column("object", "string", "the object's name, e.g. cube (the trials table's object_name)",
+           levels="object_names", source=PROTOCOL),
+)
+"""The frames table's first columns: which task run a frame belongs to."""
+TABLES = {"trials": TRIALS, "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
+          "frames": FRAME_KEYS + framelog.FRAME_COLUMNS}
+"""Every table an export may write, by name, with its columns: the codebook describes those written."""
+
+
 def frames_columns(store: Store, runs: list[dict] | None = None) -> Iterator[dict[str, pa.Array | np.ndarray]]:
     """The frames table's columns, one task run at a time (a study's frames may not fit in memory
     at once): the run's keys, then ``framelog.frame_columns``."""
@@ -253,8 +279,9 @@ def export_study(study_dir: str | Path, out_dir: str | Path, *, formats: tuple[s
                  frames: bool = True, frames_csv: bool = False, bids: bool = True, overwrite: bool = False,
                  accept_damaged: bool = False, progress: bool = True, say=print) -> list[Path]:
     """Write the trials, questionnaire, answers and scores tables (``formats``) with the study's
-    instrument files (``instruments/``), the frames (Parquet; also CSV with ``frames_csv``) and
-    Motion-BIDS into the folder ``out_dir``; returns the files written. Items a scale needs that were
+    instrument files (``instruments/``), the frames (Parquet; also CSV with ``frames_csv``),
+    Motion-BIDS, and the codebook of the tables written (``codebook.csv``, ``dataset_description.json``)
+    into the folder ``out_dir``; returns the files written. Items a scale needs that were
     not answered are reported through ``say`` (their scales are left unscored).
 
     The export is atomic: it is written into ``<out_dir>.partial`` and renamed at the end, so a
@@ -340,6 +367,9 @@ def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frame
     if bids:
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
                                                       disable=not progress), runs)
+    written_tables = [name for name, _ in tables] + (["frames"] if frames and runs else [])
+    write_codebook(folder, {name: TABLES[name] for name in written_tables}, study=store.name, protocol=store.protocol,
+                   interactions=[r[0] for r in store.db.execute("SELECT DISTINCT interaction FROM tasks")])
     written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())
     head = ledger.head_of(store.db)
     (folder / MANIFEST).write_text(json.dumps({"study": str(store.dir.resolve()),

@@ -1,7 +1,7 @@
 """The frame log: what every frame of a task run leaves in the study's store, written and read here only.
 
 A logged frame holds the task's state (stage, current place, its light and timer, grasped,
-held), the phalanx slots touching the object (bit k = slot k, ``microg.sim.slot_name(k)``), the
+held), the phalanx slots touching the object (bit k = slot k, ``microg.skeleton.slot_name(k)``), the
 object's pose and velocities, and for each hand side whether it was tracked, its track id, its
 joints, bone widths and palm pose exactly as the physics received them, and its rendered
 (god-object) phalanx centres. That is enough to draw a session again (``microg.view``), to
@@ -28,7 +28,8 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame, side_slots
+from microg.schema import FRAME_LOG, Column
+from microg.skeleton import BONES, BONES_PER_HAND, DIGITS, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, side_slots
 from microg.task import KINDS, Kind, Moments
 
 from .ledger import run_name
@@ -220,17 +221,76 @@ def hand_frames(frames: np.ndarray) -> list[HandFrame]:
 
 JOINT_NAMES = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
 """Joint j of a digit is where bone j begins (j < 4) or the digit's tip."""
-STATE_COLUMNS = ("frame", "t", "stage", "place", "place_lit", "place_timer", "grasped", "held", "touching",
-                 "px", "py", "pz", "qw", "qx", "qy", "qz", "vx", "vy", "vz", "wx", "wy", "wz")
+TRACKER = "the tracker's frame"
+TRACKER_FRAME = f"{TRACKER} (x right, y up, z toward the participant; right-handed)"
+PHYSICS = "the physics (the object after the frame's step)"
+RULES = "the task kind's rules (the task's state after the frame)"
+HANDS = ("the hand tracker, through the tracking guard and the window filter: the hand exactly as the physics "
+         "received it")
+STATE = (
+    Column("frame", "int64", "index of the frame within its task run, from 0", minimum=0, source=FRAME_LOG),
+    Column("t", "float64", "the frame's timestamp: the hand source's time (a live tracker's clock, re-anchored by the "
+           "tracking guard after a jump; a recording's or a simulated participant's time), from which task times "
+           "are measured", unit="s", source=HANDS),
+    Column("stage", "string", "the task's stage (its kind's: what the participant's page says at it)", levels="stages",
+           source=RULES),
+    Column("place", "int64", "index of the current place, from 0 (the number of places once all are done; 0 for "
+           "kinds without places)", minimum=0, source=RULES),
+    Column("place_lit", "bool", "whether the current place is lit (the held object's centre within its radius)",
+           source=RULES),
+    Column("place_timer", "float64", "time the current place has been lit (0 when dark)", unit="s", minimum=0,
+           source=RULES),
+    Column("grasped", "bool", "whether a hand grasps the object (the physics' grasp rule, this frame)",
+           source=PHYSICS),
+    Column("held", "bool", "whether the task counts the object as held (grasped for grasp_settle_s, not yet let go "
+           "for drop_grace_s)", source=RULES),
+    Column("touching", "int64", "the phalanx slots touching the object, as a bit mask: bit k is set when slot k "
+           f"(microg.skeleton.slot_name(k): the left hand's thumb metacarpal first, {N_BONES} bones a digit, "
+           f"{BONES_PER_HAND} slots a hand) touches it", minimum=0, maximum=2 ** SLOTS - 1, source=PHYSICS),
+    *(Column(f"p{axis}", "float64", f"the object's position, {axis} in {TRACKER_FRAME}", unit="m", source=PHYSICS)
+      for axis in "xyz"),
+    *(Column(f"q{c}", "float64", f"the object's orientation, quaternion component {c} (unit quaternion w, x, y, z "
+             f"from the object's frame to {TRACKER})", minimum=-1, maximum=1, source=PHYSICS) for c in "wxyz"),
+    *(Column(f"v{axis}", "float64", f"the object's velocity, {axis} in {TRACKER_FRAME}", unit="m/s", source=PHYSICS)
+      for axis in "xyz"),
+    *(Column(f"w{axis}", "float64", f"the object's angular velocity, {axis} in {TRACKER_FRAME}", unit="rad/s",
+             source=PHYSICS) for axis in "xyz"),
+)
+"""The frames table's columns of the task's and the object's state, in order."""
+STATE_COLUMNS = tuple(column.name for column in STATE)
+
+
+def hand_declarations(side: str) -> tuple[Column, ...]:
+    """The frames table's columns for one side's hand: joints, bone widths, palm pose (as the physics
+    received them) and the rendered (god-object) phalanges; empty where the hand was not tracked."""
+    untracked = "; empty where the hand was not tracked"
+    joints = tuple(Column(f"{side}_{d}_{j}_{axis}", "float64", f"the {side} hand's {d} {j.replace('_', ' ')} joint, "
+                          f"{axis} in {TRACKER_FRAME}{untracked}", unit="m", source=HANDS)
+                   for d in DIGITS for j in JOINT_NAMES for axis in "xyz")
+    widths = tuple(Column(f"{side}_{d}_{b}_width", "float64", f"width of the {side} hand's {d} {b} bone, as the "
+                          f"tracker reports it{untracked}", unit="m", minimum=0, source=HANDS)
+                   for d in DIGITS for b in BONES)
+    palm = tuple(Column(f"{side}_palm_{axis}", "float64", f"the {side} palm's centre, {axis} in {TRACKER_FRAME}"
+                        f"{untracked}", unit="m", source=HANDS) for axis in "xyz")
+    palm += tuple(Column(f"{side}_palm_q{c}", "float64", f"the {side} palm's orientation, quaternion component {c} "
+                         f"(unit quaternion w, x, y, z from the hand's frame to {TRACKER}){untracked}",
+                         minimum=-1, maximum=1, source=HANDS) for c in "wxyz")
+    rendered = tuple(Column(f"rendered_{side}_{d}_{b}_{axis}", "float64", f"centre of the {side} hand's {d} {b} "
+                            "phalanx as the participant saw it (the god-object hand, kept at the object's surface "
+                            "instead of inside it), "
+                            f"{axis} in {TRACKER_FRAME}{untracked}", unit="m",
+                            source="the physics (the rendered hand after the frame's step)")
+                     for d in DIGITS for b in BONES for axis in "xyz")
+    return joints + widths + palm + rendered
 
 
 def hand_columns(side: str) -> list[str]:
-    """The flat table's columns for one side's hand: joints, widths, palm pose, rendered phalanges."""
-    names = [f"{side}_{d}_{j}_{axis}" for d in DIGITS for j in JOINT_NAMES for axis in "xyz"]
-    names += [f"{side}_{d}_{b}_width" for d in DIGITS for b in BONES]
-    names += [f"{side}_palm_{axis}" for axis in "xyz"] + [f"{side}_palm_q{c}" for c in "wxyz"]
-    names += [f"rendered_{side}_{d}_{b}_{axis}" for d in DIGITS for b in BONES for axis in "xyz"]
-    return names
+    """The flat table's columns for one side's hand (``hand_declarations``' names)."""
+    return [column.name for column in hand_declarations(side)]
+
+
+FRAME_COLUMNS = STATE + tuple(column for side in SIDES for column in hand_declarations(side))
+"""The columns ``frame_columns`` makes, in order."""
 
 
 def frame_columns(frames: np.ndarray) -> dict[str, np.ndarray]:
