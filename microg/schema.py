@@ -32,7 +32,8 @@ class Column(NamedTuple):
     maximum: float | None = None
     levels: str = ""
     """The study's own list its values come from, filled in from the protocol at each export:
-    groups, phases, interactions, objects, object_names, instruments (``microg.study.codebook``)."""
+    groups, phases, interactions, objects, object_names, instruments, kinds, stages
+    (``microg.study.codebook``)."""
     source: str = ""
     """Where its values come from (one of the sources below, or a sentence naming one)."""
 
@@ -43,6 +44,7 @@ ENROLMENT = "the participant's enrolment (microg participant add; withdraw)"
 ASSIGNMENT = "the assignment at enrolment (groups balanced by the protocol's balance)"
 SESSION_LOG = "the session log"
 TASK_RULES = "the task kind's rules over the run's frames (the run's measures event in the session log)"
+"""Where a task kind's own measures come from."""
 ANSWER = "the answer as given: by the participant (page or terminal) or by the rating model"
 SCORING = "computed from the answers by the instrument's key (microg.analysis.scoring)"
 FRAME_LOG = "the frame log"
@@ -52,14 +54,33 @@ SESSION_CLOCK = ("in seconds since the session started on the session's clock (t
                  "carried on across a resume; simulated time, advancing with the frames, otherwise)")
 RATING_RANGE = (0, 10)
 """The paper's kind of item: a rating from 0 to 10."""
-KIND_MEASURES = {"pick_and_place": (), "catch": ("time_to_catch_s",), "stop_spin": ("time_to_rest_s", "flipped"),
-                 "send": ("send_error_m", "release_speed_error"), "handover": ("transfer_time_s", "both_held_s")}
-"""Each task kind's own measures in the trials table (``task_kind``), besides every task's ``time_s``
-and ``attempts``: the analysis reads a kind's tasks with them (``microg.task.kinds.MEASURES`` names
-the same columns for the export)."""
-KIND_ATTEMPTS = {"pick_and_place": "drops", "catch": "touches that did not hold", "stop_spin": "drops",
-                 "send": "misses", "handover": "drops"}
-"""What a task kind's ``attempts`` count (``microg.task``'s rules)."""
+
+
+class KindMeasure(NamedTuple):
+    """One of a task kind's own measures, a column of the trials table after the fixed ``TRIALS``, as
+    a report reads it: its column, how a reader sees it ("time to catch (s)"), and whether it is yes
+    or no per task (``proportion``: a participant's cell is the share of its tasks with yes) or may be
+    negative (``signed``: a difference from the right value)."""
+
+    name: str
+    label: str
+    proportion: bool = False
+    signed: bool = False
+
+
+class KindInfo(NamedTuple):
+    """A task kind as the tables and the report know it (the study's registry of kinds, passed in:
+    the analysis reads tables only): its name, how a reader calls it, what its ``attempts`` count, and
+    its own measures."""
+
+    name: str
+    title: str
+    attempts: str
+    measures: tuple[KindMeasure, ...] = ()
+
+
+PICK_AND_PLACE = KindInfo("pick_and_place", "Pick and place", "drops")
+"""The paper's task kind: time and attempts, no measures of its own."""
 STATUSES = ("completed", "timeout", "aborted", "skipped", "unfinished", "not_run")
 """How a planned task ended (its last run): unfinished when cut off, not_run when never started."""
 ANSWERED_BY = ("participant", "model")
@@ -86,9 +107,8 @@ TRIALS = (
     Column("completed", "bool", "whether the task was completed", source=SESSION_LOG),
     Column("time_s", "float64", "completion time, from the task's first frame to its completion, by the frames' "
            "timestamps; empty unless completed", unit="s", minimum=0, source=SESSION_LOG),
-    Column("attempts", "Int64", "number of attempts (" + "; ".join(f"{kind}: {what}" for kind, what in
-           KIND_ATTEMPTS.items()) + "); empty unless the task's last run completed, timed out or was aborted",
-           minimum=0, source=SESSION_LOG),
+    Column("attempts", "Int64", "number of attempts (what the task's kind counts as one: a pick-and-place's drops); "
+           "empty unless the task's last run completed, timed out or was aborted", minimum=0, source=SESSION_LOG),
     Column("started_at", "float64", f"when the task's last run started, {SESSION_CLOCK}; empty unless that run ended",
            unit="s", minimum=0, source=SESSION_LOG),
     Column("ended_at", "float64", f"when the task's last run ended, {SESSION_CLOCK}; empty unless it ended", unit="s",
@@ -107,28 +127,10 @@ TRIALS = (
     Column("task_index", "Int64", "index of the task within its session, from 0", minimum=0, source=SESSION_LOG),
     Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
            "in the study itself", optional=True, source=MERGE),
-    Column("task_kind", "string", "the task's kind", optional=True, values=tuple(KIND_MEASURES), source=PROTOCOL),
-    Column("time_to_catch_s", "float64", "a catch's time from its first frame to the grasp that caught the "
-           "object; empty unless a catch was completed", optional=True, unit="s", minimum=0, source=TASK_RULES),
-    Column("time_to_rest_s", "float64", "a stop of a spin's time from its first frame to the rest that "
-           "completed it; empty unless a stop of a spin was completed", optional=True, unit="s", minimum=0,
-           source=TASK_RULES),
-    Column("flipped", "boolean", "whether a stop of a spin's object turned over its spin axis (the "
-           "intermediate-axis flip); empty for other kinds and for tasks not finished", optional=True,
-           source=TASK_RULES),
-    Column("send_error_m", "float64", "a send's closest approach to the target's centre of the drift's straight "
-           "line (the last send's, for a task that ended without an arrival); empty for other kinds and before a "
-           "first send", optional=True, unit="m", minimum=0, source=TASK_RULES),
-    Column("release_speed_error", "float64", "a send's release speed minus the speed that reaches the target in "
-           "arrival_s (negative: too slow); empty for other kinds and before a first send", optional=True,
-           unit="m/s", source=TASK_RULES),
-    Column("transfer_time_s", "float64", "a handover's time from the second hand's hold beginning to the first "
-           "hand letting go (the last handover's; negative: the first let go that long before the second took "
-           "it, within drop_grace_s); empty for other kinds and before a handover", optional=True, unit="s",
-           source=TASK_RULES),
-    Column("both_held_s", "float64", "a handover's time during which both hands held the object; empty for "
-           "other kinds", optional=True, unit="s", minimum=0, source=TASK_RULES),
+    Column("task_kind", "string", "the task's kind", optional=True, levels="kinds", source=PROTOCOL),
 )
+"""The trials table's columns every study has; each task kind's own measures follow them
+(``microg.study.export.trial_declarations``)."""
 
 QUESTIONNAIRE = (
     Column("study", "string", "the study's name", source=STUDY),
@@ -197,9 +199,3 @@ SCORE_COLUMNS = tuple(column.name for column in SCORES)
 TRIAL_DTYPES = {column.name: column.dtype for column in TRIALS}
 QUESTIONNAIRE_DTYPES = {column.name: column.dtype for column in QUESTIONNAIRE}
 ANSWER_DTYPES = {column.name: column.dtype for column in ANSWERS}
-
-PROPORTIONS = ("flipped",)
-"""Measures that are yes or no per task: a participant's cell is the proportion of its tasks with yes."""
-SIGNED = ("release_speed_error", "transfer_time_s")
-"""Measures that may be negative: a difference from the right value; a handover whose first hand let
-go before the other's grasp began (within ``drop_grace_s``: the object floated free between them)."""

@@ -4,7 +4,7 @@ tidy DataFrames."""
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -61,7 +61,7 @@ from microg.analysis.tables import (
     text_columns,
     withdrawn,
 )
-from microg.schema import KIND_MEASURES, PROPORTIONS, SIGNED
+from microg.schema import PICK_AND_PLACE as PICK_AND_PLACE_INFO, KindInfo
 
 DEFAULT_INTERACTION = "impulse_penetration"
 DEFAULT_BASELINE = "soft_hand"
@@ -141,6 +141,8 @@ class StudyAnalysis:
     kind: str | None = None
     proportions: tuple[str, ...] = ()
     description: pd.DataFrame | None = None
+    kind_info: KindInfo = PICK_AND_PLACE_INFO
+    """The analysed kind as the tables know it: its title, what its attempts count, its measures."""
 
     def table(self, name: str, interaction: str, measure: str) -> pd.DataFrame:
         """The rows of table ``name`` (e.g. "anova") for one interaction and measure, without the keys."""
@@ -231,6 +233,7 @@ def analyse_study(
     practice: str = PRACTICE,
     kind: str | None = None,
     kind_column: str = KIND_COLUMN,
+    kinds: Mapping[str, KindInfo] | None = None,
 ) -> StudyAnalysis:
     """Mixed ANOVA, post hoc tests, simple effects, assumption checks and count models per interaction
     model and measure; a linear mixed model of every task per measure; interaction model vs
@@ -268,15 +271,17 @@ def analyse_study(
         trial model's practice term and random slope, when the table has it.
     kind : str, optional
         Analyse only the tasks of this kind (column ``kind_column``; a table without it holds
-        pick-and-place tasks), with the kind's own measures after ``dv``
-        (:data:`microg.schema.KIND_MEASURES`). A kind other than pick_and_place needs no mixed
-        design: with one group or one ``within`` level it is described, and ``warnings`` says why
-        there is no ANOVA. A measure that is yes or no per task (:data:`microg.schema.PROPORTIONS`,
-        True/False in the table) is the proportion of a participant's tasks with yes, of every task
-        with a value, and has no trial model. A measure that may be negative
-        (:data:`microg.schema.SIGNED`) is let through the check of negative values.
+        pick-and-place tasks), with the kind's own measures after ``dv`` (its ``kinds`` entry). A
+        kind other than pick_and_place needs no mixed design: with one group or one ``within``
+        level it is described, and ``warnings`` says why there is no ANOVA. A measure that is yes
+        or no per task (``KindMeasure.proportion``, True/False in the table) is the proportion of a
+        participant's tasks with yes, of every task with a value, and has no trial model. A measure
+        that may be negative (``KindMeasure.signed``) is let through the check of negative values.
     kind_column : str
         Column of the task's kind.
+    kinds : mapping of str to microg.schema.KindInfo, optional
+        The task kinds as the tables know them (the study's registry: ``microg.study.kind_infos``);
+        a kind not in it is analysed by time and attempts alone.
 
     Returns
     -------
@@ -297,14 +302,16 @@ def analyse_study(
     2  Group:Time  2.728  0.070
     """
     columns = {"subject": subject, "group": group, "within": within, "interaction": interaction_column}
-    dv = (*dv, *KIND_MEASURES.get(kind, ())) if kind else tuple(dv)
-    proportions = tuple(m for m in dv if m in PROPORTIONS)
+    info = kind_info(kind, kinds)
+    own = {m.name: m for m in info.measures} if kind else {}
+    dv = (*dv, *own)
+    proportions = tuple(m for m in dv if m in own and own[m].proportion)
     keep = None if kind is None and not proportions else (lambda table: _of_kind(table, kind, kind_column,
                                                                                    proportions))
     trials, dropped_rows = _checked(trials, check_trials, TRIAL_TEXT, "trials table", drop_duplicates, keep=keep,
                                     **columns, dv=dv, counts=counts, completed=completed, label=label,
                                     design=kind in (None, PICK_AND_PLACE),
-                                    signed=tuple(m for m in dv if m in SIGNED))  # fmt: skip
+                                    signed=tuple(m for m in dv if m in own and own[m].signed))  # fmt: skip
     trials = exclude_phases(trials, excluded_phases, phase)
     if questionnaire is not None:
         questionnaire, dropped_answers = _checked(questionnaire, check_questionnaire, QUESTIONNAIRE_TEXT,
@@ -369,7 +376,16 @@ def analyse_study(
         kind=kind,
         proportions=proportions,
         description=_description(trials, interactions, design),
+        kind_info=info,
     )
+
+
+def kind_info(kind: str | None, kinds: Mapping[str, KindInfo] | None = None) -> KindInfo:
+    """How the tables know ``kind`` (None: the pick-and-place): its ``kinds`` entry, else its name
+    alone (time and attempts, no measures of its own)."""
+    kind = kind or PICK_AND_PLACE
+    known = {PICK_AND_PLACE: PICK_AND_PLACE_INFO, **(kinds or {})}
+    return known.get(kind, KindInfo(kind, kind.replace("_", " ").capitalize(), "attempts"))
 
 
 def kinds_present(trials: pd.DataFrame, excluded_phases: Sequence[str] = EXCLUDED_PHASES, phase: str = "phase",
@@ -395,9 +411,9 @@ def kinds_present(trials: pd.DataFrame, excluded_phases: Sequence[str] = EXCLUDE
     >>> import pandas as pd
     >>> from microg.analysis import kinds_present
     >>> trials = pd.DataFrame({"phase": ["training", "stage1", "stage2"],
-    ...                        "task_kind": ["pick_and_place", "stop_spin", "catch"]})
+    ...                        "task_kind": ["pick_and_place", "twirl", "toss"]})
     >>> kinds_present(trials)
-    ('stop_spin', 'catch')
+    ('twirl', 'toss')
     """
     if kind_column not in trials.columns:
         return (PICK_AND_PLACE,)

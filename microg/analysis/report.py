@@ -5,7 +5,7 @@ and SVG."""
 from __future__ import annotations
 
 import base64
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -31,6 +31,7 @@ from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
 from microg.analysis.tables import read_table
+from microg.schema import KindInfo
 from microg.analysis.training import (
     POWER_LAW_UPPER_C,
     PRACTICE,
@@ -56,7 +57,6 @@ SIMULATED_TRIALS = "Simulated data: some or all trials come from simulated parti
 SIMULATED_RATINGS = "Simulated ratings: some or all questionnaire answers come from a rating model, not people."
 NO_QUESTIONNAIRE = ("The study asks no questionnaire (its questionnaire table has no rows): the questionnaire's "
                     "sections are left out.")
-KIND_TITLES = {"catch": "Catch", "stop_spin": "Stop of a spin", "send": "Send"}
 """How a reader sees a task kind other than the pick-and-place (whose sections read as they always did)."""
 QUESTIONNAIRE_TABLES = {"scores": "scores", "summary": "score_summary", "consistency": "consistency"}
 """The questionnaire section's CSV files (the comparisons and changes go together into score_tests.csv)."""
@@ -87,13 +87,14 @@ def write_report(
     answers: pd.DataFrame | None = None,
     instruments: dict | None = None,
     training: dict | None = None,
+    kinds: Mapping[str, KindInfo] | None = None,
     **columns,
 ) -> Path:
     """Analyse a study's tables and write the report into ``out_dir``.
 
     Parameters
     ----------
-    trials, questionnaire, interaction, baseline, ss_type, excluded_phases
+    trials, questionnaire, interaction, baseline, ss_type, excluded_phases, kinds
         As for :func:`microg.analysis.analyse_study`.
     answers : pandas.DataFrame, optional
         The questionnaires' answers, one row per answer (:func:`microg.analysis.check_answers`): each
@@ -148,13 +149,13 @@ def write_report(
     if questionnaire is not None and not len(_table(questionnaire)):
         questionnaire, no_questionnaire = None, NO_QUESTIONNAIRE
     table = _table(trials)
-    kinds = kinds_present(table, excluded_phases, columns.get("phase", "phase"))
-    if set(kinds) <= {PICK_AND_PLACE}:
+    present = kinds_present(table, excluded_phases, columns.get("phase", "phase"))
+    if set(present) <= {PICK_AND_PLACE}:
         analyses = [analyse_study(trials, questionnaire, interaction, baseline, ss_type, excluded_phases, **columns)]
     else:
-        analyses = [analyse_study(trials, questionnaire if kind == kinds[0] else None, interaction, baseline, ss_type,
-                                  excluded_phases, kind=kind, **columns)
-                    for kind in kinds]  # fmt: skip
+        analyses = [analyse_study(trials, questionnaire if kind == present[0] else None, interaction, baseline,
+                                  ss_type, excluded_phases, kind=kind, kinds=kinds, **columns)
+                    for kind in present]  # fmt: skip
     analysis = analyses[0]
     program = None
     if is_training(table, columns.get("subject", "participant")):
@@ -254,11 +255,11 @@ def write_figures(analysis: StudyAnalysis, folder: Path, found: QuestionnaireAna
     kind = "" if _plain(a) else f"{a.kind}_"
     figures = []
     for name, dv in a.analysed():
-        cells, label = a.table("cells", name, dv), r.measure_label(dv, a.kind)
+        cells, label = a.table("cells", name, dv), r.measure_label(dv, a.kind_info)
         fig = plot_bars(cells, "value", a.table("posthoc", name, dv), a.within, a.group, ylabel=label,
                         title=a.label(name))  # fmt: skip
         caption = (
-            ("" if _plain(a) else f"{kind_title(a.kind)}: ")
+            ("" if _plain(a) else f"{a.kind_info.title}: ")
             + f"{label.capitalize()} with {a.label(name)} per {a.within} and {a.group}: bars mean "
             "\u00b1 SE, dots individual participants (n per group in the legend); brackets mark "
             "Bonferroni-significant post hoc comparisons (* p < .05, ** p < .01, *** p < .001)"
@@ -287,7 +288,7 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
     for name, dv in a.analysed():
         post = a.table("posthoc", name, dv)
         block = {
-            "title": f"{r.measure_label(dv, a.kind).capitalize()}, {a.label(name)}",
+            "title": f"{r.measure_label(dv, a.kind_info).capitalize()}, {a.label(name)}",
             "results": r.anova_paragraph(a, name, dv),
             "assumptions": r.assumptions_paragraph(a, name, dv),
             "tables": [
@@ -311,7 +312,7 @@ def report_sections(analysis: StudyAnalysis, found: QuestionnaireAnalysis | None
         blocks.append(block)
     models = [
         {
-            "title": f"{r.measure_label(dv, a.kind).capitalize()}, every finished task: linear mixed model",
+            "title": f"{r.measure_label(dv, a.kind_info).capitalize()}, every finished task: linear mixed model",
             "results": r.trial_model_paragraph(a, dv),
             "tables": [
                 ("Type 3 F tests (Satterthwaite df)", r.trial_anova_table(a, dv)),
@@ -381,18 +382,13 @@ def merged_sections(analyses: Sequence[StudyAnalysis], found: QuestionnaireAnaly
     return merged
 
 
-def kind_title(kind: str) -> str:
-    """How a reader sees a task kind: "Stop of a spin" for stop_spin."""
-    return KIND_TITLES.get(kind, kind.replace("_", " ").capitalize())
-
-
 def _kind_sections(analysis: StudyAnalysis, sections: dict) -> dict:
     """``sections`` with a task kind's titles, table rows and warnings prefixed by the kind, and its
     description; the pick-and-place's as they are."""
     a = analysis
     if _plain(a):
         return sections
-    title = kind_title(a.kind)
+    title = a.kind_info.title
     prefixed = dict(sections)
     prefixed["blocks"] = [{**block, "title": f"{title}: {block['title']}"} for block in sections["blocks"]]
     prefixed["models"] = [{**block, "title": f"{title}: {block['title']}"} for block in sections["models"]]
@@ -402,11 +398,11 @@ def _kind_sections(analysis: StudyAnalysis, sections: dict) -> dict:
     for key in ("sample", "dropped"):
         if sections[key] is not None:
             prefixed[key] = sections[key].assign(Analysis=f"{title}: " + sections[key]["Analysis"])
-    analysed = sorted({r.measure_label(dv, a.kind) for _, dv in a.analysed()})
+    analysed = sorted({r.measure_label(dv, a.kind_info) for _, dv in a.analysed()})
     not_tested = [text for text in a.warnings if text.startswith("No ") and " ANOVA for " in text]
     prefixed["kinds"] = [{
         "title": title,
-        "text": (f"Measures: {', '.join(r.measure_label(dv, a.kind) for dv in a.measures)}. "
+        "text": (f"Measures: {', '.join(r.measure_label(dv, a.kind_info) for dv in a.measures)}. "
                  + (f"Mixed ANOVA of {', '.join(analysed)}." if analysed else
                     "No mixed ANOVA: the design does not allow one (below); the cell means describe the tasks.")),
         "notes": not_tested,

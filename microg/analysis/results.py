@@ -24,23 +24,20 @@ from microg.analysis.assumptions import BOX_M_ALPHA
 from microg.analysis.likert import SCALE
 from microg.analysis.questionnaires import PAIRED_T, QuestionnaireAnalysis
 from microg.analysis.training import POWER_LAW_UPPER_C, TrainingAnalysis
-from microg.schema import KIND_ATTEMPTS
+from microg.schema import PICK_AND_PLACE as PICK_AND_PLACE_INFO, KindInfo
 
-MEASURE_LABELS = {"time_s": "completion time (s)", "time_to_catch_s": "time to catch (s)",
-                  "time_to_rest_s": "time to rest (s)", "flipped": "flipped (proportion of tasks)",
-                  "send_error_m": "send error (m)", "release_speed_error": "release speed error (m/s)",
-                  "transfer_time_s": "transfer time (s)", "both_held_s": "time both hands held it (s)"}
+MEASURE_LABELS = {"time_s": "completion time (s)"}
 ETA_P, ETA_G, EPSILON, CHI2 = "\u03b7p\u00b2", "\u03b7G\u00b2", "\u03b5", "\u03c7\u00b2"
 MINUS = " \u2212 "
 ALPHA_SIGN = "\u03b1"
 
 
-def measure_label(dv: str, kind: str | None = None) -> str:
-    """How a reader sees a measure of a task kind (None: the pick-and-place): "completion time (s)"
-    for time_s, the attempts by what the kind counts (``KIND_ATTEMPTS``), else the column's name."""
+def measure_label(dv: str, kind: KindInfo = PICK_AND_PLACE_INFO) -> str:
+    """How a reader sees a measure of a task kind: "completion time (s)" for time_s, the attempts by
+    what the kind counts, the kind's own measures by their labels, else the column's name."""
     if dv == "attempts":
-        return f"attempts ({KIND_ATTEMPTS[kind or PICK_AND_PLACE]})"
-    return MEASURE_LABELS.get(dv, dv)
+        return f"attempts ({kind.attempts})"
+    return {m.name: m.label for m in kind.measures}.get(dv, MEASURE_LABELS.get(dv, dv))
 
 
 def sample_size(analysis: StudyAnalysis, kind: str, interaction: str = "", measure: str = "") -> str:
@@ -68,7 +65,7 @@ def anova_paragraph(analysis: StudyAnalysis, interaction: str, dv: str) -> str:
     chosen = a.table("corrections", interaction, dv).set_index("source")
     cells = a.table("cells", interaction, dv)
     n_levels, n_groups = cells[a.within].nunique(), cells[a.group].nunique()
-    left_out, label = exclusions(a, "ANOVA", interaction, dv), measure_label(dv, a.kind)
+    left_out, label = exclusions(a, "ANOVA", interaction, dv), measure_label(dv, a.kind_info)
     text = [
         f"{label.capitalize()} with {a.label(interaction)}: {sample_size(a, 'ANOVA', interaction, dv)}"
         + (f"; {left_out}." if left_out else ".")
@@ -127,7 +124,7 @@ def comparison_paragraph(analysis: StudyAnalysis, dv: str) -> str:
     row = a.comparison.set_index("measure").loc[dv]
     left_out = exclusions(a, "pairs", a.interaction, dv)
     versus = f"{a.label(a.interaction)} vs {a.label(a.baseline)}"
-    lead = f"{measure_label(dv, a.kind).capitalize()}, {versus}: {sample_size(a, 'pairs', a.interaction, dv)} pairs"
+    lead = f"{measure_label(dv, a.kind_info).capitalize()}, {versus}: {sample_size(a, 'pairs', a.interaction, dv)} pairs"
     text = [lead + (f"; {left_out}." if left_out else ".")]
     text.append(
         f"M = {number(row['mean_interaction'])} (SD = {number(row['sd_interaction'])}) vs "
@@ -309,7 +306,7 @@ def description_table(analysis: StudyAnalysis) -> pd.DataFrame:
     return pd.DataFrame(
         {
             "Interaction model": table["interaction"].map(a.label),
-            "Measure": table["measure"].map(lambda m: measure_label(m, a.kind)),
+            "Measure": table["measure"].map(lambda m: measure_label(m, a.kind_info)),
             a.group.capitalize(): table[a.group],
             a.within.capitalize(): table[a.within],
             "n": table["n"].astype(int),
@@ -328,8 +325,8 @@ def table1(analysis: StudyAnalysis) -> pd.DataFrame:
     for who, prefix in ((a.interaction, "interaction"), (a.baseline, "baseline")):
         row = {"Interaction model": a.label(who)}
         for dv, values in comparison.iterrows():
-            row[f"{measure_label(dv, a.kind)}, n"] = str(int(values["n"]))
-            row[f"{measure_label(dv, a.kind)}, M (SD)"] = (
+            row[f"{measure_label(dv, a.kind_info)}, n"] = str(int(values["n"]))
+            row[f"{measure_label(dv, a.kind_info)}, M (SD)"] = (
                 f"{number(values[f'mean_{prefix}'])} ({number(values[f'sd_{prefix}'])})"
             )
         rows.append(row)
@@ -341,7 +338,7 @@ def ttest_table(analysis: StudyAnalysis) -> pd.DataFrame:
     table = analysis.comparison
     return pd.DataFrame(
         {
-            "Measure": table["measure"].map(lambda m: measure_label(m, analysis.kind)),
+            "Measure": table["measure"].map(lambda m: measure_label(m, analysis.kind_info)),
             "n": table["n"].astype(int),
             "Difference M": table["mean_diff"].map(number),
             "95 % CI": [interval(lo, hi) for lo, hi in zip(table["diff_ci_low"], table["diff_ci_high"])],
@@ -359,7 +356,7 @@ def wilcoxon_table(analysis: StudyAnalysis) -> pd.DataFrame:
     table = analysis.comparison
     return pd.DataFrame(
         {
-            "Measure": table["measure"].map(lambda m: measure_label(m, analysis.kind)),
+            "Measure": table["measure"].map(lambda m: measure_label(m, analysis.kind_info)),
             "n (non-zero)": [f"{int(n)} ({int(m)})" for n, m in zip(table["n"], table["n_nonzero"])],
             "V": table["V"].map(lambda v: number(v, 1)),
             "p": table["p_wilcoxon"].map(p_cell),
@@ -529,7 +526,7 @@ def sample_table(analysis: StudyAnalysis) -> pd.DataFrame:
     for kind, interaction, measure in keys.itertuples(index=False):
         what = names[kind] if kind not in ("Likert", "ART") else f"{names[kind]} {measure}"
         if kind in ("ANOVA", "pairs"):
-            what += f", {measure_label(measure, a.kind)}"
+            what += f", {measure_label(measure, a.kind_info)}"
         if kind == "ANOVA":
             what += f", {a.label(interaction)}"
         rows.append({"Analysis": what,
@@ -546,8 +543,8 @@ def dropped_table(analysis: StudyAnalysis) -> pd.DataFrame:
         label = a.label(interaction) if interaction else ""
         names = {
             "all": "all analyses",
-            "ANOVA": f"mixed ANOVA, {measure_label(measure, a.kind)}, {label}",
-            "pairs": f"interaction model vs baseline, {measure_label(measure, a.kind)}",
+            "ANOVA": f"mixed ANOVA, {measure_label(measure, a.kind_info)}, {label}",
+            "pairs": f"interaction model vs baseline, {measure_label(measure, a.kind_info)}",
             "Likert": "questionnaire",
             "ART": f"aligned rank transform ANOVA, item {measure}",
         }
@@ -566,7 +563,7 @@ def trial_model_paragraph(analysis: StudyAnalysis, dv: str) -> str:
         wording = "a significant" if row.p_unc < a.alpha else "no significant"
         effects.append(f"{wording} effect of {name}, {f_test(row.F, row.df1, row.df2, row.p_unc)}")
     text = [
-        f"{measure_label(dv, a.kind).capitalize()}, every finished task (a linear mixed model beside the ANOVA of "
+        f"{measure_label(dv, a.kind_info).capitalize()}, every finished task (a linear mixed model beside the ANOVA of "
         f"participant means, an addition to the paper's analysis): {int(model['n_trials'])} tasks of "
         f"{int(model['n_subjects'])} participants, {model['formula']} (REML; type 3 F tests with Satterthwaite df; "
         f"{model['note']}). It showed " + "; ".join(effects) + "."
@@ -574,7 +571,7 @@ def trial_model_paragraph(analysis: StudyAnalysis, dv: str) -> str:
     if a.practice is not None:
         slope = a.table("trial_coefficients", "", dv).set_index("term").loc[a.practice]
         test = t_test(slope["t"], slope["df"], slope["p_unc"])
-        measure = measure_label(dv, a.kind).split(" (")[0]
+        measure = measure_label(dv, a.kind_info).split(" (")[0]
         if model["formula"].startswith("log("):
             text.append(
                 f"Practice: each further task multiplied the {measure} by {number(np.exp(slope['estimate']), 3)} "

@@ -97,6 +97,7 @@ def report(
     in a --columns file.
     """
     from microg.analysis import AnalysisInputError, write_report
+    from microg.study.export import kind_infos
     from microg.analysis.tables import read_columns
 
     try:
@@ -138,7 +139,7 @@ def report(
                             drop_duplicates=drop_duplicates, answers=answers, instruments=instruments,
                             training={key: value for key, value in (("pretest", pretest), ("posttest", posttest),
                                                                     ("retention", retention)) if value is not None},
-                            **columns)
+                            kinds=kind_infos(), **columns)
     except AnalysisInputError as error:
         where = f"study {study}: " if study is not None else ""
         raise click.ClickException(f"{where}{error}") from error

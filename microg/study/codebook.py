@@ -60,6 +60,7 @@ def study_levels(protocol: Protocol, interactions: Sequence[str] = ()) -> dict[s
     phases = {"training": f"training ({training.kind} tasks), for group(s) {', '.join(training.groups)}"} \
         if training else {}
     phases |= {phase.name: f"{phase.kind} tasks with {phase.interaction}" for phase in protocol.phases}
+    kinds = list(dict.fromkeys(KINDS[protocol.kind(phase)] for phase in phases))
     return {
         "groups": {group.code: group.name for group in protocol.groups},
         "phases": phases,
@@ -67,8 +68,8 @@ def study_levels(protocol: Protocol, interactions: Sequence[str] = ()) -> dict[s
         "objects": {o.code: o.name for o in objects},
         "object_names": {o.name: o.name if o.code == o.name else f"code {o.code}" for o in objects},
         "instruments": {key: instrument.title for key, instrument in protocol.instruments.items()},
-        "stages": {stage.name: stage.text for kind in dict.fromkeys(KINDS[protocol.kind(phase)] for phase in phases)
-                   for stage in kind.stages},
+        "kinds": {kind.name: kind.title for kind in kinds},
+        "stages": {stage.name: stage.text for kind in kinds for stage in kind.stages},
     }
 
 

@@ -26,7 +26,7 @@ from tqdm import tqdm
 from microg.paths import protocol_file
 
 from .assignment import paper_sample
-from .export import export_study, read_answers
+from .export import export_study, kind_infos, read_answers
 from .inputs import InputError, open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .simulated_rater import SimulatedRater
@@ -140,5 +140,5 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     answers, instruments = read_answers(tables)
     report = write_report(tables / "trials.csv", tables / "questionnaire.csv", out / "report",
                           title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}",
-                          answers=answers, instruments=instruments)
+                          answers=answers, instruments=instruments, kinds=kind_infos())
     return DemoStudy(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)

@@ -1,7 +1,7 @@
 """Tidy tables from the log store: trials, questionnaire answers, scores and frames (CSV, Parquet).
 
 - ``trials``: one row per planned task of every session (its last run decides), with its task
-  kind and the kind's own measures (``measure_names``; empty for the other kinds);
+  kind and the kind's own measures (``measure_declarations``; empty for the other kinds);
 - ``questionnaire``: one row per answer to the paper's kind of 0-10 items (the Likert analysis's);
 - ``answers``: one row per answer to every instrument, in the order they were given;
   the three name the station that ran the session (``station``; empty for one run in the study itself);
@@ -11,7 +11,7 @@
   files the study keeps, so that the export scores and reports the same way anywhere;
 - ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``);
 - ``codebook.csv`` and ``dataset_description.json`` (Psych-DS's form): every column of every table
-  written, from the declarations that make the tables (``TABLES``; ``microg.study.codebook``).
+  written, from the declarations that make the tables (``tables``; ``microg.study.codebook``).
 
 ``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics and ``read_answers``
 (answers, instruments): from a study's database, or from a folder of exported files.
@@ -35,7 +35,8 @@ import pyarrow.parquet as pq
 
 from microg.instruments import Instrument, load_instrument
 from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, ANSWERS, ENROLMENT, PROTOCOL, QUESTIONNAIRE, \
-    QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, SCORES, SESSION_LOG, STUDY, TRIAL_COLUMNS, TRIAL_DTYPES, TRIALS, Column
+    QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, SCORES, SESSION_LOG, STUDY, TASK_RULES, TRIALS, Column, KindInfo, \
+    KindMeasure
 from microg.skeleton import HandFrame
 from microg.task import KINDS
 
@@ -87,14 +88,31 @@ def trials_table(store: Store) -> pd.DataFrame:
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
         "station": r["station"], "task_kind": store.protocol.kind(r["phase"]),
-        **{name: measured.get(r["run_id"], {}).get(name) for name in measure_names()},
-    } for r in rows], columns=TRIAL_COLUMNS)
-    return table.astype(TRIAL_DTYPES)
+        **{column.name: measured.get(r["run_id"], {}).get(column.name) for column in measure_declarations()},
+    } for r in rows], columns=[column.name for column in trial_declarations()])
+    return table.astype({column.name: column.dtype for column in trial_declarations()})
 
 
-def measure_names() -> list[str]:
-    """Every kind's own measures (``microg.task.Kind.measures``), columns of the trials table."""
-    return [measure.name for kind in KINDS.values() for measure in kind.measures]
+def measure_declarations() -> tuple[Column, ...]:
+    """Every task kind's own measures (``microg.task.Kind.measures``) as columns of the trials table,
+    in the registry's order (``microg.task.KINDS``)."""
+    return tuple(Column(m.name, m.dtype, m.meaning, optional=True, unit=m.unit,
+                        minimum=None if m.signed or m.dtype == "boolean" else 0,
+                        source=f"{TASK_RULES}: the {kind.title.lower()}'s")
+                 for kind in KINDS.values() for m in kind.measures)
+
+
+def trial_declarations() -> tuple[Column, ...]:
+    """The trials table's columns: every study's (``microg.schema.TRIALS``), then every kind's measures."""
+    return TRIALS + measure_declarations()
+
+
+def kind_infos() -> dict[str, KindInfo]:
+    """Every task kind as the report reads it (``microg.schema.KindInfo``), from the registry."""
+    return {kind.name: KindInfo(kind.name, kind.title, kind.attempts,
+                                tuple(KindMeasure(m.name, f"{m.label} ({m.unit})" if m.unit else m.label,
+                                                  m.proportion, m.signed) for m in kind.measures))
+            for kind in KINDS.values()}
 
 
 def _measures(store: Store) -> dict[int, dict]:
@@ -192,9 +210,10 @@ FRAME_KEYS = (
            levels="object_names", source=PROTOCOL),
 )
 """The frames table's first columns: which task run a frame belongs to."""
-TABLES = {"trials": TRIALS, "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
-          "frames": FRAME_KEYS + framelog.FRAME_COLUMNS}
-"""Every table an export may write, by name, with its columns: the codebook describes those written."""
+def tables() -> dict[str, tuple[Column, ...]]:
+    """Every table an export may write, by name, with its columns: the codebook describes those written."""
+    return {"trials": trial_declarations(), "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
+            "frames": FRAME_KEYS + framelog.FRAME_COLUMNS}
 
 
 def frames_columns(store: Store, runs: list[dict] | None = None) -> Iterator[dict[str, pa.Array | np.ndarray]]:
@@ -368,7 +387,8 @@ def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frame
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
                                                       disable=not progress), runs)
     written_tables = [name for name, _ in tables] + (["frames"] if frames and runs else [])
-    write_codebook(folder, {name: TABLES[name] for name in written_tables}, study=store.name, protocol=store.protocol,
+    declared = tables()
+    write_codebook(folder, {name: declared[name] for name in written_tables}, study=store.name, protocol=store.protocol,
                    interactions=[r[0] for r in store.db.execute("SELECT DISTINCT interaction FROM tasks")])
     written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())
     head = ledger.head_of(store.db)

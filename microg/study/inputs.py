@@ -94,9 +94,10 @@ class SimulatedInputs:
 
     def open(self, plan: TaskPlan, seed: int) -> HandSource:
         from microg.participant import HandingParticipant, SimulatedParticipant
-        from microg.task.rules import HANDOVER
+        from microg.task import KINDS
 
-        play = HandingParticipant if plan.rules.kind == HANDOVER else SimulatedParticipant  # (both hands)
+        both = KINDS[plan.rules.kind].play.then == "hand_over"
+        play = HandingParticipant if both else SimulatedParticipant
         return play(plan, self.skill(plan), seed, time_limit_s=self.time_limit_s(plan))
 
     def close(self) -> None:

@@ -48,8 +48,8 @@ from microg.sim import INTERACTION_MODELS, ObjectSpec, PlacedObject, Scene, Scen
 from microg.sim.bodies import object_from_dict
 from microg.sim.rotation import quat_to_matrix
 from microg.skeleton import SIDES
-from microg.task.rules import (CATCH, HANDOVER, KINDS, PICK_AND_PLACE, SEND, STOP_SPIN, CatchRules, HandoverRules,
-                               SendRules, StopSpinRules, TaskRules)
+from microg.task import KINDS, PICK_AND_PLACE, TaskRules
+from microg.task.kind import MAX_DISTANCE, inside
 
 if TYPE_CHECKING:
     from microg.participant import Population, SkillProfile
@@ -73,8 +73,6 @@ MAX_FILE_BYTES = 1 << 20
 """A protocol or object file is a few kilobytes; a megabyte is not one."""
 MAX_INTEGER = 2**63 - 1
 """Whole numbers (seeds, counts) are stored by the study database, whose integers are 64-bit."""
-MAX_DISTANCE = 10.0
-"""m: positions (start, places, workspace, the eyes) lie within this of the tracker."""
 MAX_GRAVITY = 100.0
 """m/s^2: ten times Earth's."""
 MAX_MINUTES = 24 * 60
@@ -93,10 +91,6 @@ FOV_RANGE = (10.0, 120.0)
 MAX_ADDED_LATENCY_MS = 1000.0
 """ms a phase may add to what the participant's page shows: studies of latency and agency vary it
 up to 350 ms (Waltemate et al., VRST 2016); a second is already no real-time view."""
-MAX_LAUNCH_SPEED = 10.0
-"""m/s: a catch's launch; a tossed tool in a station's cabin moves well under it."""
-MAX_SPIN = 100.0
-"""rad/s: about 16 turns a second, beyond what a tracked hand can follow."""
 
 
 class ProtocolError(ValueError):
@@ -154,7 +148,7 @@ class TaskPhase:
     """Display latency the phase adds (ms): the participant's page shows each frame this much later
     than the physics had it (the physics and the log are not delayed)."""
     kind: str = PICK_AND_PLACE
-    """The task kind its tasks are (``microg.task.rules.KINDS``; default: the ``task`` table's ``kind``)."""
+    """The task kind its tasks are (``microg.task.KINDS``; default: the ``task`` table's ``kind``)."""
 
 
 @dataclass(frozen=True)
@@ -271,16 +265,10 @@ class Protocol:
 
     def start_motion(self, kind: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The velocity (m/s) and angular velocity (rad/s, tracker frame) a task of ``kind`` starts its
-        object with: a catch's launch and spin; a stop of a spin's ``spin_rate`` about its body axis
-        turned by ``start_orientation``; at rest for a pick-and-place."""
-        if kind == CATCH:
-            catch = self.task.catch
-            return tuple(catch.launch_speed * d for d in catch.direction), catch.spin
-        if kind == STOP_SPIN:
-            spin = self.task.stop_spin
-            axis = quat_to_matrix(np.asarray(self.task.start_orientation, dtype=float)) @ np.asarray(spin.spin_axis)
-            return (0.0, 0.0, 0.0), tuple(float(spin.spin_rate * a) for a in axis)
-        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        object with (the kind's ``start_motion``: a catch's launch, a stop of a spin's spin); at rest
+        for a kind without one."""
+        start_motion = KINDS[kind].start_motion
+        return ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) if start_motion is None else start_motion(self.task)
 
     def kind(self, phase: str) -> str:
         """The task kind of a phase of tasks (the training, or one of ``[[phases]]``)."""
@@ -290,8 +278,7 @@ class Protocol:
 
     def rules(self, phase: str) -> TaskRules:
         """The rules a phase's tasks are judged by: the ``task`` table's, of the phase's kind and, for
-        the training, with its own time limit (the same object for every task of a kind and limit, as
-        ``microg.task.stages.rules_of`` keeps one record per ``TaskRules``)."""
+        the training, with its own time limit (one object per kind and limit, made once)."""
         kind = self.kind(phase)
         timeout_s = self.training.timeout_s if phase == "training" and self.training is not None else \
             self.task.timeout_s
@@ -776,10 +763,10 @@ def _read_objects(top: _Reader, sources: dict, files: dict, meshes: dict) -> tup
 
 
 def _read_task(top: _Reader) -> TaskRules:
-    """``[task]``: the default kind, start, places, radii, holds, timeouts, the workspace, and the
-    other kinds' numbers (``[task.catch]``, ``[task.stop_spin]``, ``[task.send]``)."""
+    """``[task]``: the default kind, start, places, radii, holds, timeouts, the workspace, and each
+    kind's own numbers from its table (``[task.catch]`` ...: ``microg.task.Kind.read``)."""
     t = top.table("task")
-    kind = t.text("kind", PICK_AND_PLACE, KINDS)
+    kind = t.text("kind", PICK_AND_PLACE, tuple(KINDS))
     places = t.raw("places")
     if not isinstance(places, list) or not places:
         raise t.fail("places", places, "must be a non-empty list of positions [x, y, z] (m)")
@@ -808,119 +795,24 @@ def _read_task(top: _Reader) -> TaskRules:
                      f"{list(task.workspace_min)} on every axis")
     for i, point in enumerate((task.start,) + task.places):
         key = "start" if i == 0 else f"places[{i - 1}]"
-        if not _inside(point, task):
+        if not inside(point, task):
             raise t.fail(key, list(point), "lies outside the workspace (workspace_min .. workspace_max)")
-    task = replace(task, kind=kind, catch=_read_catch(t, task), stop_spin=_read_stop_spin(t, task),
-                   send=_read_send(t, task), handover=_read_handover(t, task))
-    if kind != PICK_AND_PLACE:
-        _needs_numbers(t, "kind", kind, task)
+    tables = []
+    for known in KINDS.values():
+        table = t.table(known.table, None) if known.table else None
+        if table is not None:
+            tables.append((known.name, known.read(table, task)))
+    task = replace(task, kind=kind, tables=tuple(tables))
+    _needs_numbers(t, "kind", kind, task)
     t.done()
     return task
 
 
-def _read_catch(t: _Reader, task: TaskRules) -> CatchRules | None:
-    """``[task.catch]``: the launch (``launch_speed``, and ``direction`` or ``toward``: the point in the
-    participant's hand zone it flies at), its ``spin`` and the ``hold_s`` that makes a catch."""
-    c = t.table("catch", None)
-    if c is None:
-        return None
-    speed = c.number("launch_speed", unit=" (m/s)", maximum=MAX_LAUNCH_SPEED)
-    if ("direction" in c.data) == ("toward" in c.data):
-        raise ProtocolError(f"{c.where}: {c.prefix.rstrip('.')}: give the launch either direction = [x, y, z] or toward = "
-                            "[x, y, z] (a point of the hand zone), not both or neither")
-    if "direction" in c.data:
-        direction = np.asarray(c.vector("direction", maximum=None, unit=" (a direction, tracker frame)"))
-        key = "direction"
-    else:
-        toward = c.vector("toward")
-        if not _inside(toward, task):
-            raise c.fail("toward", list(toward), "lies outside the workspace (task.workspace_min .. workspace_max)")
-        direction, key = np.subtract(toward, task.start), "toward"
-    length = float(np.linalg.norm(direction))
-    if length < 1e-9:
-        raise c.fail(key, c.data[key], "gives no direction (a zero vector, or the task's start itself)")
-    catch = CatchRules(launch_speed=speed, direction=tuple(float(d) for d in direction / length),
-                       spin=c.vector("spin", default=[0.0, 0.0, 0.0], maximum=MAX_SPIN, unit=" (rad/s, tracker frame)"),
-                       hold_s=c.number("hold_s", 1.0, unit=" (seconds)"))
-    if catch.hold_s >= task.timeout_s:
-        raise c.fail("hold_s", catch.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no catch "
-                     "could be completed")
-    c.done()
-    return catch
-
-
-def _read_stop_spin(t: _Reader, task: TaskRules) -> StopSpinRules | None:
-    """``[task.stop_spin]``: the spin (``spin_axis`` in the object's frame, ``spin_rate``) and what
-    counts as stopped (``rest_omega``, ``rest_speed``, ``hold_s``)."""
-    s = t.table("stop_spin", None)
-    if s is None:
-        return None
-    axis = np.asarray(s.vector("spin_axis", maximum=None, unit=" (a direction in the object's frame)"))
-    if float(np.linalg.norm(axis)) < 1e-9:
-        raise s.fail("spin_axis", s.data["spin_axis"], "gives no direction (a zero vector)")
-    spin = StopSpinRules(spin_axis=tuple(float(a) for a in axis / np.linalg.norm(axis)),
-                         spin_rate=s.number("spin_rate", unit=" (rad/s)", maximum=MAX_SPIN),
-                         rest_omega=s.number("rest_omega", unit=" (rad/s)", maximum=MAX_SPIN),
-                         rest_speed=s.number("rest_speed", 0.02, unit=" (m/s)", maximum=MAX_LAUNCH_SPEED),
-                         hold_s=s.number("hold_s", 1.0, unit=" (seconds)"))
-    if spin.rest_omega >= spin.spin_rate:
-        raise s.fail("rest_omega", spin.rest_omega, f"must be below spin_rate = {spin.spin_rate:g} rad/s (else the "
-                     "object starts at rest)")
-    if spin.hold_s >= task.timeout_s:
-        raise s.fail("hold_s", spin.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no stop "
-                     "could be completed")
-    s.done()
-    return spin
-
-
-def _read_send(t: _Reader, task: TaskRules) -> SendRules | None:
-    """``[task.send]``: the target zone (``target``, its ``radius``) the object must drift into, and
-    ``arrival_s``, how long the drift from the release should take."""
-    s = t.table("send", None)
-    if s is None:
-        return None
-    send = SendRules(target=s.vector("target"), radius=s.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
-                     arrival_s=s.number("arrival_s", unit=" (seconds)"))
-    if not _inside(send.target, task):
-        raise s.fail("target", list(send.target), "lies outside the workspace (task.workspace_min .. workspace_max)")
-    apart = float(np.linalg.norm(np.subtract(send.target, task.start)))
-    if apart <= send.radius:
-        raise s.fail("target", list(send.target), f"is {apart:g} m from task.start = {list(task.start)}, within its "
-                     f"radius = {send.radius:g} m: the object would start in the zone, with nothing to send")
-    if send.arrival_s >= task.timeout_s:
-        raise s.fail("arrival_s", send.arrival_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
-                     "send could arrive in time")
-    s.done()
-    return send
-
-
-def _read_handover(t: _Reader, task: TaskRules) -> HandoverRules | None:
-    """``[task.handover]``: the hand that takes the object first (``first_hand``) and the place zone
-    the other hand holds it in (``place``, its ``radius``) for ``hold_s``."""
-    h = t.table("handover", None)
-    if h is None:
-        return None
-    handover = HandoverRules(first_hand=h.text("first_hand", "right", choices=SIDES), place=h.vector("place"),
-                             radius=h.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
-                             hold_s=h.number("hold_s", 1.0, unit=" (seconds)"))
-    if not _inside(handover.place, task):
-        raise h.fail("place", list(handover.place), "lies outside the workspace (task.workspace_min .. workspace_max)")
-    if handover.hold_s >= task.timeout_s:
-        raise h.fail("hold_s", handover.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
-                     "handover could be completed")
-    h.done()
-    return handover
-
-
 def _needs_numbers(reader: _Reader, key: str, kind: str, task: TaskRules) -> None:
-    """Refuse a task kind whose numbers the ``task`` table lacks (``[task.catch]``, ``[task.stop_spin]``,
-    ``[task.send]``, ``[task.handover]``)."""
-    if getattr(task, kind, True) is None:
-        raise reader.fail(key, kind, f"a {kind} task needs its numbers: add a [task.{kind}] table")
-
-
-def _inside(point, task: TaskRules) -> bool:
-    return all(lo <= p <= hi for lo, p, hi in zip(task.workspace_min, point, task.workspace_max))
+    """Refuse a task kind whose table of numbers the ``task`` table lacks (``[task.catch]`` ...)."""
+    table = KINDS[kind].table
+    if table is not None and getattr(task, kind) is None:
+        raise reader.fail(key, kind, f"a {kind} task needs its numbers: add a [task.{table}] table")
 
 
 def _renamed(reader: _Reader, old: str, message: str) -> None:
@@ -945,7 +837,7 @@ def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
                                 label=p.text("label"),
                                 added_latency_ms=p.number("added_latency_ms", 0.0, positive=False, unit=" (ms)",
                                                           maximum=MAX_ADDED_LATENCY_MS),
-                                kind=p.text("kind", task.kind, KINDS)))
+                                kind=p.text("kind", task.kind, tuple(KINDS))))
         _needs_numbers(p, "kind", phases[-1].kind, task)
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
@@ -984,7 +876,7 @@ def _read_training(top: _Reader, *, groups: tuple[Group, ...], task: TaskRules, 
                         interaction=tr.text("interaction", choices=tuple(INTERACTION_MODELS)),
                         objects=tuple(_study_object(tr, f"objects[{i}]", name=n, sources=sources, files=files,
                                                     meshes=meshes) for i, n in enumerate(names)),
-                        kind=tr.text("kind", task.kind, KINDS),
+                        kind=tr.text("kind", task.kind, tuple(KINDS)),
                         tasks=tr.integer("tasks", len(names)),
                         timeout_s=tr.number("timeout_s", task.timeout_s, unit=" (seconds)"))
     _needs_numbers(tr, "kind", training.kind, task)
@@ -1001,17 +893,8 @@ def _read_training(top: _Reader, *, groups: tuple[Group, ...], task: TaskRules, 
 
 
 def _least_time(task: TaskRules, kind: str) -> tuple[str, float]:
-    """What a task of ``kind`` needs at least (its key) and how long (s): the holds at the places, the
-    hold of a catch, of a stop or of a handover, a send's flight."""
-    if kind == CATCH:
-        return "task.catch.hold_s", task.catch.hold_s
-    if kind == STOP_SPIN:
-        return "task.stop_spin.hold_s", task.stop_spin.hold_s
-    if kind == SEND:
-        return "task.send.arrival_s", task.send.arrival_s
-    if kind == HANDOVER:
-        return "task.handover.hold_s", task.handover.hold_s
-    return f"the {len(task.places)} holds of task.hold_s", len(task.places) * task.hold_s
+    """What a task of ``kind`` needs at least (its key) and how long (s): the kind's ``least_time``."""
+    return KINDS[kind].least_time(task)
 
 
 def _timeout_key(protocol: Protocol, phase: str) -> str:
@@ -1187,7 +1070,7 @@ def _check_worlds(top: _Reader, protocol: Protocol) -> None:
         if protocol.table_height is None:
             continue
         start, _ = protocol.start_pose(name)
-        if not _inside(start, rules):
+        if not inside(start, rules):
             raise ProtocolError(
                 f"{top.where}: scene.table_height = {protocol.table_height:g}: the {name} stands on the table with "
                 f"its centre at {[round(v, 4) for v in start]}, outside the workspace (task.workspace_min "

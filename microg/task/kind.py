@@ -31,6 +31,12 @@ COMPLETED, TIMEOUT = "completed", "timeout"
 """The two stages that end every task."""
 EPS = 1e-9
 """s: times that differ by less are equal (frame times are sums of float intervals)."""
+MAX_DISTANCE = 10.0
+"""m: positions and distances a protocol gives lie within this of the tracker."""
+MAX_LAUNCH_SPEED = 10.0
+"""m/s: an object's speed as a task starts it; a tossed tool in a station's cabin moves well under it."""
+MAX_SPIN = 100.0
+"""rad/s: about 16 turns a second, beyond what a tracked hand can follow."""
 MAX_EVENTS = 8
 """The most events one frame can make."""
 EVENT_VALUES = 6
@@ -38,7 +44,8 @@ EVENT_VALUES = 6
 
 
 class Stage(NamedTuple):
-    """A stage of a kind's task: its name, what the participant's page says then, and what it tells
+    """A stage of a kind's task: its name, what the participant's page says then (``{first}`` and
+    ``{other}`` stand for the hands of a kind that names them: ``View.first_hand``), and what it tells
     a simulated participant: ``loose``, the task shows the object not held (go and take it again);
     ``release``, let go now."""
 
@@ -48,7 +55,7 @@ class Stage(NamedTuple):
     release: bool = False
 
 
-FINAL = (Stage(COMPLETED, "Done."), Stage(TIMEOUT, "Time is up."))
+FINAL = (Stage(COMPLETED, "Done"), Stage(TIMEOUT, "Time is up"))
 
 
 STAGE, PLACE_OR_NONE, NUMBER, NUMBER_OR_NONE, COUNT, FLAG, HAND, VECTOR = range(8)
@@ -70,12 +77,14 @@ RESPAWN = EventSpec("respawn", (("position", VECTOR),))
 
 class Measure(NamedTuple):
     """One of a kind's own measures of a finished task, a column of the trials table: its name,
-    dtype, unit, what it means, the task state's field it is read from (NaN: empty), and how a
-    report treats it (``proportion``: yes or no per task; ``signed``: may be negative)."""
+    dtype, unit, how a reader sees it (``label``: "time to catch"), what it means, the task state's
+    field it is read from (NaN: empty), and how a report treats it (``proportion``: yes or no per
+    task; ``signed``: may be negative)."""
 
     name: str
     dtype: str
     unit: str
+    label: str
     meaning: str
     field: str
     proportion: bool = False
@@ -110,6 +119,21 @@ class Aims(NamedTuple):
     arrival_s: float = 0.0
     path: tuple | None = None
     first_hand: str | None = None
+
+
+class View(NamedTuple):
+    """What the participant's page and a picture show of a kind's task: the task's ``places`` (the
+    pick-and-place's marks), the ``zone`` the object must reach (``zone(rules) -> (centre, radius)``),
+    the object's launch ``path`` (``path(rules) -> direction``), the hand a task takes the object with
+    first (``first_hand(rules)``, filling the stages' texts), and how pictures label the frame the
+    object was first held (``taken``) and the last frame of a completed task (``done``)."""
+
+    places: bool = False
+    zone: Callable | None = None
+    path: Callable | None = None
+    first_hand: Callable | None = None
+    taken: str = "taken"
+    done: str = "done"
 
 
 APPROACHES, TAKES, THENS, SQUEEZES = ("reach", "intercept"), ("grasp", "touch"), ("carry", "keep", "push",
@@ -158,10 +182,24 @@ class Kind:
     """``fill_rules(task_rules, record)``: its own numbers of a ``TaskRules`` into a rules record."""
     aims: Callable
     """``aims(task_rules) -> Aims``: what a simulated participant aims at in its task."""
+    least_time: Callable
+    """``least_time(task_rules) -> (key, seconds)``: what a task of the kind takes at least (the holds,
+    a drift), and the protocol key that sets it: a time limit must exceed it."""
     attempts: str
     """What its ``attempts`` count ("drops", "misses")."""
     measures: tuple[Measure, ...] = ()
     play: Play = Play()
+    view: View = View()
+    table: str | None = None
+    """Its table under the protocol's ``task`` table (``[task.NAME]``); None: its numbers are the
+    ``task`` table's own (the pick-and-place's places and holds)."""
+    read: Callable | None = None
+    """``read(table, task_rules) -> numbers``: its table read and checked, with the protocol's reader
+    (``table.number``, ``vector``, ``text``, ``raw``, ``fail``, ``done``: every error names the file,
+    key and value) and the shared numbers; its numbers (``TaskRules.tables``)."""
+    start_motion: Callable | None = None
+    """``start_motion(task_rules) -> (velocity, angular_velocity)``: how the task starts its object
+    moving (tracker frame); None: at rest."""
     initial: dict = field(default_factory=dict)
     """Fields of its own state that start at a value: every other number starts NaN (not yet), every
     flag and count 0."""
@@ -404,6 +442,11 @@ def touched(seen):
 @njit(cache=True)
 def length(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+def inside(point, rules) -> bool:
+    """Whether ``point`` lies in the task's workspace (``workspace_min`` .. ``workspace_max``)."""
+    return all(lo <= p <= hi for lo, p, hi in zip(rules.workspace_min, point, rules.workspace_max))
 
 
 def observed(observation, out=None):

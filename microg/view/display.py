@@ -56,8 +56,7 @@ from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Phase, Protocol, Viewpoint
 from microg.study.questionnaire import Answer, Question, RatingError, parse_answer
 from microg.study.store import PlannedTask
-from microg.task import Moments
-from microg.task.rules import HANDOVER
+from microg.task import KINDS, Moments
 
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
 from .tls import LOCALHOST, Certificate
@@ -176,6 +175,7 @@ class ParticipantDisplay:
         """Before a task: the scene of the task, and "get ready"."""
         self.deliver_events()
         layout = task_layout(self.protocol, task.object, task.phase)
+        kind = KINDS[layout.kind]
         camera = default_camera(layout, fov_deg=self.viewpoint.fov_deg)
         eye = camera.eye if self.viewpoint.eye is None else np.asarray(self.viewpoint.eye)
         target = camera.target if self.viewpoint.look_at is None else np.asarray(self.viewpoint.look_at)
@@ -185,7 +185,8 @@ class ParticipantDisplay:
             "surface": None if layout.surface is None else {"vertices": layout.surface[0].ravel().tolist(),
                                                             "faces": layout.surface[1].ravel().tolist()},
             "place_radius": layout.place_radius, "hold_s": layout.hold_s, "kind": layout.kind,
-            "first_hand": self.protocol.task.handover.first_hand if layout.kind == HANDOVER else None,
+            "first_hand": None if kind.view.first_hand is None else kind.view.first_hand(self.protocol.task),
+            "stages": {stage.name: stage.text for stage in kind.stages},
             "target": None if layout.target is None else {"centre": layout.target.tolist(),
                                                           "radius": layout.target_radius},
             "table": None if layout.table_height is None else {"centre": layout.table_centre.tolist(),

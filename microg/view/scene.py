@@ -22,10 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microg.schema import KIND_ATTEMPTS
 from microg.skeleton import SIDES, side_slots
 from microg.study.protocol import Protocol
-from microg.task.rules import HANDOVER, PICK_AND_PLACE, SEND
+from microg.task import KINDS, PICK_AND_PLACE
 
 HAND_MODES = ("rendered", "tracked", "both")
 """Which hands to draw: the rendered (god-object) hand, the tracked one, or both (tracked faint)."""
@@ -189,7 +188,7 @@ def hud_lines(scene: FrameScene, layout: TaskLayout) -> list[str]:
     the object is held, attempts (by what the task's kind counts)."""
     n_places = len(layout.places)
     holding = "holding" if scene.held else "not holding"
-    if layout.kind != PICK_AND_PLACE:
+    if not n_places:
         place = holding
     elif scene.place_lit:
         place = f"place {scene.place + 1} lit: {scene.place_timer:.1f} / {layout.hold_s:g} s · {holding}"
@@ -197,7 +196,7 @@ def hud_lines(scene: FrameScene, layout: TaskLayout) -> list[str]:
         place = f"place {scene.place + 1} of {n_places}: not reached · {holding}"
     else:
         place = f"all {n_places} places done · {holding}"
-    return [f"{scene.stage} · {scene.t:.1f} s", place, f"attempts ({KIND_ATTEMPTS[layout.kind]}): {scene.attempts}"]
+    return [f"{scene.stage} · {scene.t:.1f} s", place, f"attempts ({KINDS[layout.kind].attempts}): {scene.attempts}"]
 
 
 @dataclass(frozen=True)
@@ -222,7 +221,7 @@ class TaskLayout:
     surface: tuple[np.ndarray, np.ndarray] | None = None
     """A mesh object's surface in its body frame: vertices (V, 3) and triangles (F, 3)."""
     kind: str = PICK_AND_PLACE
-    """The task's kind (``microg.task.rules.KINDS``): only a pick-and-place has ``places``."""
+    """The task's kind (``microg.task.KINDS``): only a kind whose view shows places has ``places``."""
     target: np.ndarray | None = None
     """The centre (m) of the zone the object must reach: a send's target, a handover's place; None
     for the other kinds."""
@@ -241,7 +240,7 @@ DEMO_TABLE_HALF_WIDTH = 0.20
 CAMERA_MARGIN = 0.05
 """Space (m) the default camera leaves around the start and the places."""
 CATCH_PATH_VIEWED = 0.2
-"""How much (m) of a catch's launch path from the start a view frames: where the hand meets it."""
+"""How much (m) of a launch path from the start a view frames: where the hand meets the object."""
 RING_TUBE = 0.003
 """Radius of a place ring's tube (m)."""
 
@@ -251,24 +250,25 @@ def task_layout(protocol: Protocol, object_name: str, phase: str | None = None) 
     pose and its kind's marks (the protocol's places, or a send's or a handover's zone), with a
     table under the start and the places when the protocol has one."""
     spec, task = protocol.object(object_name).spec, protocol.task
-    kind = protocol.kind(phase) if phase is not None else PICK_AND_PLACE
+    kind = KINDS[protocol.kind(phase) if phase is not None else PICK_AND_PLACE]
     start = np.asarray(protocol.start_pose(object_name)[0], dtype=np.float64)
     places = np.asarray(task.places, dtype=np.float64)
-    zones = {SEND: None if task.send is None else (task.send.target, task.send.radius),
-             HANDOVER: None if task.handover is None else (task.handover.place, task.handover.radius)}
-    sides = [np.asarray(centre) + offset for centre, radius in filter(None, zones.values())
+    given = [k for k in KINDS.values() if k.table is None or getattr(task, k.name) is not None]  # kinds it can run
+    zones = {k.name: k.view.zone(task) for k in given if k.view.zone is not None}
+    sides = [np.asarray(centre) + offset for centre, radius in zones.values()
              for offset in radius * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])]
-    path = [] if task.catch is None else [start + CATCH_PATH_VIEWED * np.asarray(task.catch.direction)]
+    path = [start + CATCH_PATH_VIEWED * np.asarray(k.view.path(task)) for k in given if k.view.path is not None]
     workspace = np.vstack([start, places, *sides, *path])
     xs = np.concatenate([[start[0]], places[:, 0]])
     height = protocol.table_height
     centre = np.array([0.5 * (xs.min() + xs.max()), height if height is not None else np.nan, start[2]])
     size = np.array([xs.max() - xs.min() + 2 * TABLE_MARGIN, TABLE_THICKNESS, TABLE_DEPTH])
-    zone = zones.get(kind)
+    zone = zones.get(kind.name)
     return TaskLayout(spec.shape, np.asarray(spec.size, dtype=np.float64), start,
-                      places if kind == PICK_AND_PLACE else np.empty((0, 3)), task.place_radius, task.hold_s, height,
-                      centre, size, surface_of(spec), kind, None if zone is None else np.asarray(zone[0], dtype=float),
-                      0.0 if zone is None else zone[1], workspace)
+                      places if kind.view.places else np.empty((0, 3)), task.place_radius, task.hold_s, height,
+                      centre, size, surface_of(spec), kind.name,
+                      None if zone is None else np.asarray(zone[0], dtype=float), 0.0 if zone is None else zone[1],
+                      workspace)
 
 
 def surface_of(spec) -> tuple[np.ndarray, np.ndarray] | None:

@@ -19,7 +19,7 @@ import numpy as np
 from microg.skeleton import SIDES
 from microg.study import framelog
 from microg.study.store import SessionRecord, Store, StoreError, open_study
-from microg.task.rules import CATCH, HANDOVER, PICK_AND_PLACE, SEND, STOP_SPIN
+from microg.task import KINDS, PICK_AND_PLACE
 
 from .scene import FrameScene, both_sides, hand_values, place_states, rendered_bones, tracked_bones
 
@@ -182,32 +182,30 @@ class KeyMoment:
     index: int
 
 
-TAKEN = {PICK_AND_PLACE: "picked up", CATCH: "taken", STOP_SPIN: "taken", SEND: "picked up", HANDOVER: "taken"}
-"""A key moment's label: the first frame a task of each kind had its object held."""
-DONE = {PICK_AND_PLACE: "released", CATCH: "caught", STOP_SPIN: "at rest", SEND: "arrived", HANDOVER: "placed"}
-"""A key moment's label: the last frame of a completed task of each kind."""
 
 
 def key_moments(track: Track, n_places: int, kind: str = PICK_AND_PLACE) -> list[KeyMoment]:
     """The task's key moments, as in the paper's Figs. 7 and 9: the start, the pick-up (the first
-    frame held), each place just before it is done (the last frame it is lit), a send's last
-    release (the first frame after its last hold), and the end (released, caught, at rest or
-    arrived by the task's ``kind``; timed out or cut off). Moments the run never reached are left out."""
+    frame held), each place just before it is done (the last frame it is lit), the last release of a
+    kind that sends the object off (the first frame after its last hold), and the end (as the
+    kind's view labels it: released, caught, at rest ...; timed out or cut off). Moments the run
+    never reached are left out."""
     frames = track.frames
     if not len(frames):
         return []
     moments = [KeyMoment("start", 0)]
     held = np.flatnonzero(frames["held"])
+    view = KINDS[kind].view
     if len(held):
-        moments.append(KeyMoment(TAKEN[kind], int(held[0])))
+        moments.append(KeyMoment(view.taken, int(held[0])))
     for k in range(n_places):
         lit = np.flatnonzero((frames["place"] == k) & frames["place_lit"])
         if len(lit):
             moments.append(KeyMoment(f"place {k + 1}", int(lit[-1])))
-    if kind == SEND and len(held) and held[-1] + 1 < len(frames):
+    if KINDS[kind].play.then == "push" and len(held) and held[-1] + 1 < len(frames):
         moments.append(KeyMoment("let go", int(held[-1]) + 1))
     last = len(frames) - 1
-    end = {"completed": DONE[kind], "timeout": "timed out"}.get(framelog.stage_names()[frames["stage"][-1]], "last frame")
+    end = {"completed": view.done, "timeout": "timed out"}.get(framelog.stage_names()[frames["stage"][-1]], "last frame")
     if all(m.index != last for m in moments):
         moments.append(KeyMoment(end, last))
     return moments

@@ -14,8 +14,7 @@ from markupsafe import escape
 
 from microg.analysis import AnalysisInputError, analyse_study, kinds_present
 from microg.analysis.report import NO_QUESTIONNAIRE, write_report
-from microg.schema import KIND_MEASURES
-from microg.task.kinds import MEASURES
+from microg.study.export import kind_infos
 from tests.analysis.study_data import make_study
 
 
@@ -35,25 +34,32 @@ def kinds_trials() -> pd.DataFrame:
     )
 
 
-def test_the_analysis_and_the_export_name_the_same_measures_of_each_kind():
-    by_kind = {name: kind for kind, names in KIND_MEASURES.items() for name in names}
-    assert by_kind == MEASURES
+KINDS = kind_infos()
+"""The kinds as the export describes them to the report (the study's registry)."""
+
+
+def test_the_report_reads_each_kinds_measures_as_the_export_writes_them():
+    from microg.study.export import measure_declarations
+
+    written = [column.name for column in measure_declarations()]
+    assert written == [m.name for info in KINDS.values() for m in info.measures]
+    assert {m.name for m in KINDS["stop_spin"].measures if m.proportion} == {"flipped"}
 
 
 def test_each_kind_is_analysed_apart_with_its_own_measures(kinds_trials):
     assert kinds_present(kinds_trials) == ("catch", "stop_spin")
-    catch = analyse_study(kinds_trials, kind="catch")
+    catch = analyse_study(kinds_trials, kind="catch", kinds=KINDS)
     assert catch.measures == ("time_s", "attempts", "time_to_catch_s")
     assert catch.interactions == ("impulse_penetration",)
     assert ("impulse_penetration", "time_to_catch_s") in catch.analysed()
-    stop = analyse_study(kinds_trials, kind="stop_spin")
+    stop = analyse_study(kinds_trials, kind="stop_spin", kinds=KINDS)
     assert ("soft_hand", "time_to_rest_s") in stop.analysed()
     assert ("soft_hand", "flipped") in stop.analysed()
     assert "flipped" not in set(stop.trial_models["measure"])  # a yes/no per task has no linear model
 
 
 def test_flipped_is_the_proportion_of_every_task_with_a_value(kinds_trials):
-    stop = analyse_study(kinds_trials, kind="stop_spin")
+    stop = analyse_study(kinds_trials, kind="stop_spin", kinds=KINDS)
     rows = kinds_trials[(kinds_trials["task_kind"] == "stop_spin") & kinds_trials["flipped"].notna()]
     expected = rows.groupby(["participant", "object"])["flipped"].mean().astype(float)
     cells = stop.table("cells", "soft_hand", "flipped").set_index(["participant", "object"])["value"]
@@ -63,7 +69,7 @@ def test_flipped_is_the_proportion_of_every_task_with_a_value(kinds_trials):
 
 def test_a_kind_of_one_group_is_described_with_a_note_not_an_error(kinds_trials):
     beginners = kinds_trials[kinds_trials["group"] == "B"]
-    catch = analyse_study(beginners, kind="catch")
+    catch = analyse_study(beginners, kind="catch", kinds=KINDS)
     assert catch.analysed() == []
     assert any(note.startswith("No time_to_catch_s ANOVA") and "1 group(s)" in note for note in catch.warnings)
     described = catch.description.query("measure == 'time_to_catch_s'")
@@ -75,7 +81,7 @@ def test_a_kind_of_one_group_is_described_with_a_note_not_an_error(kinds_trials)
 
 def test_the_report_has_each_kind_and_says_there_is_no_questionnaire(kinds_trials, tmp_path):
     empty = pd.DataFrame(columns=["participant", "group", "interaction", "item", "rating"])
-    write_report(kinds_trials, empty, tmp_path)
+    write_report(kinds_trials, empty, tmp_path, kinds=KINDS)
     markdown = (tmp_path / "report.md").read_text()
     for text in ("### Catch", "### Stop of a spin", "Catch: Time to catch (s), impulse_penetration",
                  "Stop of a spin: Flipped (proportion of tasks), soft_hand", "time to rest (s)", NO_QUESTIONNAIRE):
@@ -99,12 +105,12 @@ def test_a_sends_release_speed_error_may_be_negative_and_is_analysed(kinds_trial
     rng, n = np.random.default_rng(5), len(kinds_trials)
     trials = _as_kind(kinds_trials, "send", send_error_m=rng.uniform(0.0, 0.05, n),
                       release_speed_error=rng.normal(-0.02, 0.03, n))
-    send = analyse_study(trials, kind="send")
+    send = analyse_study(trials, kind="send", kinds=KINDS)
     assert send.measures == ("time_s", "attempts", "send_error_m", "release_speed_error")
     assert ("soft_hand", "release_speed_error") in send.analysed()
     assert (send.table("cells", "soft_hand", "release_speed_error")["value"] < 0).any()
     with pytest.raises(AnalysisInputError, match="is negative"):
-        analyse_study(trials.assign(time_s=-trials["time_s"]), kind="send")  # other measures stay non-negative
+        analyse_study(trials.assign(time_s=-trials["time_s"]), kind="send", kinds=KINDS)  # other measures stay non-negative
 
 
 def test_a_handovers_transfer_time_may_be_negative_and_is_analysed(kinds_trials):
@@ -112,7 +118,7 @@ def test_a_handovers_transfer_time_may_be_negative_and_is_analysed(kinds_trials)
     rng, n = np.random.default_rng(6), len(kinds_trials)
     trials = _as_kind(kinds_trials, "handover", transfer_time_s=rng.normal(0.1, 0.2, n),
                       both_held_s=rng.uniform(0.2, 1.0, n))
-    handover = analyse_study(trials, kind="handover")
+    handover = analyse_study(trials, kind="handover", kinds=KINDS)
     assert (handover.table("cells", "soft_hand", "transfer_time_s")["value"] < 0).any()
     with pytest.raises(AnalysisInputError, match="is negative"):
-        analyse_study(trials.assign(both_held_s=-trials["both_held_s"]), kind="handover")
+        analyse_study(trials.assign(both_held_s=-trials["both_held_s"]), kind="handover", kinds=KINDS)

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from microg.task.observation import Observation
-from microg.task.rules import CatchRules, TaskRules
+from microg.task.kinds.catch import CatchRules
+from microg.task.rules import TaskRules
 from microg.task import COMPLETED, KINDS, TIMEOUT
 
 KIND = KINDS["catch"]
@@ -24,8 +25,8 @@ DIRECTION = (HAND - START) / np.linalg.norm(HAND - START)
 RULES = TaskRules(start=tuple(START), start_orientation=(1.0, 0.0, 0.0, 0.0), places=((0.0, 0.3, 0.0),),
                   place_radius=0.02, hold_s=3.0, timeout_s=5.0, grasp_settle_s=SETTLE_S, drop_grace_s=GRACE_S,
                   workspace_min=(-1.0, -1.0, -1.0), workspace_max=(1.0, 1.0, 1.0), kind="catch",
-                  catch=CatchRules(launch_speed=SPEED, direction=tuple(DIRECTION), spin=(0.0, 0.0, 0.0),
-                                   hold_s=HOLD_S))
+                  tables=(("catch", CatchRules(launch_speed=SPEED, direction=tuple(DIRECTION), spin=(0.0, 0.0, 0.0),
+                                                      hold_s=HOLD_S)),))
 TOUCH = np.ones(40, dtype=bool)
 NONE = np.zeros(40, dtype=bool)
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from microg.task.observation import Observation
-from microg.task.rules import HandoverRules, TaskRules
+from microg.task.kinds.handover import HandoverRules
+from microg.task.rules import TaskRules
 from microg.task import COMPLETED, KINDS, TIMEOUT
 
 KIND = KINDS["handover"]
@@ -18,7 +19,7 @@ START, PLACE_AT = (0.0, 0.2, 0.0), (0.1, 0.2, 0.0)
 RULES = TaskRules(start=START, start_orientation=(1.0, 0.0, 0.0, 0.0), places=((0.0, 0.3, 0.0),),
                   place_radius=0.02, hold_s=3.0, timeout_s=8.0, grasp_settle_s=SETTLE, drop_grace_s=GRACE,
                   workspace_min=(-1.0, -1.0, -1.0), workspace_max=(1.0, 1.0, 1.0), kind="handover",
-                  handover=HandoverRules(first_hand="right", place=PLACE_AT, radius=0.03, hold_s=HOLD))
+                  tables=(("handover", HandoverRules(first_hand="right", place=PLACE_AT, radius=0.03, hold_s=HOLD)),))
 
 
 def play(script, seconds: float = RULES.timeout_s + 0.5):

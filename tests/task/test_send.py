@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from microg.task.observation import Observation
-from microg.task.rules import SendRules, TaskRules
+from microg.task.kinds.send import SendRules
+from microg.task.rules import TaskRules
 from microg.task import COMPLETED, KINDS, TIMEOUT
 
 KIND = KINDS["send"]
@@ -21,7 +22,7 @@ SETTLE_S, GRACE_S, LET_GO = 0.1, 0.25, 0.5
 RULES = TaskRules(start=tuple(HELD_AT), start_orientation=(1.0, 0.0, 0.0, 0.0), places=((0.0, 0.3, 0.0),),
                   place_radius=0.02, hold_s=3.0, timeout_s=6.0, grasp_settle_s=SETTLE_S, drop_grace_s=GRACE_S,
                   workspace_min=(-1.0, -1.0, -1.0), workspace_max=(1.0, 1.0, 1.0), kind="send",
-                  send=SendRules(target=tuple(TARGET), radius=RADIUS, arrival_s=ARRIVAL_S))
+                  tables=(("send", SendRules(target=tuple(TARGET), radius=RADIUS, arrival_s=ARRIVAL_S)),))
 
 
 def play(velocity, seconds: float = 6.5):

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from microg.task.observation import Observation
-from microg.task.rules import StopSpinRules, TaskRules
+from microg.task.kinds.stop_spin import StopSpinRules
+from microg.task.rules import TaskRules
 from microg.task import COMPLETED, KINDS, TIMEOUT
 
 KIND = KINDS["stop_spin"]
@@ -21,8 +22,8 @@ GRIP_AT, SLOWING = 0.5, 3.0
 RULES = TaskRules(start=(0.0, 0.2, 0.0), start_orientation=(1.0, 0.0, 0.0, 0.0), places=((0.0, 0.3, 0.0),),
                   place_radius=0.02, hold_s=3.0, timeout_s=5.0, grasp_settle_s=0.1, drop_grace_s=0.25,
                   workspace_min=(-1.0, -1.0, -1.0), workspace_max=(1.0, 1.0, 1.0), kind="stop_spin",
-                  stop_spin=StopSpinRules(spin_axis=(0.0, 1.0, 0.0), spin_rate=SPIN, rest_omega=REST_OMEGA,
-                                          rest_speed=0.02, hold_s=HOLD_S))
+                  tables=(("stop_spin", StopSpinRules(spin_axis=(0.0, 1.0, 0.0), spin_rate=SPIN, rest_omega=REST_OMEGA,
+                                                             rest_speed=0.02, hold_s=HOLD_S)),))
 
 
 def about_y(angle: float) -> np.ndarray:

@@ -20,13 +20,15 @@ Rules (times are the observations' clock; the numbers are the protocol's ``[task
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
+import numpy as np
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, STAGE, Aims, EventSpec, Kind, Measure, Play, Stage, emit,
-                              grasped, hold_task, start_and_time_out, touched)
+from microg.task.kind import (COUNT, EPS, FINAL, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, Aims, EventSpec, Kind,
+                              Measure, Play, Stage, View, emit, grasped, hold_task, inside, start_and_time_out, touched)
 
-STAGES = (Stage("approach", "Catch the object.", loose=True), Stage("catch", "Hold on to it.")) + FINAL
+STAGES = (Stage("approach", "Catch the object as it floats to you", loose=True), Stage("catch", "Hold on to it")) + FINAL
 _APPROACH, _CATCH, _COMPLETED, _TIMEOUT = range(len(STAGES))
 EVENTS = (EventSpec("stage", (("stage", STAGE),)), EventSpec("timeout", (("stage", STAGE),)),
           EventSpec("hold", (("since", NUMBER),)),
@@ -77,6 +79,56 @@ def _touch(task, rules, t, seen, events, n):
     return emit(events, n, _DROP, t, since, task.stage, task.attempts)
 
 
+@dataclass(frozen=True)
+class CatchRules:
+    """A catch's numbers (``[task.catch]``): the object leaves the task's start at ``launch_speed``
+    (m/s) along ``direction`` (a unit vector, tracker frame) turning at ``spin`` (rad/s, tracker
+    frame), and is caught once held for ``hold_s`` (s)."""
+
+    launch_speed: float
+    direction: tuple[float, float, float]
+    spin: tuple[float, float, float]
+    hold_s: float
+
+
+def read(c, task) -> CatchRules:
+    """``[task.catch]``: the launch (``launch_speed``, and ``direction`` or ``toward``: the point in the
+    participant's hand zone it flies at), its ``spin`` and the ``hold_s`` that makes a catch."""
+    speed = c.number("launch_speed", unit=" (m/s)", maximum=MAX_LAUNCH_SPEED)
+    if ("direction" in c.data) == ("toward" in c.data):
+        raise c.fail("direction", c.data.get("direction"), "give the launch either direction = [x, y, z] or "
+                     "toward = [x, y, z] (a point of the hand zone), not both or neither")
+    if "direction" in c.data:
+        direction = np.asarray(c.vector("direction", maximum=None, unit=" (a direction, tracker frame)"))
+        key = "direction"
+    else:
+        toward = c.vector("toward")
+        if not inside(toward, task):
+            raise c.fail("toward", list(toward), "lies outside the workspace (task.workspace_min .. workspace_max)")
+        direction, key = np.subtract(toward, task.start), "toward"
+    length = float(np.linalg.norm(direction))
+    if length < 1e-9:
+        raise c.fail(key, c.data[key], "gives no direction (a zero vector, or the task's start itself)")
+    catch = CatchRules(launch_speed=speed, direction=tuple(float(d) for d in direction / length),
+                       spin=c.vector("spin", default=[0.0, 0.0, 0.0], maximum=MAX_SPIN, unit=" (rad/s, tracker frame)"),
+                       hold_s=c.number("hold_s", 1.0, unit=" (seconds)"))
+    if catch.hold_s >= task.timeout_s:
+        raise c.fail("hold_s", catch.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no catch "
+                     "could be completed")
+    c.done()
+    return catch
+
+
+def least_time(rules) -> tuple[str, float]:
+    return "task.catch.hold_s", rules.catch.hold_s
+
+
+def start_motion(rules):
+    """The launch: ``launch_speed`` along ``direction``, turning at ``spin``."""
+    catch = rules.catch
+    return tuple(catch.launch_speed * d for d in catch.direction), catch.spin
+
+
 def fill_rules(rules, record) -> None:
     record["hold_s"] = rules.catch.hold_s
 
@@ -88,7 +140,10 @@ def aims(rules) -> Aims:
 KIND = Kind(
     name="catch", title="Catch", stages=STAGES, events=EVENTS,
     state=[("caught_since", "f8"), ("touched", "u1"), ("untouched_since", "f8"), ("time_to_catch", "f8")],
-    rules=[("hold_s", "f8")], judge=judge, fill_rules=fill_rules, aims=aims, attempts="touches that did not hold",
-    measures=(Measure("time_to_catch_s", "float64", "s", "a catch's seconds from its first frame to the grasp that "
-                      "caught the object; empty unless a catch was completed", "time_to_catch"),),
-    play=Play(approach="intercept", take="grasp", then="keep", squeeze="path"), module=__name__)
+    rules=[("hold_s", "f8")], judge=judge, fill_rules=fill_rules, aims=aims, least_time=least_time,
+    attempts="touches that did not hold",
+    measures=(Measure("time_to_catch_s", "float64", "s", "time to catch", "a catch's time from its first frame to "
+                      "the grasp that caught the object; empty unless a catch was completed", "time_to_catch"),),
+    play=Play(approach="intercept", take="grasp", then="keep", squeeze="path"),
+    view=View(path=lambda rules: rules.catch.direction, taken="taken", done="caught"),
+    table="catch", read=read, start_motion=start_motion, module=__name__)

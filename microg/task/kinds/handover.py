@@ -25,15 +25,16 @@ Rules (times are the observations' clock, places the tracker frame; the numbers 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from numba import njit
 
 from microg.skeleton import SIDES
-from microg.task.kind import (COUNT, EPS, FINAL, HAND, NUMBER, NUMBER_OR_NONE, STAGE, Aims, EventSpec, Kind, Measure,
-                              Play, Stage, emit, hold, start_and_time_out)
+from microg.task.kind import (COUNT, EPS, FINAL, HAND, MAX_DISTANCE, NUMBER, NUMBER_OR_NONE, STAGE, Aims, EventSpec,
+                              Kind, Measure, Play, Stage, View, emit, hold, inside, start_and_time_out)
 
-STAGES = (Stage("take", "Take the object with your first hand.", loose=True),
-          Stage("pass", "Pass it to your other hand."), Stage("place", "Hold it in the zone.")) + FINAL
+STAGES = (Stage("take", "Pick up the object with your {first} hand", loose=True),
+          Stage("pass", "Pass it to your {other} hand"), Stage("place", "Hold it in the blue rings with your {other} hand")) + FINAL
 _TAKE, _PASS, _PLACE, _COMPLETED, _TIMEOUT = range(len(STAGES))
 EVENTS = (EventSpec("stage", (("stage", STAGE),)), EventSpec("timeout", (("stage", STAGE),)),
           EventSpec("hold", (("since", NUMBER), ("hand", HAND))),
@@ -102,6 +103,37 @@ def judge(task, rules, seen, events):
     return n
 
 
+@dataclass(frozen=True)
+class HandoverRules:
+    """A handover's numbers (``[task.handover]``): the object taken by the ``first_hand`` (``left`` or
+    ``right``), passed to the other hand, and held by that hand alone inside the place zone, a sphere
+    of ``radius`` (m) about ``place`` (tracker frame), for ``hold_s`` (s)."""
+
+    first_hand: str
+    place: tuple[float, float, float]
+    radius: float
+    hold_s: float
+
+
+def read(h, task) -> HandoverRules:
+    """``[task.handover]``: the hand that takes the object first (``first_hand``) and the place zone
+    the other hand holds it in (``place``, its ``radius``) for ``hold_s``."""
+    handover = HandoverRules(first_hand=h.text("first_hand", "right", choices=SIDES), place=h.vector("place"),
+                             radius=h.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
+                             hold_s=h.number("hold_s", 1.0, unit=" (seconds)"))
+    if not inside(handover.place, task):
+        raise h.fail("place", list(handover.place), "lies outside the workspace (task.workspace_min .. workspace_max)")
+    if handover.hold_s >= task.timeout_s:
+        raise h.fail("hold_s", handover.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
+                     "handover could be completed")
+    h.done()
+    return handover
+
+
+def least_time(rules) -> tuple[str, float]:
+    return "task.handover.hold_s", rules.handover.hold_s
+
+
 def fill_rules(rules, record) -> None:
     handover = rules.handover
     record["first_hand"] = SIDES.index(handover.first_hand)
@@ -119,11 +151,14 @@ KIND = Kind(
            ("passed_since", "f8"), ("in_place_since", "f8"), ("last_t", "f8"), ("both_held", "f8"),
            ("transfer_time", "f8")],
     rules=[("first_hand", "i8"), ("place", "f8", (3,)), ("radius", "f8"), ("hold_s", "f8")], judge=judge,
-    fill_rules=fill_rules, aims=aims, attempts="drops", initial={"both_held": 0.0},
-    measures=(Measure("transfer_time_s", "float64", "s", "a handover's seconds from the second hand's hold beginning "
-                      "to the first hand letting go (the last handover's; negative: the first let go that long "
-                      "before the second took it, within drop_grace_s); empty for other kinds and before a "
+    fill_rules=fill_rules, aims=aims, least_time=least_time, attempts="drops", initial={"both_held": 0.0},
+    measures=(Measure("transfer_time_s", "float64", "s", "transfer time", "a handover's time from the second hand's "
+                      "hold beginning to the first hand letting go (the last handover's; negative: the first let go "
+                      "that long before the second took it, within drop_grace_s); empty for other kinds and before a "
                       "handover", "transfer_time", signed=True),
-              Measure("both_held_s", "float64", "s", "a handover's seconds during which both hands held the object; "
-                      "empty for other kinds", "both_held")),
-    play=Play(approach="reach", take="grasp", then="hand_over"), module=__name__)
+              Measure("both_held_s", "float64", "s", "time both hands held it", "a handover's time during which both "
+                      "hands held the object; empty for other kinds", "both_held")),
+    play=Play(approach="reach", take="grasp", then="hand_over"),
+    view=View(zone=lambda rules: (rules.handover.place, rules.handover.radius),
+              first_hand=lambda rules: rules.handover.first_hand, taken="taken", done="placed"),
+    table="handover", read=read, module=__name__)

@@ -21,14 +21,14 @@ import math
 
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, PLACE_OR_NONE, STAGE, Aims, EventSpec, Kind, Play, Stage, emit,
-                              grasped, hold_task, start_and_time_out)
+from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, PLACE_OR_NONE, STAGE, Aims, EventSpec, Kind, Play, Stage, View,
+                              emit, grasped, hold_task, start_and_time_out)
 
 MAX_PLACES = 8
 """The most places a task may have."""
-STAGES = (Stage("manipulation", "Pick up the object.", loose=True),
-          Stage("maintenance", "Hold the object at the lit place."),
-          Stage("release", "Let go of the object.", release=True)) + FINAL
+STAGES = (Stage("manipulation", "Pick up the object", loose=True),
+          Stage("maintenance", "Carry it to the lit place and hold it there"),
+          Stage("release", "Let go of the object", release=True)) + FINAL
 _MANIPULATION, _MAINTENANCE, _RELEASE, _COMPLETED, _TIMEOUT = range(len(STAGES))
 EVENTS = (EventSpec("stage", (("stage", STAGE), ("place", PLACE_OR_NONE))),
           EventSpec("timeout", (("stage", STAGE), ("place", COUNT))),
@@ -110,6 +110,10 @@ def _update_place(task, rules, t, position, events, n):
     return n
 
 
+def least_time(rules) -> tuple[str, float]:
+    return f"the {len(rules.places)} holds of task.hold_s", len(rules.places) * rules.hold_s
+
+
 def fill_rules(rules, record) -> None:
     """The places, their radius and hold of a ``TaskRules`` into a rules record."""
     if len(rules.places) > MAX_PLACES:
@@ -125,6 +129,6 @@ def aims(rules) -> Aims:
 KIND = Kind(
     name="pick_and_place", title="Pick and place", stages=STAGES, events=EVENTS, state=[],
     rules=[("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8")],
-    judge=judge, fill_rules=fill_rules, aims=aims, attempts="drops",
+    judge=judge, fill_rules=fill_rules, aims=aims, least_time=least_time, attempts="drops",
     play=Play(approach="reach", take="grasp", then="carry"),
-    module=__name__)
+    view=View(places=True, taken="picked up", done="released"), module=__name__)

@@ -32,14 +32,17 @@ Rules (times are the observations' clock, places the tracker frame; the numbers 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
+import numpy as np
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, NUMBER_OR_NONE, STAGE, VECTOR, Aims, EventSpec, Kind, Measure,
-                              Play, Stage, emit, grasped, hold_task, length, start_and_time_out)
+from microg.task.kind import (COUNT, EPS, FINAL, MAX_DISTANCE, NUMBER, NUMBER_OR_NONE, STAGE, VECTOR, Aims, EventSpec,
+                              Kind, Measure, Play, Stage, View, emit, grasped, hold_task, inside, length,
+                              start_and_time_out)
 
-STAGES = (Stage("pick_up", "Pick up the object.", loose=True), Stage("carry", "Send it to the target."),
-          Stage("drift", "Watch it drift.")) + FINAL
+STAGES = (Stage("pick_up", "Pick up the object", loose=True), Stage("carry", "Let it go so that it floats into the blue rings"),
+          Stage("drift", "Watch it float")) + FINAL
 _PICK_UP, _CARRY, _DRIFT, _COMPLETED, _TIMEOUT = range(len(STAGES))
 EVENTS = (EventSpec("stage", (("stage", STAGE),)), EventSpec("timeout", (("stage", STAGE),)),
           EventSpec("hold", (("since", NUMBER),)),
@@ -169,6 +172,40 @@ def _closest(start, end, centre):
     return _along(start, (end[0] - start[0], end[1] - start[1], end[2] - start[2]), centre, True)
 
 
+@dataclass(frozen=True)
+class SendRules:
+    """A send's numbers (``[task.send]``): the object released so that it drifts into the target zone,
+    a sphere of ``radius`` (m) about ``target`` (tracker frame), where a colleague catches it;
+    ``arrival_s`` (s) is how long the drift from the release point to the target's centre should take
+    (the right release speed)."""
+
+    target: tuple[float, float, float]
+    radius: float
+    arrival_s: float
+
+
+def read(s, task) -> SendRules:
+    """``[task.send]``: the target zone (``target``, its ``radius``) the object must drift into, and
+    ``arrival_s``, how long the drift from the release should take."""
+    send = SendRules(target=s.vector("target"), radius=s.number("radius", unit=" (m)", maximum=MAX_DISTANCE),
+                     arrival_s=s.number("arrival_s", unit=" (seconds)"))
+    if not inside(send.target, task):
+        raise s.fail("target", list(send.target), "lies outside the workspace (task.workspace_min .. workspace_max)")
+    apart = float(np.linalg.norm(np.subtract(send.target, task.start)))
+    if apart <= send.radius:
+        raise s.fail("target", list(send.target), f"is {apart:g} m from task.start = {list(task.start)}, within its "
+                     f"radius = {send.radius:g} m: the object would start in the zone, with nothing to send")
+    if send.arrival_s >= task.timeout_s:
+        raise s.fail("arrival_s", send.arrival_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
+                     "send could arrive in time")
+    s.done()
+    return send
+
+
+def least_time(rules) -> tuple[str, float]:
+    return "task.send.arrival_s", rules.send.arrival_s
+
+
 def fill_rules(rules, record) -> None:
     send = rules.send
     record["target"], record["radius"], record["arrival_s"] = send.target, send.radius, send.arrival_s
@@ -184,12 +221,14 @@ KIND = Kind(
     name="send", title="Send", stages=STAGES, events=EVENTS,
     state=[("letting_go", "u1"), ("release_position", "f8", (3,)), ("release_velocity", "f8", (3,)),
            ("release_speed_error", "f8"), ("last_position", "f8", (3,)), ("closest", "f8"), ("send_error", "f8")],
-    rules=[("target", "f8", (3,)), ("radius", "f8"), ("arrival_s", "f8")], judge=judge, fill_rules=fill_rules, aims=aims,
-    attempts="misses",
-    measures=(Measure("send_error_m", "float64", "m", "a send's closest approach to the target's centre of the "
-                      "drift's straight line (m; the last send's, for a task that ended without an arrival); empty "
-                      "for other kinds and before a first send", "send_error"),
-              Measure("release_speed_error", "float64", "m/s", "a send's release speed minus the speed that reaches "
-                      "the target in arrival_s (m/s; negative: too slow); empty for other kinds and before a first "
-                      "send", "release_speed_error", signed=True)),
-    play=Play(approach="reach", take="grasp", then="push", squeeze="path"), module=__name__)
+    rules=[("target", "f8", (3,)), ("radius", "f8"), ("arrival_s", "f8")], judge=judge, fill_rules=fill_rules,
+    aims=aims, least_time=least_time, attempts="misses",
+    measures=(Measure("send_error_m", "float64", "m", "send error", "a send's closest approach to the target's "
+                      "centre of the drift's straight line (the last send's, for a task that ended without an "
+                      "arrival); empty for other kinds and before a first send", "send_error"),
+              Measure("release_speed_error", "float64", "m/s", "release speed error", "a send's release speed minus "
+                      "the speed that reaches the target in arrival_s (negative: too slow); empty for other kinds and "
+                      "before a first send", "release_speed_error", signed=True)),
+    play=Play(approach="reach", take="grasp", then="push", squeeze="path"),
+    view=View(zone=lambda rules: (rules.send.target, rules.send.radius), taken="picked up", done="arrived"),
+    table="send", read=read, module=__name__)

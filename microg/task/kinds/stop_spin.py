@@ -27,17 +27,20 @@ the protocol's ``[task.stop_spin]``):
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
+import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_to_matrix
-from microg.task.kind import (COUNT, EPS, FINAL, FLAG, NUMBER, STAGE, VECTOR, Aims, EventSpec, Kind, Measure, Play,
-                              Stage, emit, grasped, hold_task, length, start_and_time_out, touched)
+from microg.task.kind import (COUNT, EPS, FINAL, FLAG, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, VECTOR, Aims,
+                              EventSpec, Kind, Measure, Play, Stage, View, emit, grasped, hold_task, length,
+                              start_and_time_out, touched)
 
 FREE_DV = 1e-4
 """m/s: an object whose centre's velocity changed more than this from one frame to the next was
 touched (a free object in weightlessness keeps it to round-off)."""
-STAGES = (Stage("spinning", "Stop the object's spin."), Stage("resting", "Keep it still.")) + FINAL
+STAGES = (Stage("spinning", "Take hold of it and stop it turning"), Stage("resting", "Keep it still")) + FINAL
 _SPINNING, _RESTING, _COMPLETED, _TIMEOUT = range(len(STAGES))
 EVENTS = (EventSpec("stage", (("stage", STAGE),)), EventSpec("timeout", (("stage", STAGE),)),
           EventSpec("hold", (("since", NUMBER),)),
@@ -97,6 +100,52 @@ def judge(task, rules, seen, events):
     return n
 
 
+@dataclass(frozen=True)
+class StopSpinRules:
+    """A stop of a spin's numbers (``[task.stop_spin]``): the object floats at the task's start turning
+    at ``spin_rate`` (rad/s) about ``spin_axis`` (a unit vector in the object's own frame: an
+    intermediate axis makes it flip); it is at rest once it turns slower than ``rest_omega`` (rad/s)
+    while held or moving slower than ``rest_speed`` (m/s), and stopped once at rest for ``hold_s`` (s)."""
+
+    spin_axis: tuple[float, float, float]
+    spin_rate: float
+    rest_omega: float
+    rest_speed: float
+    hold_s: float
+
+
+def read(s, task) -> StopSpinRules:
+    """``[task.stop_spin]``: the spin (``spin_axis`` in the object's frame, ``spin_rate``) and what
+    counts as stopped (``rest_omega``, ``rest_speed``, ``hold_s``)."""
+    axis = np.asarray(s.vector("spin_axis", maximum=None, unit=" (a direction in the object's frame)"))
+    if float(np.linalg.norm(axis)) < 1e-9:
+        raise s.fail("spin_axis", s.data["spin_axis"], "gives no direction (a zero vector)")
+    spin = StopSpinRules(spin_axis=tuple(float(a) for a in axis / np.linalg.norm(axis)),
+                         spin_rate=s.number("spin_rate", unit=" (rad/s)", maximum=MAX_SPIN),
+                         rest_omega=s.number("rest_omega", unit=" (rad/s)", maximum=MAX_SPIN),
+                         rest_speed=s.number("rest_speed", 0.02, unit=" (m/s)", maximum=MAX_LAUNCH_SPEED),
+                         hold_s=s.number("hold_s", 1.0, unit=" (seconds)"))
+    if spin.rest_omega >= spin.spin_rate:
+        raise s.fail("rest_omega", spin.rest_omega, f"must be below spin_rate = {spin.spin_rate:g} rad/s (else the "
+                     "object starts at rest)")
+    if spin.hold_s >= task.timeout_s:
+        raise s.fail("hold_s", spin.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no stop "
+                     "could be completed")
+    s.done()
+    return spin
+
+
+def least_time(rules) -> tuple[str, float]:
+    return "task.stop_spin.hold_s", rules.stop_spin.hold_s
+
+
+def start_motion(rules):
+    """The spin: ``spin_rate`` about the body axis ``spin_axis``, turned by the task's start orientation."""
+    spin = rules.stop_spin
+    axis = quat_to_matrix(np.asarray(rules.start_orientation, dtype=float)) @ np.asarray(spin.spin_axis)
+    return (0.0, 0.0, 0.0), tuple(float(spin.spin_rate * a) for a in axis)
+
+
 def fill_rules(rules, record) -> None:
     spin = rules.stop_spin
     record["rest_omega"], record["rest_speed"], record["hold_s"] = spin.rest_omega, spin.rest_speed, spin.hold_s
@@ -110,11 +159,12 @@ KIND = Kind(
     name="stop_spin", title="Stop of a spin", stages=STAGES, events=EVENTS,
     state=[("rest_since", "f8"), ("flipped", "u1"), ("free_axis", "f8", (3,)), ("has_free_axis", "u1"),
            ("last_velocity", "f8", (3,)), ("has_last_velocity", "u1"), ("time_to_rest", "f8")],
-    rules=[("rest_omega", "f8"), ("rest_speed", "f8"), ("hold_s", "f8")], judge=judge, fill_rules=fill_rules, aims=aims,
-    attempts="drops",
-    measures=(Measure("time_to_rest_s", "float64", "s", "a stop of a spin's seconds from its first frame to the "
-                      "rest that completed it; empty unless a stop of a spin was completed", "time_to_rest"),
-              Measure("flipped", "boolean", "", "whether a stop of a spin's object turned over its spin axis (the "
-                      "intermediate-axis flip); empty for other kinds and for tasks not finished", "flipped",
-                      proportion=True)),
-    play=Play(approach="reach", take="grasp", then="keep"), module=__name__)
+    rules=[("rest_omega", "f8"), ("rest_speed", "f8"), ("hold_s", "f8")], judge=judge, fill_rules=fill_rules,
+    aims=aims, least_time=least_time, attempts="drops",
+    measures=(Measure("time_to_rest_s", "float64", "s", "time to rest", "a stop of a spin's time from its first frame "
+                      "to the rest that completed it; empty unless a stop of a spin was completed", "time_to_rest"),
+              Measure("flipped", "boolean", "", "flipped (proportion of tasks)", "whether a stop of a spin's object "
+                      "turned over its spin axis (the intermediate-axis flip); empty for other kinds and for tasks "
+                      "not finished", "flipped", proportion=True)),
+    play=Play(approach="reach", take="grasp", then="keep"), view=View(taken="taken", done="at rest"),
+    table="stop_spin", read=read, start_motion=start_motion, module=__name__)

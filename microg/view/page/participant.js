@@ -16,28 +16,12 @@ import { Workspace } from "./workspace.js";
 import { setupHeadset } from "./xr.js";
 
 const params = new URLSearchParams(location.search);
-const STAGES = {
-  manipulation: "Pick up the object",
-  maintenance: "Carry it to the lit place and hold it there",
-  release: "Let go of the object",
-  completed: "Done",
-  timeout: "Time is up",
-  approach: "Catch the object as it floats to you",
-  catch: "Hold on to it",
-  spinning: "Take hold of it and stop it turning",
-  resting: "Keep it still",
-  pick_up: "Pick up the object",
-  carry: "Let it go so that it floats into the blue rings",
-  drift: "Watch it float",
-  take: "Pick up the object with your {first} hand",
-  pass: "Pass it to your {other} hand",
-  place: "Hold it in the blue rings with your {other} hand",
-};
 const OTHER_HAND = { left: "right", right: "left" };
 
-/** A stage's words, with the hands a handover names filled in. */
+/** A stage's words, as the task's kind says them (the scene's ``stages``), with the hands a kind
+ *  names filled in. */
 function stageText(stage) {
-  const text = STAGES[stage] || stage;
+  const text = (workspace.layout && workspace.layout.stages && workspace.layout.stages[stage]) || stage;
   const first = workspace.layout && workspace.layout.first_hand;
   return first ? text.replace("{first}", first).replace("{other}", OTHER_HAND[first]) : text;
 }
@@ -166,7 +150,7 @@ function showHud(frame) {
   }
   const place = frame.place !== shown.place || frame.lit !== shown.lit || places !== shown.places ||
     frame.held !== shown.held;
-  if (workspace.layout && workspace.layout.kind !== "pick_and_place") {
+  if (workspace.layout && !places) {
     if (place) hudPlace.textContent = frame.held ? "Holding" : "Not holding";
   } else if (place || (frame.lit && timer !== shown.timer)) {
     hudPlace.textContent = frame.lit
