@@ -1,4 +1,11 @@
-"""``microg bench store``: what the log's integrity costs per frame, per open and per check.
+"""``microg bench store``: what a frame costs the log (its codecs' bytes and time), and what the
+log's integrity costs per frame, per open and per check.
+
+The codecs (``codecs``): every frame batch of a study (``--study``, e.g. ``microg demo``'s; else the
+two sessions below), as stored, encoded and decoded by each of ``framelog.CODECS`` in turn within
+each round (CPU time, the fastest of the rounds), and read back as ``view`` and export read a run
+(``framelog.read``: fetched, its checksums verified, decoded) from a scratch database of each codec's
+blobs; where the bytes go, field by field; and the study's size on disk.
 
 One simulated participant's session of the paper's protocol is logged first, for frames as a study
 holds them. Then, in a scratch study, each of its frame batches is committed again, in turn:
@@ -16,11 +23,14 @@ It lives in the study room because ``microg.bench`` may not import the study.
 
 from __future__ import annotations
 
+import os
+import sqlite3
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 
@@ -35,8 +45,9 @@ def _cpu_seconds(action) -> float:
     return _seconds(action, time.process_time)
 
 
-def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
-    """Measure (module docstring), write ``out/store.csv`` and return the table."""
+def run(out: Path, quick: bool = False, say=print, study: Path | None = None) -> pd.DataFrame:
+    """Measure (module docstring), write ``out/store.csv`` and return the table. ``study``: measure
+    the codecs on that study's frames."""
     from microg.paths import protocol_file
 
     from . import framelog, ledger
@@ -44,7 +55,7 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
     from .inputs import open_inputs
     from .protocol import load_protocol
     from .session import SimulationClock, run_session
-    from .store import check_integrity, create_study, open_study
+    from .store import DATABASE, check_integrity, create_study, open_study
 
     rows = []
 
@@ -52,8 +63,16 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         rows.append({"measure": measure, "value": value, "unit": unit})
         say(f"{measure}: {value:.4g} {unit}")
 
+    note("load average (1 min) at the start", os.getloadavg()[0], "processes")
     protocol = load_protocol(protocol_file("paper"))
     with tempfile.TemporaryDirectory(prefix="microg-bench-store-") as folder:
+        if study is not None:
+            with open_study(study, readonly=True) as measured:
+                size = (Path(study) / DATABASE).stat().st_size
+                frames = measured.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames").fetchone()[0]
+                note(f"{study}: study.db", size / 1e6, "MB")
+                note(f"{study}: study.db per frame (every table and index)", size / max(frames, 1), "bytes")
+                codecs(measured.db, Path(folder), note, rounds=1 if quick else 3, limit=40 if quick else None)
         logged = create_study(Path(folder) / "logged", protocol, seed=1)
         walls = []
         for participant in ("P01", "P02"):  # the first compiles (or loads) the kernels; the second is timed
@@ -73,11 +92,7 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
              1e6 * walls[1] / timed, "us")
         batches = batches[:40] if quick else batches
         frames = sum(len(b) for b in batches)
-
         blobs = [framelog.encode(b) for b in batches]
-        note("compressed frame size", sum(map(len, blobs)) / frames, "bytes per frame")
-        note("encode (the codec), per frame", 1e6 * _seconds(lambda: [framelog.encode(b) for b in batches]) / frames,
-             "us")
         checksum = _seconds(lambda: [framelog.checksum(1, first=0, count=len(b), t_first=0.0, t_last=1.0, blob=blob)
                                      for b, blob in zip(batches, blobs)]) / frames
         note("checksum (SHA-256 of the batch), per frame", 1e6 * checksum, "us")
@@ -115,8 +130,9 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         decode = _seconds(lambda: [framelog.decode(row[6], row[2]) for row in rows_read])
         read_frames = sum(row[2] for row in rows_read)
         note("read: checksum verified, per frame", 1e6 * verify / read_frames, "us")
-        note("read: decode, per frame", 1e6 * decode / read_frames, "us")
         note("read: verification share of verify + decode", verify / (verify + decode), "ratio")
+        if study is None:
+            codecs(logged.db, Path(folder), note, rounds=1 if quick else 3, limit=40 if quick else None)
         logged.close()
 
         study_dir = Path(folder) / "logged"
@@ -138,8 +154,83 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         note("of which the ledger check", statistics.median(checks) / statistics.median(opens), "ratio")
         note("the ledger check, CPU time per 1000 entries", 1e3 * statistics.median(checks) / entries * 1000, "ms")
         note("full check (study check), CPU time per MB of frames", 1e3 * full / megabytes, "ms")
+    note("load average (1 min) at the end", os.getloadavg()[0], "processes")
     table = pd.DataFrame(rows)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "store.csv", index=False)
     return table
 
+
+def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, limit: int | None = None) -> None:
+    """The codecs measured on the frame batches of the study database ``db`` as they are stored
+    (the first ``limit``): bytes, encode and decode CPU time per frame, each codec in turn within
+    each of ``rounds`` rounds (the fastest round counts); reading each run back through
+    ``framelog.read`` from a scratch database of each codec's blobs in ``folder``; where the bytes
+    go, field by field."""
+    from . import framelog
+
+    stored = db.execute("SELECT run_id, first, count, t_first, t_last, data FROM frames ORDER BY run_id, first"
+                        ).fetchall()[:limit]
+    batches = [framelog.decode(row[5], row[2]) for row in stored]
+    frames = sum(len(b) for b in batches)
+    kinds = [framelog.codec_of(row[5]) for row in stored]
+    note("frame batches measured", len(batches), "batches")
+    note("frames measured", frames, "frames")
+    for codec in framelog.CODECS:
+        note(f"frames stored with {codec}", sum(row[2] for row, kind in zip(stored, kinds) if kind == codec), "frames")
+    blobs = {codec: [framelog.encode(b, codec) for b in batches] for codec in framelog.CODECS}
+    encode = {codec: np.inf for codec in framelog.CODECS}
+    decode = dict(encode)
+    for _ in range(rounds):
+        for codec in framelog.CODECS:
+            encode[codec] = min(encode[codec], _cpu_seconds(lambda: [framelog.encode(b, codec) for b in batches]))
+            decode[codec] = min(decode[codec], _cpu_seconds(
+                lambda: [framelog.decode(blob, len(b)) for blob, b in zip(blobs[codec], batches)]))
+    read = {}
+    for codec in framelog.CODECS:
+        scratch = sqlite3.connect(folder / f"codec-{codec}.db", isolation_level=None)
+        scratch.execute("CREATE TABLE frames (run_id INTEGER, first INTEGER, count INTEGER, t_first REAL, "
+                        "t_last REAL, checksum BLOB, data BLOB, PRIMARY KEY (run_id, first))")
+        scratch.executemany(f"INSERT INTO frames ({framelog.ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)", [
+            (run_id, first, n, t_first, t_last,
+             framelog.checksum(run_id, first=first, count=n, t_first=t_first, t_last=t_last, blob=blob), blob)
+            for (run_id, first, n, t_first, t_last, _), blob in zip(stored, blobs[codec])])
+        runs = [run_id for (run_id,) in scratch.execute("SELECT DISTINCT run_id FROM frames")]
+        read[codec] = min(_cpu_seconds(lambda: [framelog.read(scratch, run_id) for run_id in runs])
+                          for _ in range(rounds))
+        scratch.close()
+    for codec in framelog.CODECS:
+        note(f"{codec}: bytes per frame", sum(map(len, blobs[codec])) / frames, "bytes")
+        note(f"{codec}: encode, CPU per frame", 1e6 * encode[codec] / frames, "us")
+        note(f"{codec}: decode, CPU per frame", 1e6 * decode[codec] / frames, "us")
+        note(f"{codec}: read a run (fetch, verify, decode), CPU per frame", 1e6 * read[codec] / frames, "us")
+    old, new = "zstd", framelog.CODEC
+    note(f"{new} against {old}: bytes", sum(map(len, blobs[new])) / sum(map(len, blobs[old])), "ratio")
+    note(f"{new} against {old}: encode", encode[new] / encode[old], "ratio")
+    note(f"{new} against {old}: decode", decode[new] / decode[old], "ratio")
+    note(f"{new} against {old}: read a run", read[new] / read[old], "ratio")
+    sample = batches[:400]  # where the bytes go: the first batches with one field as logged, the rest as in an empty record
+    counted = sum(len(b) for b in sample)
+    for codec in framelog.CODECS:
+        bare = [_bare(b) for b in sample]
+        base = sum(len(framelog.encode(b, codec)) for b in bare)
+        note(f"{codec}: the batch with every field empty (tracked kept), per frame", base / counted, "bytes")
+        for name in framelog.FRAME.names:
+            if name == "tracked":
+                continue
+            size = 0
+            for b, empty in zip(sample, bare):
+                kept = empty[name].copy()
+                empty[name] = b[name]
+                size += len(framelog.encode(empty, codec))
+                empty[name] = kept
+            note(f"{codec}: {name}, per frame", (size - base) / counted, "bytes")
+
+
+def _bare(frames: np.ndarray) -> np.ndarray:
+    """The frames emptied as ``frames_of`` starts them (zero, NaN hands), but which hands were tracked."""
+    from .framelog import FRAME, UNTRACKED
+
+    bare = np.broadcast_to(UNTRACKED, (len(frames), FRAME.itemsize)).copy().view(FRAME).reshape(len(frames))
+    bare["tracked"] = frames["tracked"]
+    return bare
