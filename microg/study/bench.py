@@ -1,11 +1,12 @@
 """``microg bench store``: what a frame costs the log (its codecs' bytes and time), and what the
 log's integrity costs per frame, per open and per check.
 
-The codecs (``codecs``): every frame batch of a study (``--study``, e.g. ``microg demo``'s; else the
-two sessions below), as stored, encoded and decoded by each of ``framelog.CODECS`` in turn within
-each round (CPU time, the fastest of the rounds), and read back as ``view`` and export read a run
-(``framelog.read``: fetched, its checksums verified, decoded) from a scratch database of each codec's
-blobs; where the bytes go, field by field; and the study's size on disk.
+The codecs (``codecs``), on the frame batches of a study (``--study``, e.g. ``microg demo``'s; else
+the two sessions below) as stored: each of ``framelog.CODECS``'s bytes over every batch; on whole
+runs taken evenly through the study, its encode and decode CPU time, the codecs in turn within each
+round (the fastest of the rounds counts), and a run read back as ``view`` and export read it
+(``framelog.read``: fetched, its checksums verified, decoded) from a scratch database of each
+codec's blobs; where the bytes go, field by field; and the study's size on disk.
 
 One simulated participant's session of the paper's protocol is logged first, for frames as a study
 holds them. Then, in a scratch study, each of its frame batches is committed again, in turn:
@@ -72,7 +73,7 @@ def run(out: Path, quick: bool = False, say=print, study: Path | None = None) ->
                 frames = measured.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames").fetchone()[0]
                 note(f"{study}: study.db", size / 1e6, "MB")
                 note(f"{study}: study.db per frame (every table and index)", size / max(frames, 1), "bytes")
-                codecs(measured.db, Path(folder), note, rounds=1 if quick else 3, limit=40 if quick else None)
+                codecs(measured.db, Path(folder), note, rounds=1 if quick else 3, timed_batches=40 if quick else 1500)
         logged = create_study(Path(folder) / "logged", protocol, seed=1)
         walls = []
         for participant in ("P01", "P02"):  # the first compiles (or loads) the kernels; the second is timed
@@ -132,7 +133,7 @@ def run(out: Path, quick: bool = False, say=print, study: Path | None = None) ->
         note("read: checksum verified, per frame", 1e6 * verify / read_frames, "us")
         note("read: verification share of verify + decode", verify / (verify + decode), "ratio")
         if study is None:
-            codecs(logged.db, Path(folder), note, rounds=1 if quick else 3, limit=40 if quick else None)
+            codecs(logged.db, Path(folder), note, rounds=1 if quick else 3, timed_batches=40 if quick else 1500)
         logged.close()
 
         study_dir = Path(folder) / "logged"
@@ -161,25 +162,42 @@ def run(out: Path, quick: bool = False, say=print, study: Path | None = None) ->
     return table
 
 
-def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, limit: int | None = None) -> None:
-    """The codecs measured on the frame batches of the study database ``db`` as they are stored
-    (the first ``limit``): bytes, encode and decode CPU time per frame, each codec in turn within
-    each of ``rounds`` rounds (the fastest round counts); reading each run back through
-    ``framelog.read`` from a scratch database of each codec's blobs in ``folder``; where the bytes
-    go, field by field."""
+def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batches: int) -> None:
+    """The codecs measured on the frame batches of the study database ``db`` as they are stored:
+    their bytes over every batch (one batch at a time); on whole runs taken evenly through the study
+    up to ``timed_batches`` batches, encode and decode CPU time per frame, each codec in turn within
+    each of ``rounds`` rounds (the fastest round counts), and reading those runs back through
+    ``framelog.read`` from a scratch database in ``folder`` of each codec's blobs; where the bytes
+    go, field by field, on the first of those batches."""
     from . import framelog
 
-    stored = db.execute("SELECT run_id, first, count, t_first, t_last, data FROM frames ORDER BY run_id, first"
-                        ).fetchall()[:limit]
-    batches = [framelog.decode(row[5], row[2]) for row in stored]
-    frames = sum(len(b) for b in batches)
-    kinds = [framelog.codec_of(row[5]) for row in stored]
-    note("frame batches measured", len(batches), "batches")
-    note("frames measured", frames, "frames")
+    frames, size, stored = 0, dict.fromkeys(framelog.CODECS, 0), dict.fromkeys(framelog.CODECS, 0)
+    for count, blob in db.execute("SELECT count, data FROM frames"):
+        batch = framelog.decode(blob, count)
+        frames += count
+        stored[framelog.codec_of(blob)] += count
+        for codec in framelog.CODECS:
+            size[codec] += len(blob) if framelog.codec_of(blob) == codec else len(framelog.encode(batch, codec))
+    note("frames of the study", frames, "frames")
     for codec in framelog.CODECS:
-        note(f"frames stored with {codec}", sum(row[2] for row, kind in zip(stored, kinds) if kind == codec), "frames")
+        note(f"frames stored with {codec}", stored[codec], "frames")
+        note(f"{codec}: bytes per frame, every batch of the study", size[codec] / frames, "bytes")
+    note(f"{framelog.CODEC} against zstd: bytes", size[framelog.CODEC] / size["zstd"], "ratio")
+
+    runs = [run_id for (run_id,) in db.execute("SELECT DISTINCT run_id FROM frames ORDER BY run_id")]
+    total = db.execute("SELECT COUNT(*) FROM frames").fetchone()[0]
+    runs = runs[::max(1, -(-total // timed_batches))]
+    sample = []
+    for run_id in runs:
+        sample += db.execute("SELECT run_id, first, count, t_first, t_last, data FROM frames WHERE run_id = ? "
+                             "ORDER BY first", (run_id,)).fetchall()
+        if len(sample) >= timed_batches:
+            break
+    batches = [framelog.decode(row[5], row[2]) for row in sample]
+    timed = sum(len(b) for b in batches)
+    note("frames timed (whole runs through the study)", timed, "frames")
     blobs = {codec: [framelog.encode(b, codec) for b in batches] for codec in framelog.CODECS}
-    encode = {codec: np.inf for codec in framelog.CODECS}
+    encode = dict.fromkeys(framelog.CODECS, np.inf)
     decode = dict(encode)
     for _ in range(rounds):
         for codec in framelog.CODECS:
@@ -194,37 +212,35 @@ def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, limit: int |
         scratch.executemany(f"INSERT INTO frames ({framelog.ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)", [
             (run_id, first, n, t_first, t_last,
              framelog.checksum(run_id, first=first, count=n, t_first=t_first, t_last=t_last, blob=blob), blob)
-            for (run_id, first, n, t_first, t_last, _), blob in zip(stored, blobs[codec])])
-        runs = [run_id for (run_id,) in scratch.execute("SELECT DISTINCT run_id FROM frames")]
-        read[codec] = min(_cpu_seconds(lambda: [framelog.read(scratch, run_id) for run_id in runs])
+            for (run_id, first, n, t_first, t_last, _), blob in zip(sample, blobs[codec])])
+        read_runs = sorted({row[0] for row in sample})
+        read[codec] = min(_cpu_seconds(lambda: [framelog.read(scratch, run_id) for run_id in read_runs])
                           for _ in range(rounds))
         scratch.close()
     for codec in framelog.CODECS:
-        note(f"{codec}: bytes per frame", sum(map(len, blobs[codec])) / frames, "bytes")
-        note(f"{codec}: encode, CPU per frame", 1e6 * encode[codec] / frames, "us")
-        note(f"{codec}: decode, CPU per frame", 1e6 * decode[codec] / frames, "us")
-        note(f"{codec}: read a run (fetch, verify, decode), CPU per frame", 1e6 * read[codec] / frames, "us")
+        note(f"{codec}: encode, CPU per frame", 1e6 * encode[codec] / timed, "us")
+        note(f"{codec}: decode, CPU per frame", 1e6 * decode[codec] / timed, "us")
+        note(f"{codec}: read a run (fetch, verify, decode), CPU per frame", 1e6 * read[codec] / timed, "us")
     old, new = "zstd", framelog.CODEC
-    note(f"{new} against {old}: bytes", sum(map(len, blobs[new])) / sum(map(len, blobs[old])), "ratio")
     note(f"{new} against {old}: encode", encode[new] / encode[old], "ratio")
     note(f"{new} against {old}: decode", decode[new] / decode[old], "ratio")
     note(f"{new} against {old}: read a run", read[new] / read[old], "ratio")
-    sample = batches[:400]  # where the bytes go: the first batches with one field as logged, the rest as in an empty record
-    counted = sum(len(b) for b in sample)
+    where = batches[:400]  # where the bytes go: each field as logged, the rest as in an empty record
+    counted = sum(len(b) for b in where)
     for codec in framelog.CODECS:
-        bare = [_bare(b) for b in sample]
+        bare = [_bare(b) for b in where]
         base = sum(len(framelog.encode(b, codec)) for b in bare)
         note(f"{codec}: the batch with every field empty (tracked kept), per frame", base / counted, "bytes")
         for name in framelog.FRAME.names:
             if name == "tracked":
                 continue
-            size = 0
-            for b, empty in zip(sample, bare):
+            grown = 0
+            for b, empty in zip(where, bare):
                 kept = empty[name].copy()
                 empty[name] = b[name]
-                size += len(framelog.encode(empty, codec))
+                grown += len(framelog.encode(empty, codec))
                 empty[name] = kept
-            note(f"{codec}: {name}, per frame", (size - base) / counted, "bytes")
+            note(f"{codec}: {name}, per frame", (grown - base) / counted, "bytes")
 
 
 def _bare(frames: np.ndarray) -> np.ndarray:
