@@ -171,14 +171,15 @@ def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batche
     go, field by field, on the first of those batches."""
     from . import framelog
 
-    frames, size, stored = 0, dict.fromkeys(framelog.CODECS, 0), dict.fromkeys(framelog.CODECS, 0)
+    frames, blobs, size, stored = 0, 0, dict.fromkeys(framelog.CODECS, 0), dict.fromkeys(framelog.CODECS, 0)
     for count, blob in db.execute("SELECT count, data FROM frames"):
         batch = framelog.decode(blob, count)
-        frames += count
+        frames, blobs = frames + count, blobs + len(blob)
         stored[framelog.codec_of(blob)] += count
         for codec in framelog.CODECS:
-            size[codec] += len(blob) if framelog.codec_of(blob) == codec else len(framelog.encode(batch, codec))
+            size[codec] += len(framelog.encode(batch, codec))
     note("frames of the study", frames, "frames")
+    note("the study's frame blobs as stored, per frame", blobs / frames, "bytes")
     for codec in framelog.CODECS:
         note(f"frames stored with {codec}", stored[codec], "frames")
         note(f"{codec}: bytes per frame, every batch of the study", size[codec] / frames, "bytes")
