@@ -12,7 +12,7 @@ One simulated participant's session of the paper's protocol is logged first, for
 holds them. Then, in a scratch study, each of its frame batches is committed again, in turn:
 - by ``Store.add_frames``, as a session commits it (encode, checksum, insert, ledger entry, commit);
 - by ``framelog.insert`` in a bare transaction: the same without the ledger entry;
-and the checksum and the codec's ``encode`` are timed alone on the same batches. The integrity's
+and the checksum is timed alone on the same batches. The integrity's
 cost is the median over batches of (add_frames - bare insert) plus the checksum, in the same run,
 with ``synchronous = NORMAL`` (a simulated session) and ``FULL`` (a live one, each commit flushed to
 the disk). Reading: the
@@ -171,15 +171,16 @@ def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batche
     go, field by field, on the first of those batches."""
     from . import framelog
 
-    frames, blobs, size, stored = 0, 0, dict.fromkeys(framelog.CODECS, 0), dict.fromkeys(framelog.CODECS, 0)
+    frames, as_stored, size = 0, 0, dict.fromkeys(framelog.CODECS, 0)
+    stored = dict(size)
     for count, blob in db.execute("SELECT count, data FROM frames"):
         batch = framelog.decode(blob, count)
-        frames, blobs = frames + count, blobs + len(blob)
+        frames, as_stored = frames + count, as_stored + len(blob)
         stored[framelog.codec_of(blob)] += count
         for codec in framelog.CODECS:
             size[codec] += len(framelog.encode(batch, codec))
     note("frames of the study", frames, "frames")
-    note("the study's frame blobs as stored, per frame", blobs / frames, "bytes")
+    note("the study's frame blobs as stored, per frame", as_stored / frames, "bytes")
     for codec in framelog.CODECS:
         note(f"frames stored with {codec}", stored[codec], "frames")
         note(f"{codec}: bytes per frame, every batch of the study", size[codec] / frames, "bytes")

@@ -110,8 +110,9 @@ TRACKED = FRAME.fields["tracked"][1]
 PREFIX = struct.Struct("<4s?")
 """``blosc``'s prefix: its tag and whether the untracked hands are left out (they were ``UNTRACKED``'s)."""
 BLOSC = Blosc(cname="lz4hc", clevel=2, shuffle=Blosc.SHUFFLE)
-"""Byte-shuffled 4-byte words, then LZ4HC (Blosc's level 2). zstd in its place saves 3 % of the
-bytes and takes a quarter longer to decode, slower than the old codec (``microg bench store``)."""
+"""Byte-shuffled 4-byte words, then LZ4HC (Blosc's level 2). zstd in its place saved 3 % of the
+bytes and took a third longer to decode, longer than the old codec (measured with ``microg bench
+store``): the joints' noisy low bytes are stored as they are by either."""
 
 
 def encode(frames: np.ndarray, codec: str = CODEC) -> bytes:
