@@ -1,10 +1,18 @@
-"""``microg bench store``: what the log's integrity costs per frame, per open and per check.
+"""``microg bench store``: what a frame costs the log (its codecs' bytes and time), and what the
+log's integrity costs per frame, per open and per check.
+
+The codecs (``codecs``), on the frame batches of a study (``--study``, e.g. ``microg demo``'s; else
+the two sessions below) as stored: each of ``framelog.CODECS``'s bytes over every batch; on whole
+runs taken evenly through the study, its encode and decode CPU time, the codecs in turn within each
+round (the fastest of the rounds counts), and a run read back as ``view`` and export read it
+(``framelog.read``: fetched, its checksums verified, decoded) from a scratch database of each
+codec's blobs; where the bytes go, field by field; and the study's size on disk.
 
 One simulated participant's session of the paper's protocol is logged first, for frames as a study
 holds them. Then, in a scratch study, each of its frame batches is committed again, in turn:
 - by ``Store.add_frames``, as a session commits it (encode, checksum, insert, ledger entry, commit);
 - by ``framelog.insert`` in a bare transaction: the same without the ledger entry;
-and the checksum and the codec's ``encode`` are timed alone on the same batches. The integrity's
+and the checksum is timed alone on the same batches. The integrity's
 cost is the median over batches of (add_frames - bare insert) plus the checksum, in the same run,
 with ``synchronous = NORMAL`` (a simulated session) and ``FULL`` (a live one, each commit flushed to
 the disk). Reading: the
@@ -16,11 +24,14 @@ It lives in the study room because ``microg.bench`` may not import the study.
 
 from __future__ import annotations
 
+import os
+import sqlite3
 import statistics
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 
@@ -35,8 +46,9 @@ def _cpu_seconds(action) -> float:
     return _seconds(action, time.process_time)
 
 
-def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
-    """Measure (module docstring), write ``out/store.csv`` and return the table."""
+def run(out: Path, quick: bool = False, say=print, study: Path | None = None) -> pd.DataFrame:
+    """Measure (module docstring), write ``out/store.csv`` and return the table. ``study``: measure
+    the codecs on that study's frames."""
     from microg.paths import protocol_file
 
     from . import framelog, ledger
@@ -44,7 +56,7 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
     from .inputs import open_inputs
     from .protocol import load_protocol
     from .session import SimulationClock, run_session
-    from .store import check_integrity, create_study, open_study
+    from .store import DATABASE, check_integrity, create_study, open_study
 
     rows = []
 
@@ -52,8 +64,16 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         rows.append({"measure": measure, "value": value, "unit": unit})
         say(f"{measure}: {value:.4g} {unit}")
 
+    note("load average (1 min) at the start", os.getloadavg()[0], "processes")
     protocol = load_protocol(protocol_file("paper"))
     with tempfile.TemporaryDirectory(prefix="microg-bench-store-") as folder:
+        if study is not None:
+            with open_study(study, readonly=True) as measured:
+                size = (Path(study) / DATABASE).stat().st_size
+                frames = measured.db.execute("SELECT COALESCE(SUM(count), 0) FROM frames").fetchone()[0]
+                note(f"{study}: study.db", size / 1e6, "MB")
+                note(f"{study}: study.db per frame (every table and index)", size / max(frames, 1), "bytes")
+                codecs(measured.db, Path(folder), note, rounds=1 if quick else 3, timed_batches=40 if quick else 1500)
         logged = create_study(Path(folder) / "logged", protocol, seed=1)
         walls = []
         for participant in ("P01", "P02"):  # the first compiles (or loads) the kernels; the second is timed
@@ -73,11 +93,7 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
              1e6 * walls[1] / timed, "us")
         batches = batches[:40] if quick else batches
         frames = sum(len(b) for b in batches)
-
         blobs = [framelog.encode(b) for b in batches]
-        note("compressed frame size", sum(map(len, blobs)) / frames, "bytes per frame")
-        note("encode (the codec), per frame", 1e6 * _seconds(lambda: [framelog.encode(b) for b in batches]) / frames,
-             "us")
         checksum = _seconds(lambda: [framelog.checksum(1, first=0, count=len(b), t_first=0.0, t_last=1.0, blob=blob)
                                      for b, blob in zip(batches, blobs)]) / frames
         note("checksum (SHA-256 of the batch), per frame", 1e6 * checksum, "us")
@@ -115,8 +131,9 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         decode = _seconds(lambda: [framelog.decode(row[6], row[2]) for row in rows_read])
         read_frames = sum(row[2] for row in rows_read)
         note("read: checksum verified, per frame", 1e6 * verify / read_frames, "us")
-        note("read: decode, per frame", 1e6 * decode / read_frames, "us")
         note("read: verification share of verify + decode", verify / (verify + decode), "ratio")
+        if study is None:
+            codecs(logged.db, Path(folder), note, rounds=1 if quick else 3, timed_batches=40 if quick else 1500)
         logged.close()
 
         study_dir = Path(folder) / "logged"
@@ -138,8 +155,100 @@ def run(out: Path, quick: bool = False, say=print) -> pd.DataFrame:
         note("of which the ledger check", statistics.median(checks) / statistics.median(opens), "ratio")
         note("the ledger check, CPU time per 1000 entries", 1e3 * statistics.median(checks) / entries * 1000, "ms")
         note("full check (study check), CPU time per MB of frames", 1e3 * full / megabytes, "ms")
+    note("load average (1 min) at the end", os.getloadavg()[0], "processes")
     table = pd.DataFrame(rows)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "store.csv", index=False)
     return table
 
+
+def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batches: int) -> None:
+    """The codecs measured on the frame batches of the study database ``db`` as they are stored:
+    their bytes over every batch (one batch at a time); on whole runs taken evenly through the study
+    up to ``timed_batches`` batches, encode and decode CPU time per frame, each codec in turn within
+    each of ``rounds`` rounds (the fastest round counts), and reading those runs back through
+    ``framelog.read`` from a scratch database in ``folder`` of each codec's blobs; where the bytes
+    go, field by field, on the first of those batches."""
+    from . import framelog
+
+    frames, as_stored, size = 0, 0, dict.fromkeys(framelog.CODECS, 0)
+    stored = dict(size)
+    for count, blob in db.execute("SELECT count, data FROM frames"):
+        batch = framelog.decode(blob, count)
+        frames, as_stored = frames + count, as_stored + len(blob)
+        stored[framelog.codec_of(blob)] += count
+        for codec in framelog.CODECS:
+            size[codec] += len(framelog.encode(batch, codec))
+    note("frames of the study", frames, "frames")
+    note("the study's frame blobs as stored, per frame", as_stored / frames, "bytes")
+    for codec in framelog.CODECS:
+        note(f"frames stored with {codec}", stored[codec], "frames")
+        note(f"{codec}: bytes per frame, every batch of the study", size[codec] / frames, "bytes")
+    note(f"{framelog.CODEC} against zstd: bytes", size[framelog.CODEC] / size["zstd"], "ratio")
+
+    runs = [run_id for (run_id,) in db.execute("SELECT DISTINCT run_id FROM frames ORDER BY run_id")]
+    total = db.execute("SELECT COUNT(*) FROM frames").fetchone()[0]
+    runs = runs[::max(1, -(-total // timed_batches))]
+    sample = []
+    for run_id in runs:
+        sample += db.execute("SELECT run_id, first, count, t_first, t_last, data FROM frames WHERE run_id = ? "
+                             "ORDER BY first", (run_id,)).fetchall()
+        if len(sample) >= timed_batches:
+            break
+    batches = [framelog.decode(row[5], row[2]) for row in sample]
+    timed = sum(len(b) for b in batches)
+    note("frames timed (whole runs through the study)", timed, "frames")
+    blobs = {codec: [framelog.encode(b, codec) for b in batches] for codec in framelog.CODECS}
+    encode = dict.fromkeys(framelog.CODECS, np.inf)
+    decode = dict(encode)
+    for _ in range(rounds):
+        for codec in framelog.CODECS:
+            encode[codec] = min(encode[codec], _cpu_seconds(lambda: [framelog.encode(b, codec) for b in batches]))
+            decode[codec] = min(decode[codec], _cpu_seconds(
+                lambda: [framelog.decode(blob, len(b)) for blob, b in zip(blobs[codec], batches)]))
+    read = {}
+    for codec in framelog.CODECS:
+        scratch = sqlite3.connect(folder / f"codec-{codec}.db", isolation_level=None)
+        scratch.execute("CREATE TABLE frames (run_id INTEGER, first INTEGER, count INTEGER, t_first REAL, "
+                        "t_last REAL, checksum BLOB, data BLOB, PRIMARY KEY (run_id, first))")
+        scratch.executemany(f"INSERT INTO frames ({framelog.ROW}) VALUES (?, ?, ?, ?, ?, ?, ?)", [
+            (run_id, first, n, t_first, t_last,
+             framelog.checksum(run_id, first=first, count=n, t_first=t_first, t_last=t_last, blob=blob), blob)
+            for (run_id, first, n, t_first, t_last, _), blob in zip(sample, blobs[codec])])
+        read_runs = sorted({row[0] for row in sample})
+        read[codec] = min(_cpu_seconds(lambda: [framelog.read(scratch, run_id) for run_id in read_runs])
+                          for _ in range(rounds))
+        scratch.close()
+    for codec in framelog.CODECS:
+        note(f"{codec}: encode, CPU per frame", 1e6 * encode[codec] / timed, "us")
+        note(f"{codec}: decode, CPU per frame", 1e6 * decode[codec] / timed, "us")
+        note(f"{codec}: read a run (fetch, verify, decode), CPU per frame", 1e6 * read[codec] / timed, "us")
+    old, new = "zstd", framelog.CODEC
+    note(f"{new} against {old}: encode", encode[new] / encode[old], "ratio")
+    note(f"{new} against {old}: decode", decode[new] / decode[old], "ratio")
+    note(f"{new} against {old}: read a run", read[new] / read[old], "ratio")
+    where = batches[:400]  # where the bytes go: each field as logged, the rest as in an empty record
+    counted = sum(len(b) for b in where)
+    for codec in framelog.CODECS:
+        bare = [_bare(b) for b in where]
+        base = sum(len(framelog.encode(b, codec)) for b in bare)
+        note(f"{codec}: the batch with every field empty (tracked kept), per frame", base / counted, "bytes")
+        for name in framelog.FRAME.names:
+            if name == "tracked":
+                continue
+            grown = 0
+            for b, empty in zip(where, bare):
+                kept = empty[name].copy()
+                empty[name] = b[name]
+                grown += len(framelog.encode(empty, codec))
+                empty[name] = kept
+            note(f"{codec}: {name}, per frame", (grown - base) / counted, "bytes")
+
+
+def _bare(frames: np.ndarray) -> np.ndarray:
+    """The frames emptied as ``frames_of`` starts them (zero, NaN hands), but which hands were tracked."""
+    from .framelog import FRAME, UNTRACKED
+
+    bare = np.broadcast_to(UNTRACKED, (len(frames), FRAME.itemsize)).copy().view(FRAME).reshape(len(frames))
+    bare["tracked"] = frames["tracked"]
+    return bare

@@ -8,13 +8,22 @@ joints, bone widths and palm pose exactly as the physics received them, and its 
 measure it (the rating model, exports) and to simulate it again (``hand_frames``).
 
 Storage: the store commits frames a batch at a time (the protocol's ``logging.frame_batch``), so
-a batch is one row: the batch's columns side by side, compressed with zstd. The hands are kept
-exactly as the physics received them (float64, so a run simulates again bit for bit; a bone's
-width, constant over a track, costs next to nothing compressed); what the physics computed (the
-object's state, the rendered phalanges, timers) is kept as float32, 0.1 micrometre at arm's length.
-Each batch carries its checksum (``checksum``: SHA-256 of its place in the run, its times and its
-blob), written with it and verified by every ``read``, so a damaged batch is never decoded as if it
-were sound; the ledger (``microg.study.ledger``) chains the checksums with the rest of the log.
+a batch is one row. Its blob begins with the tag of the codec that wrote it (``CODECS``), so
+batches of either codec read side by side in one study. New batches use ``blosc``: each field's
+values one channel after another (a joint's x over the batch side by side, where a smooth signal
+changes little), as 4-byte words (an 8-byte number's low words apart from its high ones, a
+1-byte field a word a value), an untracked hand's fields left out (they are NaN: reading writes
+them back), then byte-shuffled and compressed with LZ4HC by Blosc (numcodecs). Batches written
+before it keep ``zstd``: the columns side by side, compressed with zstd. Both are lossless. The
+hands are kept exactly as the physics received them (float64, so a run simulates again bit for
+bit; a bone's width, constant over a track, costs next to nothing compressed); what the physics
+computed (the object's state, the rendered phalanges, timers) is kept as float32, 0.1 micrometre
+at arm's length. The joints are most of a frame's bytes: a simulated or tracked hand's float64
+carries noise to its last bits, which no lossless codec takes away (``microg bench store``
+measures where the bytes go). Each batch carries its checksum (``checksum``: SHA-256 of its place
+in the run, its times and its blob, the codec's tag with it), written with it and verified by
+every ``read``, so a damaged batch is never decoded as if it were sound; the ledger
+(``microg.study.ledger``) chains the checksums with the rest of the log.
 """
 
 from __future__ import annotations
@@ -22,11 +31,12 @@ from __future__ import annotations
 import hashlib
 import sqlite3
 import struct
-from typing import Iterator, Sequence
+from typing import Iterator, NamedTuple, Sequence
 
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+from numcodecs import Blosc
 
 from microg.schema import FRAME_LOG, Column
 from microg.skeleton import BONES, BONES_PER_HAND, DIGITS, N_BONES, N_DIGITS, SIDES, SLOTS, Hand, HandFrame, side_slots
@@ -51,27 +61,179 @@ FRAME = np.dtype([
 """One logged frame; per-side fields are indexed left (0), right (1). Untracked: NaN, ``tracked`` False."""
 HAND_FIELDS = ("joints", "widths", "palm_position", "palm_orientation", "rendered")
 """The per-side fields that are NaN where a hand was not tracked."""
-CODEC = "zstd"
+CODECS = {"zstd": b"\x28\xb5\x2f\xfd", "blosc": b"MGF2"}
+"""Each codec's tag, the first bytes of its blobs (``zstd``'s is the zstd frame's own magic number:
+its blobs were written before codecs had tags)."""
+CODEC = "blosc"
+"""The codec ``encode`` writes new batches with."""
 
 
-def encode(frames: np.ndarray) -> bytes:
-    """A batch of ``FRAME`` records as one compressed blob (each field's column in turn)."""
-    columns = b"".join(np.ascontiguousarray(frames[name]).tobytes() for name in FRAME.names)
-    return pa.compress(columns, codec=CODEC, asbytes=True)
+class Span(NamedTuple):
+    """Fields side by side in a ``FRAME`` record whose elements are ``size`` bytes wide."""
+
+    offset: int
+    width: int
+    size: int
+
+
+def _spans(names: Sequence[str], side: int | None = None) -> tuple[Span, ...]:
+    """The fields ``names`` (one side's half of per-side fields) as ``Span``s, fields of one
+    element size that lie side by side joined."""
+    spans: list[Span] = []
+    for name in names:
+        field, offset = FRAME.fields[name][:2]
+        width = field.itemsize if side is None else field.itemsize // len(SIDES)
+        offset += 0 if side is None else side * width
+        if spans and spans[-1].offset + spans[-1].width == offset and spans[-1].size == field.base.itemsize:
+            spans[-1] = spans[-1]._replace(width=spans[-1].width + width)
+        else:
+            spans.append(Span(offset, width, field.base.itemsize))
+    return tuple(spans)
+
+
+FRAME_SPANS = _spans([name for name in FRAME.names if name not in HAND_FIELDS])
+"""The fields of the whole frame (``tracked`` among them, which says where the hands are)."""
+HAND_SPANS = tuple(_spans(HAND_FIELDS, side) for side in range(len(SIDES)))
+"""Each side's half of the hand fields."""
+
+
+def _untracked() -> np.ndarray:
+    record = np.zeros(1, dtype=FRAME)
+    for field in HAND_FIELDS:
+        record[field] = np.nan
+    return record.view(np.uint8)
+
+
+UNTRACKED = _untracked()
+"""A record's bytes with every hand field NaN, as ``frames_of`` writes an untracked hand."""
+TRACKED = FRAME.fields["tracked"][1]
+PREFIX = struct.Struct("<4s?")
+"""``blosc``'s prefix: its tag and whether the untracked hands are left out (they were ``UNTRACKED``'s)."""
+BLOSC = Blosc(cname="lz4hc", clevel=2, shuffle=Blosc.SHUFFLE)
+"""Byte-shuffled 4-byte words, then LZ4HC (Blosc's level 2). zstd in its place saved 3 % of the
+bytes and took a third longer to decode, longer than the old codec (measured with ``microg bench
+store``): the joints' noisy low bytes are stored as they are by either."""
+
+
+def encode(frames: np.ndarray, codec: str = CODEC) -> bytes:
+    """A batch of ``FRAME`` records as one blob, its codec's tag first (module docstring)."""
+    if codec == "zstd":
+        columns = b"".join(np.ascontiguousarray(frames[name]).tobytes() for name in FRAME.names)
+        return pa.compress(columns, codec="zstd", asbytes=True)
+    if codec != "blosc":
+        raise ValueError(f"codec = {codec!r}: microg writes frame batches with one of {', '.join(CODECS)}")
+    records = np.ascontiguousarray(frames).view(np.uint8).reshape(len(frames), FRAME.itemsize)
+    tracked = records[:, TRACKED:TRACKED + len(SIDES)] != 0
+    left_out = _untracked_as_written(records, tracked)
+    parts = _parts(_kept(tracked) if left_out else [slice(None)] * len(SIDES), len(records))
+    words = np.empty(sum(_words(spans, count) for _, spans, count in parts), "<i4")
+    at = 0
+    for rows, spans, count in parts:
+        held = records if isinstance(rows, slice) else records[rows]
+        for span in spans:
+            view = _view(held, span)
+            words[at:at + view.size].reshape(view.shape)[...] = view
+            at += view.size
+    return PREFIX.pack(CODECS["blosc"], left_out) + (BLOSC.encode(words) if len(words) else b"")
+
+
+def _untracked_as_written(records: np.ndarray, tracked: np.ndarray) -> bool:
+    """Whether every untracked hand in the records is ``UNTRACKED``'s, so that ``blosc`` may leave
+    it out and ``decode`` write it back."""
+    for side, spans in enumerate(HAND_SPANS):
+        untracked = ~tracked[:, side]
+        rows = slice(None) if untracked.all() else untracked
+        if untracked.any() and not all((records[rows, span.offset:span.offset + span.width]
+                                        == UNTRACKED[span.offset:span.offset + span.width]).all() for span in spans):
+            return False
+    return True
+
+
+def _kept(tracked: np.ndarray) -> list:
+    """Per side, the frames whose hand fields ``blosc`` keeps when it leaves the untracked out."""
+    everywhere = tracked.all(axis=0)
+    return [slice(None) if everywhere[side] else np.flatnonzero(tracked[:, side]) for side in range(len(SIDES))]
+
+
+def _parts(kept: Sequence, count: int) -> list[tuple[slice | np.ndarray, tuple[Span, ...], int]]:
+    """(frames, spans, how many frames) in the order ``blosc`` stores them: the whole frame's
+    fields over every frame, then each side's hand fields over the frames ``kept``."""
+    parts = [(slice(None), FRAME_SPANS, count)] + [(rows, spans, count if isinstance(rows, slice) else len(rows))
+                                                   for rows, spans in zip(kept, HAND_SPANS)]
+    return [part for part in parts if part[2]]
+
+
+def _words(spans: Sequence[Span], count: int) -> int:
+    """How many 4-byte words ``blosc`` stores for the spans over ``count`` frames (a 1-byte
+    element takes a word of its own)."""
+    return count * sum(span.width // min(span.size, 4) for span in spans)
+
+
+def _view(records: np.ndarray, span: Span) -> np.ndarray:
+    """The span in ``FRAME`` records' bytes (records, bytes) as ``blosc`` stores it, a view: its
+    elements' 4-byte words (words, channels, frames), a 1-byte element a word (1, channels,
+    frames), so each channel's values over the batch lie side by side (where a smooth signal
+    changes little) and an 8-byte element's low words apart from its high ones."""
+    if span.size == 1:
+        return np.ndarray((1, span.width, len(records)), np.uint8, records, span.offset, (1, 1, FRAME.itemsize))
+    return np.ndarray((span.size // 4, span.width // span.size, len(records)), "<i4", records, span.offset,
+                      (4, span.size, FRAME.itemsize))
+
+
+def codec_of(blob: bytes) -> str:
+    """The codec that wrote a batch's blob, read off its tag (``ValueError`` for none known)."""
+    tag = bytes(blob[:4])
+    for codec, known in CODECS.items():
+        if tag == known:
+            return codec
+    raise ValueError(f"its blob starts with {tag!r}, the tag of no codec this microg reads ({', '.join(CODECS)}): "
+                     "written by a newer microg, or damaged")
 
 
 def decode(blob: bytes, count: int) -> np.ndarray:
-    """The ``count`` ``FRAME`` records of a blob written by ``encode``."""
-    raw = pa.decompress(blob, decompressed_size=count * FRAME.itemsize, codec=CODEC, asbytes=True)
-    frames = np.empty(count, dtype=FRAME)
-    offset = 0
-    for name in FRAME.names:
-        field = FRAME.fields[name][0]
-        size = count * field.itemsize
-        frames[name] = np.frombuffer(raw, dtype=field.base, count=size // field.base.itemsize,
-                                     offset=offset).reshape((count,) + field.shape)
-        offset += size
-    return frames
+    """The ``count`` ``FRAME`` records of a blob written by ``encode`` with any of ``CODECS``
+    (``ValueError`` or ``OSError`` when it does not hold them)."""
+    if codec_of(blob) == "zstd":
+        frames = np.empty(count, dtype=FRAME)
+        raw = pa.decompress(blob, decompressed_size=count * FRAME.itemsize, codec="zstd", asbytes=True)
+        offset = 0
+        for name in FRAME.names:
+            field = FRAME.fields[name][0]
+            size = count * field.itemsize
+            frames[name] = np.frombuffer(raw, dtype=field.base, count=size // field.base.itemsize,
+                                         offset=offset).reshape((count,) + field.shape)
+            offset += size
+        return frames
+    if len(blob) < PREFIX.size:
+        raise ValueError(f"blosc: {len(blob)} bytes, fewer than its prefix's {PREFIX.size}")
+    left_out = PREFIX.unpack_from(blob)[1]
+    try:
+        words = np.frombuffer(BLOSC.decode(memoryview(blob)[PREFIX.size:]) if len(blob) > PREFIX.size else b"",
+                              "<i4")
+    except RuntimeError as error:  # what numcodecs raises for a buffer Blosc cannot read
+        raise ValueError(f"blosc: does not decompress ({error})") from None
+    records = np.empty((count, FRAME.itemsize), np.uint8)
+    if left_out:
+        records[...] = UNTRACKED
+    at = 0
+    parts = _parts([slice(None)] * len(SIDES), count)[:1]  # the whole frame's fields say where the hands are
+    while parts:
+        rows, spans, length = parts.pop(0)
+        if at + _words(spans, length) > len(words):
+            raise ValueError(f"blosc: {len(words)} words, too few for {count} frames")
+        held = records if isinstance(rows, slice) else records[rows]
+        for span in spans:
+            view = _view(held, span)
+            view[...] = words[at:at + view.size].reshape(view.shape)
+            at += view.size
+        if not isinstance(rows, slice):
+            records[rows] = held
+        if spans is FRAME_SPANS:
+            tracked = records[:, TRACKED:TRACKED + len(SIDES)] != 0
+            parts = _parts(_kept(tracked) if left_out else [slice(None)] * len(SIDES), count)[1:]
+    if at != len(words):
+        raise ValueError(f"blosc: {len(words)} words, not the {at} of {count} frames")
+    return np.ndarray(count, FRAME, records)
 
 
 def frames_of(moments: Moments) -> np.ndarray:
