@@ -14,32 +14,35 @@ a clean run goes through them:
     corrective carries) -> open -> retreat -> watch -> done
 
 plus ``wait_for_object`` (the object is out of reach) and ``retry`` (a failed grasp or a drop:
-open, back off, reach again). The catch and the stop of a spin (``PLAYER.kind``) take the object
-and keep it; the send takes it and pushes it off toward the target; a handover is played by two
-hands (``PLAYER.role``), each a participant of its own that sees what the other does
-(``SEEN.other_action``, ``SEEN.other_grasped``):
+open, back off, reach again). That is the play of a task kind that carries its object to places
+(``microg.task.kind.Play``: ``PLAYER.approach``, ``take``, ``then``). A kind whose play keeps the
+object takes it and keeps it; one that pushes it takes it and pushes it off toward the target; one
+that touches it closes only until the index fingertip touches and keeps it there; one that hands it
+over is played by two hands (``PLAYER.role``), each a participant of its own that sees what the
+other does (``SEEN.other_action``, ``SEEN.other_grasped``):
 
-    catch:     wait -> intercept -> descend -> close -> squeeze -> keep -> done
-    stop_spin: wait -> reach -> descend -> close -> squeeze -> keep -> done
-    send:      wait -> reach -> descend -> close -> squeeze -> push -> open -> retreat (braking) -> watch
-               -> done (the send missed: wait -> reach ... again)
-    handover, the hand that takes the object (role ``GIVING``):
-               wait -> reach -> descend -> close -> squeeze -> lift -> carry (to the meeting point)
-               -> offer -> open -> retreat -> watch -> done (a drop: wait -> reach ... again)
-    handover, the hand it is passed to (role ``TAKING_OVER``):
-               wait_for_hand -> wait -> reach (from below, palm up) -> descend -> close -> squeeze
-               -> take_over -> carry (to the place zone) -> hold -> open -> retreat -> watch -> done
-               (a drop: back to wait_for_hand)
+    intercept, keep: wait -> intercept -> descend -> close -> squeeze -> keep -> done
+    keep:            wait -> reach -> descend -> close -> squeeze -> keep -> done
+    push:            wait -> reach -> descend -> close -> squeeze -> push -> open -> retreat (braking)
+                     -> watch -> done (the task shows the object loose again: wait -> reach ... again)
+    touch:           wait -> reach -> descend -> close (until the index fingertip touches) -> touch -> done
+    hand_over, the hand that takes the object (role ``GIVING``):
+                     wait -> reach -> descend -> close -> squeeze -> lift -> carry (to the meeting point)
+                     -> offer -> open -> retreat -> watch -> done (a drop: wait -> reach ... again)
+    hand_over, the hand it is passed to (role ``TAKING_OVER``):
+                     wait_for_hand -> wait -> reach (from below, palm up) -> descend -> close -> squeeze
+                     -> take_over -> carry (to the place zone) -> hold -> open -> retreat -> watch -> done
+                     (a drop: back to wait_for_hand)
 
-A catch's ``intercept`` moves the pre-shaped hand into the launched object's path, above the point
+An ``intercept`` moves the pre-shaped hand into the launched object's path, above the point
 where it will be once the hand is there (zero gravity: x + v t, from the velocity it is seen moving
 at), and waits; as the object arrives it descends onto it, following it (so that it ends moving
 with it), closes and squeezes moving with it, and brakes to a stop in ``BRAKE_S`` (a soft catch).
-A catch's object that moves slower than ``MOVING_SPEED`` is reached for as it lies. A send's
+An object to intercept that moves slower than ``MOVING_SPEED`` is reached for as it lies. A
 ``push`` aims the held object at the target (with the aim error) and brings it up to the speed that
 drifts there in ``arrival_s`` as the participant's own clock runs (``clock_cv``), its speed rising
 smoothly over ``PUSH_S``; the hand opens coasting on at that speed, then brakes as it withdraws
-(in ``BRAKE_S``). A send that the task shows missed (back to its pick-up stage) is fetched and sent
+(in ``BRAKE_S``). A send that the task shows missed (its object loose again) is fetched and sent
 again. A handover's giving hand carries the object to the meeting point and offers it there,
 keeping its grip, until it sees the other hand hold it, then lets go; the other hand waits until the
 object is offered, takes it from below, palm up, squeezing across the giving grip (so that the
@@ -123,11 +126,14 @@ PUSH_S = 0.4
 minimum-jerk movement's position does, so that the push starts and ends without a jolt)."""
 
 ACTIONS = ("wait", "wait_for_object", "reach", "descend", "close", "squeeze", "lift", "carry", "hold", "retry",
-           "open", "retreat", "watch", "done", "intercept", "keep", "push", "offer", "wait_for_hand", "take_over")
+           "open", "retreat", "watch", "done", "intercept", "keep", "push", "offer", "wait_for_hand", "take_over",
+           "touch")
 """The participant's actions ("phase" is the study's timeline, "stage" the task's): ``STATE.action``
 is an index into this tuple."""
 (WAIT, WAIT_FOR_OBJECT, REACH, DESCEND, CLOSE, SQUEEZE, LIFT, CARRY, HOLD, RETRY, OPEN, RETREAT, WATCH,
- DONE, INTERCEPT, KEEP, PUSH, OFFER, WAIT_FOR_HAND, TAKE_OVER) = range(len(ACTIONS))
+ DONE, INTERCEPT, KEEP, PUSH, OFFER, WAIT_FOR_HAND, TAKE_OVER, TOUCH) = range(len(ACTIONS))
+INDEX_TIP = 1 * 4 + 3
+"""The index finger's distal phalanx among a hand's 20 phalanges (digit-major): what a touch touches with."""
 REACH_FOR, INTERCEPT_IT = range(2)
 """``PLAYER.approach`` codes: how the participant goes for the object (``microg.task.kind.Play``:
 ``reach``, ``intercept``)."""
@@ -627,10 +633,16 @@ def descend(p, s, seen, grasps, draws):
 
 @njit(cache=True)
 def close(p, s, seen, grasps, draws):
-    """Close until the hand holds the object; a grip closed fully, or an object pushed away, is a
-    failed grasp."""
+    """Close until the hand holds the object (or, to touch it, until the index fingertip does); a
+    grip closed fully, or an object pushed away, is a failed grasp."""
     _closing(s, grasps, seen, p, math.inf)
-    if seen.grasped:
+    if p.take == TOUCH_IT:
+        if seen.touching[INDEX_TIP]:
+            s.hold_clock, s.clock_rate = 0.0, 1.0 + draws.normal(0.0, p.clock_cv)
+            _enter(s, TOUCH, seen.t)
+        elif s.closure >= CLOSURES[-1] or _distance(seen.position, s.close_origin) > LOST_DISTANCE:
+            _begin_retry(p, s, grasps, draws, seen.t, False)
+    elif seen.grasped:
         s.grip = s.closure + _squeeze_depth(p, s, seen, draws)
         _enter(s, SQUEEZE, seen.t)
     elif s.closure >= CLOSURES[-1] or _distance(seen.position, s.close_origin) > LOST_DISTANCE:
@@ -817,6 +829,21 @@ def keep(p, s, seen, grasps, draws):
 
 
 @njit(cache=True)
+def touch(p, s, seen, grasps, draws):
+    """Keep the index fingertip on the object, the hand still, until the task is over (the display
+    says so, ``follow_display``) or, without a display, for ``hold_s`` plus a margin on its own
+    clock; a fingertip that lost the object closes on toward it again."""
+    if not seen.touching[INDEX_TIP]:
+        _enter(s, CLOSE, seen.t)
+        return
+    if seen.has_display:
+        return
+    s.hold_clock += seen.dt * s.clock_rate
+    if s.hold_clock >= p.hold_s + p.hold_margin_s:
+        _enter(s, DONE, seen.t)
+
+
+@njit(cache=True)
 def open_hand(p, s, seen, grasps, draws):
     """Open the grip, then withdraw quickly, out of the back of the hand; a sending hand stays open
     and brakes (``_coast``), and the object drifts on out of it."""
@@ -961,3 +988,5 @@ def decide(p, s, seen, grasps, draws):
         wait_for_hand(p, s, seen, grasps, draws)
     elif action == TAKE_OVER:
         take_over(p, s, seen, grasps, draws)
+    elif action == TOUCH:
+        touch(p, s, seen, grasps, draws)

@@ -11,7 +11,7 @@
   files the study keeps, so that the export scores and reports the same way anywhere;
 - ``frames``: one row per logged frame, hand channels flattened (``framelog.frame_table``);
 - ``codebook.csv`` and ``dataset_description.json`` (Psych-DS's form): every column of every table
-  written, from the declarations that make the tables (``tables``; ``microg.study.codebook``).
+  written, from the declarations that make the tables (``table_declarations``; ``microg.study.codebook``).
 
 ``read_tables(study_dir)`` returns (trials, questionnaire) for the statistics and ``read_answers``
 (answers, instruments): from a study's database, or from a folder of exported files.
@@ -210,7 +210,7 @@ FRAME_KEYS = (
            levels="object_names", source=PROTOCOL),
 )
 """The frames table's first columns: which task run a frame belongs to."""
-def tables() -> dict[str, tuple[Column, ...]]:
+def table_declarations() -> dict[str, tuple[Column, ...]]:
     """Every table an export may write, by name, with its columns: the codebook describes those written."""
     return {"trials": trial_declarations(), "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
             "frames": FRAME_KEYS + framelog.FRAME_COLUMNS}
@@ -387,7 +387,7 @@ def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frame
         write_motion_bids(store, folder / "bids", tqdm(total=len(runs), unit="run", desc="Motion-BIDS",
                                                       disable=not progress), runs)
     written_tables = [name for name, _ in tables] + (["frames"] if frames and runs else [])
-    declared = tables()
+    declared = table_declarations()
     write_codebook(folder, {name: declared[name] for name in written_tables}, study=store.name, protocol=store.protocol,
                    interactions=[r[0] for r in store.db.execute("SELECT DISTINCT interaction FROM tasks")])
     written = sorted(p.relative_to(folder) for p in folder.rglob("*") if p.is_file())

@@ -20,7 +20,7 @@ import pytest
 from microg.schema import Column
 from microg.study.assignment import Participant
 from microg.study.codebook import CODEBOOK, DESCRIPTION, HEADER, check_columns, codebook, study_levels
-from microg.study.export import TABLES, export_study
+from microg.study.export import export_study, table_declarations
 from microg.study.protocol import load_protocol
 from microg.study.session import SimulationClock, run_session
 from microg.study.store import create_study
@@ -193,11 +193,11 @@ def test_a_written_column_without_a_declaration_stops_the_codebook(tmp_path):
 
 def test_every_declared_column_is_described_with_its_type_and_source():
     lists = study_levels(load_protocol(PROTOCOLS / "tiny.toml"))
-    for table, columns in TABLES.items():
+    for table, columns in table_declarations().items():
         book = codebook({table: columns})
         assert len(book) == len(columns) and (book.meaning != "").all() and (book.source != "").all(), table
         for column in columns:
             assert column.unit in ("", "s", "ms", "m", "m/s", "rad/s", "years"), (table, column.name)
             assert column.minimum is None or column.maximum is None or column.minimum < column.maximum
             assert not column.levels or lists[column.levels], (table, column.name, column.levels)
-    assert np.isclose(dict((c.name, c) for c in TABLES["frames"])["touching"].maximum, 2.0 ** 40 - 1)
+    assert np.isclose(dict((c.name, c) for c in table_declarations()["frames"])["touching"].maximum, 2.0 ** 40 - 1)

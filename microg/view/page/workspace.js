@@ -144,7 +144,7 @@ export class Workspace {
       const state = k < frame.place ? "done" : k === frame.place ? (frame.lit ? "lit" : "next") : "pending";
       this.rings.setColorAt(k, this.colours[state]);
     }
-    this.rings.instanceColor.needsUpdate = true;
+    if (this.rings.instanceColor) this.rings.instanceColor.needsUpdate = true;  // (none: a task without places)
     const { rendered, highlight } = this.colours;
     let n = 0;
     for (const hand of frame.hands) {
@@ -166,7 +166,7 @@ export class Workspace {
     }
     this.phalanges.count = n;
     this.phalanges.instanceMatrix.needsUpdate = true;
-    this.phalanges.instanceColor.needsUpdate = true;
+    if (this.phalanges.instanceColor) this.phalanges.instanceColor.needsUpdate = true;  // (none before a hand)
     this._halfLength.needsUpdate = true;
   }
 }
