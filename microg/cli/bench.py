@@ -108,13 +108,16 @@ def insilico_bench(out: Path, quick: bool, workers: int) -> None:
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
               show_default=True, help="Directory for store.csv.")
 @click.option("--quick", is_flag=True, help="A fast smoke run: 40 frame batches, fewer repeats.")
-def store_bench(out: Path, quick: bool) -> None:
+@click.option("--study", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+              help="Also time the check on open for writing on a copy of this study (e.g. microg-demo/study).")
+def store_bench(out: Path, quick: bool, study: Path | None) -> None:
     """What the study log's integrity costs: per frame logged (the batch's checksum and its ledger entry)
-    against the whole commit, per frame read (the checksum against decoding), per open (the ledger check)
-    and per MB checked by study check (store.csv)."""
+    against the whole commit, per frame read (the checksum against decoding), per open (the ledger check),
+    per MB checked by study check, and the check on open that every verb that writes runs first: with
+    nothing new, with one session new, with no record (store.csv)."""
     from microg.study.bench import run
 
-    run(out, quick, say=click.echo)
+    run(out, quick, say=click.echo, study=study)
     click.echo(f"-> {out / 'store.csv'}")
 
 

@@ -123,6 +123,8 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         if session_record.status != "running":
             raise click.ClickException(f"session {existing.id} of {participant_id} is {existing.status}; "
                                        "there is nothing to resume")
+    if existing is None or existing.status == "running":
+        store.check_runs_here(participant_id)
     rating = options.questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
     problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
     if problems:
@@ -376,6 +378,12 @@ def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: s
             return
         todo = [p.id for p in store.participants() if p.status == "active"
                 and (store.session_of(p.id) is None or store.session_of(p.id).status == "running")]
+        held = {pid: store.station_holding(pid) for pid in todo}
+        for pid, station in held.items():
+            if station is not None:
+                click.echo(f"left out {pid}: handed to station {station[0]} (microg study station); their session "
+                           "comes back with microg study merge", err=True)
+        todo = [pid for pid in todo if held[pid] is None]
         for pid in tqdm(todo, unit="participant", desc="participants", disable=options.quiet):
             resume = store.session_of(pid) is not None
             status = _run_one(store, pid, input_spec=None if resume else input_spec, options=options, resume=resume)
