@@ -306,13 +306,14 @@ def merge_stations(central: Store, folders: Sequence[str | Path]) -> list[Statio
                                  + "\n".join(f"  - {p}" for p in side.damaged_batches)
                                  + f"\nNothing was merged into {central.dir}. See: microg study check {folder}")
             sides.append(side)
-        plans, conflicts = _plan(central, sides)
-        if conflicts:
-            raise MergeConflict(central.dir, conflicts)
+        planned = ledger.head_of(central.db)
+        plans = _plan_or_refuse(central, sides)
         if not any(plan.sessions or plan.outcome.withdrawn for plan in plans):
             return [plan.outcome for plan in plans]
         merged_at = utc_now()
         with central.transaction() as db:
+            if ledger.head_of(db) != planned:  # another merge or a session committed meanwhile: plan again, now
+                plans = _plan_or_refuse(central, sides)
             for plan in plans:
                 for pid in plan.outcome.withdrawn:
                     withdrawn_at, reason = plan.side.db.execute(
@@ -331,6 +332,14 @@ def merge_stations(central: Store, folders: Sequence[str | Path]) -> list[Statio
                 raise StoreError(f"{central.dir}: the merged study would not be sound, so nothing was merged:\n"
                                  + "\n".join(f"  - {p}" for p in problems))
     return [plan.outcome for plan in plans]
+
+
+def _plan_or_refuse(central: Store, sides: list[Store]) -> list[_Plan]:
+    """``_plan``, or ``MergeConflict`` listing its conflicts."""
+    plans, conflicts = _plan(central, sides)
+    if conflicts:
+        raise MergeConflict(central.dir, conflicts)
+    return plans
 
 
 def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:

@@ -276,3 +276,29 @@ def test_a_participant_handed_to_a_station_runs_there_until_the_station_gives_th
     said = cli("session", "run", central, "--all", "--input", "simulated", "--quiet")
     assert said.exit_code == 0 and "left out P01: handed to station C" in said.output
     assert "left out P02: handed to station C" in said.output and "ran 0 session(s)" in said.output
+
+
+def test_a_merge_overtaken_by_another_plans_again_and_merges_nothing_twice(tmp_path, monkeypatch):
+    """Two merges of one station at once: the second waits for the first's transaction, then finds
+    what the first merged (before, it failed on the database's uniqueness of a participant's session)."""
+    from microg.study import stations
+
+    central = enrolled(tmp_path / "central")
+    ok("study", "station", central, "--name", "B", "--out", tmp_path / "b", "--participant", "P03")
+    run_scripted(tmp_path / "b", "P03")
+    planned, overtaken = stations._plan, []
+
+    def overtaking(central_store, sides):
+        plan = planned(central_store, sides)
+        if not overtaken:  # the other merge commits between this merge's plan and its transaction
+            overtaken.append(None)
+            overtaken[0] = ok("study", "merge", central, tmp_path / "b")
+        return plan
+
+    monkeypatch.setattr(stations, "_plan", overtaking)
+    said = ok("study", "merge", central, tmp_path / "b")
+    assert "merged 1 session(s) (P03)" in overtaken[0]
+    assert "merged 0 session(s); 1 merged before, unchanged (P03)" in said
+    with open_study(central, readonly=True) as store:
+        assert store.db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0] == 1
+    assert "sound" in ok("study", "check", central)
