@@ -1,6 +1,6 @@
 """``microg study init``: create a study from a protocol; ``microg study status``: where it stands;
-``microg study check``: the study database's full integrity check; ``microg study station`` and
-``microg study merge``: several stations run one study (``microg.study.stations``)."""
+``microg study check``: the study database's full integrity check; ``microg study station`` (and
+``--give-up``) and ``microg study merge``: several stations run one study (``microg.study.stations``)."""
 
 from __future__ import annotations
 

@@ -2,6 +2,7 @@
 
     microg study station STUDY --name B --out STATION_DIR [--participant P03 ...]
     microg study merge STUDY STATION_DIR...
+    microg study station STUDY --name B --give-up [--participant P03 ...]
 
 Making a station (``make_station``): the station's study has the central study's protocol (the
 same resolved protocol, so the same SHA-256), its seed, and the enrolment rows of the participants
@@ -26,7 +27,12 @@ Sessions still running at a station are left for a later merge and said so.
 Both sides are checked: a station is opened with the integrity check (a damaged one is refused),
 each of its frame batches is verified against its checksum as it is copied, and the central
 study's check runs on what the merge wrote before it commits. The merge is one transaction: killed
-at any point, it leaves the central study as it was.
+at any point, it leaves the central study as it was; one that another merge (or a session)
+overtook between its plan and its transaction plans again inside it.
+
+A participant handed to a station runs there: the central study refuses to run them
+(``Store.check_runs_here``) until the station gives them back (``give_up``: a ``station_give_ups``
+row, sealed); a merge then leaves the station's sessions and withdrawals of them out, naming them.
 """
 
 from __future__ import annotations

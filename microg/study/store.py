@@ -24,7 +24,9 @@ Every statement goes through ``StudyConnection``, so a database that is locked b
 ``StoreError`` that says what happened and what to do, never in a half-written step. Opening a
 study checks its integrity (``check_integrity``: the append-only triggers are there, the stored
 protocol matches its SHA-256, finished task runs have their frames and events, participant ids map
-one-to-one onto BIDS labels) and refuses a damaged study unless the caller accepts it.
+one-to-one onto BIDS labels; and the frame batches new since the last check, ``integrity``) and
+refuses a damaged study unless the caller accepts it: every verb that writes opens the study so,
+and none writes into a damaged one.
 """
 
 from __future__ import annotations
