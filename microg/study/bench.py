@@ -218,7 +218,7 @@ def run(out: Path, quick: bool = False, say=print, study: Path | None = None) ->
         if study is not None:
             copy = Path(folder) / "given"
             shutil.copytree(study, copy, ignore=shutil.ignore_patterns("locks", "export*", "resimulated"))
-            check_on_open(copy, note, str(study), 1 if quick else 3)
+            check_on_open(copy, note, "the study given (--study)", 1 if quick else 3)
     table = pd.DataFrame(rows)
     out.mkdir(parents=True, exist_ok=True)
     table.to_csv(out / "store.csv", index=False)
