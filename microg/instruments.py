@@ -199,8 +199,15 @@ def _tidy(value: float) -> float | int:
     return int(value) if float(value).is_integer() else float(value)
 
 
+NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
+"""A number as an answer is written: digits with a decimal point and an exponent, no more (Python's
+own reading would take ``1_0`` for 10, ``nan`` and ``infinity`` as numbers)."""
+
+
 def _number(value) -> float | None:
     if isinstance(value, bool):
+        return None
+    if not isinstance(value, (int, float)) and not NUMBER.fullmatch(str(value).strip()):
         return None
     try:
         number = float(value) if isinstance(value, (int, float)) else float(str(value).strip())
@@ -440,9 +447,12 @@ class _Table:
         return [_Table(self.where, v, f"{self.prefix}{key}[{i}].") for i, v in enumerate(value)]
 
     def unique(self, key: str, values: list[str], what: str) -> None:
-        twice = next((v for v in values if values.count(v) > 1), None)
-        if twice is not None:
-            raise self.fail(key, values, f"{what} {twice!r} appears twice")
+        seen: set[str] = set()
+        for value in values:
+            if value in seen:
+                shown = values if len(values) <= 12 else [*values[:12], f"... {len(values)} in all"]
+                raise self.fail(key, shown, f"{what} {value!r} appears twice")
+            seen.add(value)
 
     def done(self) -> None:
         unknown = sorted(set(self.data) - self.read, key=str)

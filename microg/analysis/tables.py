@@ -73,12 +73,24 @@ def read_table(path: str | Path, text: Sequence[str] = ()) -> pd.DataFrame:
         raise AnalysisInputError(f"{path}: the file is empty (no header, no rows)")
     try:
         if suffix == ".csv":
-            header = pd.read_csv(path, nrows=0).columns
+            encoding = _csv_encoding(path)
+            header = pd.read_csv(path, nrows=0, encoding=encoding).columns
             texts = {column: str for column in (*TEXT_COLUMNS, *text) if column in header}
-            return pd.read_csv(path, dtype=texts)
+            return pd.read_csv(path, dtype=texts, encoding=encoding)
         return pd.read_parquet(path)
+    except UnicodeDecodeError as error:
+        raise AnalysisInputError(f"{path}: not UTF-8 text ({error.reason}: byte 0x{error.object[error.start]:02x}); "
+                                 "save the table as UTF-8 (a spreadsheet's \"CSV UTF-8\")") from None
     except (ValueError, OSError) as error:
         raise AnalysisInputError(f"{path}: not a readable {suffix[1:]} table ({error})") from None
+
+
+def _csv_encoding(path: Path) -> str:
+    """UTF-16 where the file begins with its byte order mark (a spreadsheet's "Unicode text"), else
+    UTF-8, with or without its mark."""
+    with open(path, "rb") as stream:
+        start = stream.read(2)
+    return "utf-16" if start in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig"
 
 
 def read_columns(path: str | Path) -> dict:

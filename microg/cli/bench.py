@@ -108,15 +108,16 @@ def insilico_bench(out: Path, quick: bool, workers: int) -> None:
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("bench-results"),
               show_default=True, help="Directory for store.csv.")
 @click.option("--study", type=click.Path(file_okay=False, exists=True, path_type=Path), default=None,
-              help="Measure the codecs on this study's frames (e.g. microg demo's), read only; by default on "
-                   "two simulated sessions of the paper's protocol.")
+              help="Also measure the codecs on this study's frames (e.g. microg demo's, read only) and the check "
+                   "on open for writing on a copy of it.")
 @click.option("--quick", is_flag=True, help="A fast smoke run: 40 frame batches, fewer repeats.")
 def store_bench(out: Path, study: Path | None, quick: bool) -> None:
     """What a frame costs the study log: each codec's bytes, encode and decode time per frame, in the
     same run, and a run read back as view and export read it; where the bytes go, field by field; the
     study's size. And what the log's integrity costs: per frame logged (the batch's checksum and its
-    ledger entry) against the whole commit, per frame read, per open (the ledger check) and per MB
-    checked by study check (store.csv)."""
+    ledger entry) against the whole commit, per frame read, per open (the ledger check), per MB
+    checked by study check, and the check on open that every verb that writes runs first: with nothing
+    new, with one session new, with no record (store.csv)."""
     from microg.study.bench import run
 
     run(out, quick, say=click.echo, study=study)

@@ -36,6 +36,15 @@ def clear_errors(command):
     return wrapper
 
 
+def say_damage(store) -> None:
+    """What a verb that reads a study says of the damage the check on open found in it
+    (``Store.problems``), each problem on a warning line, then how to see it whole."""
+    for problem in store.problems:
+        click.echo(f"warning: the study is damaged: {problem}", err=True)
+    if store.problems:
+        click.echo(f"warning: see the full check with: microg study check {store.dir}", err=True)
+
+
 EFFECTIVE_IDS = os.access in os.supports_effective_ids
 """Whether permissions can be checked for the user the process acts as (POSIX), not the one who started it."""
 

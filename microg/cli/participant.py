@@ -9,7 +9,7 @@ import click
 
 from microg.study.assignment import GENDERS, HANDEDNESS, Participant, paper_sample
 from microg.study.store import open_study
-from .common import SEED, clear_errors, study_dir_argument
+from .common import SEED, clear_errors, say_damage, study_dir_argument
 
 
 @click.group("participant")
@@ -76,6 +76,7 @@ def withdraw(study_dir: str, participant_id: str, reason: str) -> None:
 def list_participants(study_dir: str) -> None:
     """Every participant with group, object order and status."""
     with open_study(study_dir, readonly=True) as store:
+        say_damage(store)
         for record in store.participants():
             click.echo(f"{_describe(record)} [{record.status}]")
 

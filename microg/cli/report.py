@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from .common import ExistingPath, renamed
+from .common import ExistingPath, renamed, say_damage
 
 FILE = ExistingPath(dir_okay=False, path_type=Path)
 
@@ -121,7 +121,11 @@ def report(
     try:
         if study is not None:
             from microg.study.export import read_answers, read_tables
+            from microg.study.store import DATABASE, open_study
 
+            if (study / DATABASE).exists():
+                with open_study(study, readonly=True) as store:  # a damaged log is refused, damaged frames named
+                    say_damage(store)
             trials_table, questionnaire = read_tables(study)
             answers, instruments = read_answers(study)
             if questionnaire is not None and questionnaire.empty:

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import click
 from tqdm import tqdm
 
+from microg.hands import SourceError
 from microg.sim import INTERACTION_MODELS
 from microg.study.inputs import PacedInputs, open_inputs, parse_input, participant_plan
 from microg.study.protocol import FOV_RANGE, Phase
@@ -123,6 +124,8 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         if session_record.status != "running":
             raise click.ClickException(f"session {existing.id} of {participant_id} is {existing.status}; "
                                        "there is nothing to resume")
+    if existing is None or existing.status == "running":
+        store.check_runs_here(participant_id)
     rating = options.questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
     problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
     if problems:
@@ -180,6 +183,11 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
             raise click.ClickException(f"session {session_record.id} of {participant_id} paused; the task in "
                                        f"progress will run again from its start on: microg session resume "
                                        f"{store.dir} --participant {participant_id}") from None
+        except SourceError as error:
+            raise click.ClickException(f"session {session_record.id} of {participant_id} stopped: {error}. "
+                                       "Everything logged is kept; the task in progress will run again from its "
+                                       f"start on: microg session resume {store.dir} --participant "
+                                       f"{participant_id}") from None
 
 
 class _Pause:
@@ -290,7 +298,7 @@ def _outcome(store: Store, participant_id: str, status: str) -> str:
 @contextlib.contextmanager
 def _display(store: Store, options: SessionOptions, kind: str):
     from microg.study.protocol import Viewpoint
-    from microg.view.display import ParticipantDisplay
+    from microg.view.display import DisplayError, ParticipantDisplay
     from microg.view.tls import FOLDER
 
     default = store.protocol.viewpoint
@@ -302,9 +310,16 @@ def _display(store: Store, options: SessionOptions, kind: str):
         from microg.hands.webxr import WebXRSource
         hands = WebXRSource(store.protocol.tracking_rate)
     certificate = page_certificate(store.dir / FOLDER, options.host, options.cert, options.key)
-    with ParticipantDisplay(store.protocol, host=options.host, port=options.port, viewpoint=viewpoint,
-                            hands=hands, certificate=certificate) as display:
+    display = ParticipantDisplay(store.protocol, host=options.host, port=options.port, viewpoint=viewpoint,
+                                 hands=hands, certificate=certificate)
+    try:
+        display.start()
+    except DisplayError as error:
+        raise click.ClickException(str(error)) from None
+    try:
         yield display
+    finally:
+        display.close()
 
 
 INPUT_HELP = ("leap (live tracking), webxr (a headset's hand tracking, through the participant's page), "
@@ -376,6 +391,12 @@ def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: s
             return
         todo = [p.id for p in store.participants() if p.status == "active"
                 and (store.session_of(p.id) is None or store.session_of(p.id).status == "running")]
+        held = {pid: store.station_holding(pid) for pid in todo}
+        for pid, station in held.items():
+            if station is not None:
+                click.echo(f"left out {pid}: handed to station {station[0]} (microg study station); their session "
+                           "comes back with microg study merge", err=True)
+        todo = [pid for pid in todo if held[pid] is None]
         for pid in tqdm(todo, unit="participant", desc="participants", disable=options.quiet):
             resume = store.session_of(pid) is not None
             status = _run_one(store, pid, input_spec=None if resume else input_spec, options=options, resume=resume)

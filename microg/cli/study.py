@@ -1,6 +1,6 @@
 """``microg study init``: create a study from a protocol; ``microg study status``: where it stands;
-``microg study check``: the study database's full integrity check; ``microg study station`` and
-``microg study merge``: several stations run one study (``microg.study.stations``)."""
+``microg study check``: the study database's full integrity check; ``microg study station`` (and
+``--give-up``) and ``microg study merge``: several stations run one study (``microg.study.stations``)."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from microg.paths import protocol_file
 
 from microg.study import ledger
 from microg.study.protocol import load_protocol
-from microg.study.stations import make_station, merge_stations, stations
-from microg.study.store import DATABASE, archived, check_integrity, create_study, describe_counts, open_study
+from microg.study.stations import give_up, given_up, make_station, merge_stations, stations
+from microg.study.store import DATABASE, archived, check_study, create_study, describe_counts, open_study
 from .common import SEED, clear_errors, study_dir_argument
 
 
@@ -75,8 +75,9 @@ def status(study_dir: str) -> None:
         else:
             for made in stations(store.db):
                 merged = store.db.execute("SELECT COUNT(*) FROM sessions WHERE station = ?", (made.name,)).fetchone()[0]
+                back = given_up(store.db, made.name)
                 click.echo(f"  station {made.name} (made {made.made_at}): {', '.join(made.participants)}; "
-                           f"{merged} session(s) merged")
+                           f"{merged} session(s) merged" + (f"; taken back: {', '.join(back)}" if back else ""))
         if store.problems:
             click.echo(f"the study is damaged ({len(store.problems)} problem(s) above); see: microg study check "
                        f"{study_dir}", err=True)
@@ -105,7 +106,7 @@ def check(study_dir: str, heads: tuple[str, ...]) -> None:
     head to note elsewhere. Exit status 1 when something is wrong."""
     given = [(_head(value), f"--head {value}") for value in heads]
     with open_study(study_dir, readonly=True, accept_damaged=True) as store:
-        problems = check_integrity(store.db, store.dir, full=True, heads=given)
+        problems = check_study(store, heads=given)
         runs, frames = store.db.execute("SELECT (SELECT COUNT(*) FROM task_runs), "
                                         "(SELECT COALESCE(SUM(count), 0) FROM frames)").fetchone()
         head = ledger.head_of(store.db)
@@ -124,16 +125,37 @@ def check(study_dir: str, heads: tuple[str, ...]) -> None:
 @study.command("station")
 @study_dir_argument
 @click.option("--name", required=True, help="The station's name (letters, digits, '-', '_'), e.g. B; used once.")
-@click.option("--out", "out_dir", required=True, type=click.Path(file_okay=False, path_type=str),
-              help="A new folder for the station's study (copy it to the station's machine).")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=str),
+              help="A new folder for the station's study (copy it to the station's machine); to make a station.")
 @click.option("--participant", "participants", multiple=True,
               help="A participant the station may run (repeat); default: every active participant with no session "
-                   "here and given to no station yet.")
+                   "here and given to no station yet. With --give-up: a participant to take back (default: every "
+                   "one of the station's whose session was not merged).")
+@click.option("--give-up", "give", is_flag=True,
+              help="Instead, give up the station NAME made before: take its participants back (or those named with "
+                   "--participant) so that they can run here or at another station; a merge of the station leaves "
+                   "their sessions there out. Merge the station first if it ran any of them.")
+@click.option("--reason", default=None, help="With --give-up: why, for the record.")
 @clear_errors
-def station(study_dir: str, name: str, out_dir: str, participants: tuple[str, ...]) -> None:
+def station(study_dir: str, name: str, out_dir: str | None, participants: tuple[str, ...], give: bool,
+            reason: str | None) -> None:
     """Make a station's study from the central study STUDY_DIR: the same protocol and seed, and the
     participants it may run with the groups and object orders assigned here (so the balance holds
-    across stations). Run its sessions there as usual; bring them back with microg study merge."""
+    across stations). Run its sessions there as usual; bring them back with microg study merge.
+    With --give-up, take a station's participants back instead."""
+    if give:
+        if out_dir is not None:
+            raise click.UsageError("--give-up takes participants back from a station made before: no --out")
+        with open_study(study_dir) as central:
+            back = give_up(central, name, participants, reason)
+        click.echo(f"took {', '.join(back)} back from station {name}: run them here (microg session run "
+                   f"{study_dir} --participant {back[0]} ...) or make another station for them")
+        click.echo(f"  a merge of station {name} leaves its sessions of {', '.join(back)} out (they stay in its folder)")
+        return
+    if out_dir is None:
+        raise click.UsageError("give --out FOLDER for the station's study (or --give-up to give a station up)")
+    if reason is not None:
+        raise click.UsageError("--reason goes with --give-up")
     with open_study(study_dir) as central:
         with make_station(central, name, out_dir=out_dir, participants=participants,
                           say=lambda text: click.echo(text, err=True)) as made:
@@ -167,6 +189,9 @@ def merge(study_dir: str, station_dirs: tuple[str, ...]) -> None:
         if outcome.running:
             click.echo(f"  still running at the station, not merged: {', '.join(outcome.running)} (finish or resume "
                        "them there, then merge again)")
+        if outcome.given_up:
+            click.echo(f"  taken back from the station (study station --give-up), not merged: "
+                       f"{', '.join(outcome.given_up)} (their records stay in {outcome.folder})")
     click.echo(f"ledger head: {head}")
 
 

@@ -55,7 +55,7 @@ def view(*, study_dir: str, session: str | None, task_index: int | None, run: in
         try:
             written = export_task(study_dir, session, task_index, out, run=run, hands=hands, seconds=seconds,
                                   size=picture_size(size), fps=fps, speed=speed, title=title, overwrite=overwrite,
-                                  progress=not quiet)
+                                  progress=not quiet, say=lambda text: click.echo(text, err=True))
         except ValueError as error:
             raise click.ClickException(str(error)) from None
         click.echo(f"wrote {written}")

@@ -17,7 +17,7 @@ from .filter import HandFilter
 from .guard import Guard, GuardConfig, GuardCounts
 from .recording import (Recording, RecordingError, RecordingInfo, RecordingWriter, ReplaySource, load_recording,
                         read_recording, record, write_recording)
-from .source import HandSource
+from .source import HandSource, SourceError
 from .tracking import Tracking
 
 SPECS = ("leap", "lsl:STREAM_NAME", "replay:PATH")

@@ -19,6 +19,7 @@ from typing import Callable
 import numpy as np
 
 from microg.skeleton import N_BONES, N_DIGITS, Hand, HandFrame
+from .source import SourceError
 from .units import metres, seconds
 
 INSTALL_HELP = """\
@@ -36,7 +37,7 @@ Then plug in the Leap Motion controller and check that the tracking service sees
 ULTRALEAP_NAMES = ("Connection", "Listener", "HandType", "TrackingMode")
 
 
-class LeapUnavailable(RuntimeError):
+class LeapUnavailable(SourceError):
     """Live tracking cannot start or has stopped: the message says what is missing and how to fix it."""
 
 

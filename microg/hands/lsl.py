@@ -19,9 +19,13 @@ filter and physics as a Leap Motion's.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from microg.skeleton import BONES, DIGITS, N_BONES, N_DIGITS, SIDES, Hand, HandFrame
+
+from .source import SourceError
 
 JOINTS = ("metacarpal_base", "proximal_base", "intermediate_base", "distal_base", "tip")
 PER_SIDE = 1 + 3 + 4 + N_DIGITS * (N_BONES + 1) * 3 + N_DIGITS * N_BONES
@@ -33,9 +37,14 @@ CHANNELS = tuple(
 STREAM_TYPE = "MoCap"
 RESOLVE_S = 10.0
 """How long to look for the stream on the network before giving up."""
+FRAME_TIMEOUT_S = 2.0
+"""A hand stream sends a sample every tracking frame, hands or none: this long without one, it has
+stopped (as a Leap Motion's frames, ``leap_device``)."""
+PULL_S = 0.25
+"""How long one wait for a sample lasts, so that closing the source ends a wait soon."""
 
 
-class LslInputError(RuntimeError):
+class LslInputError(SourceError):
     """The LSL stream cannot be used; the message says what is missing."""
 
 
@@ -68,7 +77,8 @@ def frame_of(sample, timestamp: float) -> HandFrame:
 class LslSource:
     """A ``HandSource`` reading the LSL stream called ``name`` (``CHANNELS``, see the module)."""
 
-    def __init__(self, name: str, resolve_s: float = RESOLVE_S):
+    def __init__(self, name: str, resolve_s: float = RESOLVE_S, frame_timeout: float = FRAME_TIMEOUT_S,
+                 start_timeout: float = RESOLVE_S):
         try:
             import pylsl
         except ImportError:
@@ -87,7 +97,9 @@ class LslSource:
             wrong = next(i for i, (a, b) in enumerate(zip(labels, CHANNELS)) if a != b)
             raise LslInputError(f"LSL stream {name!r}: channel {wrong} is labelled {labels[wrong]!r}, "
                                 f"expected {CHANNELS[wrong]!r} (microg.hands.lsl.CHANNELS)")
-        self.description = f"lsl:{name}"
+        self.name, self.description = name, f"lsl:{name}"
+        self.frame_timeout, self.start_timeout = frame_timeout, start_timeout
+        self._received = False
         self._closed = False
 
     @staticmethod
@@ -100,10 +112,19 @@ class LslSource:
         return labels
 
     def next_frame(self, observation=None) -> HandFrame | None:
+        """The next sample as a frame; ``LslInputError`` when none came for ``frame_timeout`` s (the
+        first, while the connection is made, for ``start_timeout``)."""
+        limit = self.frame_timeout if self._received else self.start_timeout
+        deadline = time.monotonic() + limit
         while not self._closed:
-            sample, timestamp = self._inlet.pull_sample(timeout=1.0)
+            sample, timestamp = self._inlet.pull_sample(timeout=PULL_S)
             if sample is not None:
+                self._received = True
                 return frame_of(sample, timestamp)
+            if time.monotonic() > deadline:
+                raise LslInputError(f"no sample from LSL stream {self.name!r} for {limit:g} s"
+                                    + (": did the tracker or its bridge stop publishing?" if self._received else
+                                       " since it was found: is its tracker publishing frames?"))
         return None
 
     def close(self) -> None:

@@ -8,6 +8,11 @@ from typing import Callable, Protocol, runtime_checkable
 from microg.skeleton import HandFrame
 
 
+class SourceError(RuntimeError):
+    """A live hand source cannot start or has stopped (a tracker unplugged, a stream that sends
+    nothing); the message says which and what to check."""
+
+
 @runtime_checkable
 class HandSource(Protocol):
     """Delivers hand frames one at a time, in SI units, with timestamps in seconds.

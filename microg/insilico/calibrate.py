@@ -62,6 +62,11 @@ LEVEL = 0.90
 """The credible and predictive intervals' level."""
 
 
+MAX_PARTICIPANTS = 1000
+"""The largest group a simulated study of the calibration has (as ``microg power``'s ``--n``): a
+larger one would run for days; the fit needs no more than the data's own groups."""
+
+
 class CalibrationError(ValueError):
     """A calibration that cannot run as asked; the message names the option, file, key and value."""
 
@@ -168,6 +173,10 @@ class CalibrationRequest:
                                      ("--participants", self.participants, 2), ("--check", self.check, 2)):
             if value < least:
                 raise CalibrationError(f"{option} = {value!r}: must be at least {least}")
+        if self.participants > MAX_PARTICIPANTS:
+            raise CalibrationError(f"--participants = {self.participants!r}: simulated studies have at most "
+                                   f"{MAX_PARTICIPANTS} participants per group (without --participants, the data's "
+                                   "smallest group sets it: give --participants N)")
         if not self.free:
             raise CalibrationError("--fit: free at least one value")
         if not any(not t.held_out for t in self.targets):

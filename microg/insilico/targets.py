@@ -55,6 +55,9 @@ completed task in a cell): far, but finite, so that every simulated study has a 
 NUMBERS = ("mean", "sd", "ratio", "above", "below", "slope")
 TARGET_KEYS = ("measure", *WHERE, "versus", *NUMBERS, "se", "n", "held_out")
 FILE_KEYS = ("protocol", "source", "n_per_group", "targets")
+MIN_ERROR = 1e-9
+"""The smallest standard error a target may have: a gap in standard errors (``Target.z``) beyond
+1e150 squares to infinity, and no measurement is exact to 1e-9."""
 
 
 class TargetError(ValueError):
@@ -277,6 +280,10 @@ def _entry_targets(entry: dict, at: str, known: dict, n_per_group: int, groups: 
         if error <= 0.0:
             raise TargetError(f"{at}.sd = {entry['sd']!r}: gives a standard error of 0, which would outweigh every "
                               "other number; give se")
+        if error < MIN_ERROR:
+            raise TargetError(f"{at}: a standard error of {error:g} (from {'se' if se is not None else 'sd and n'}) "
+                              f"is below {MIN_ERROR:g}: no data are that exact, and the fit's distance would "
+                              "overflow; give the number's real standard error")
         targets.append(Target(statistic, value, error, held_out, key if key in ("above", "below") else None))
     return targets
 

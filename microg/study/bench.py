@@ -19,12 +19,19 @@ the disk). Reading: the
 checksum against decoding, batch by batch. Opening: ``open_study`` and its ledger check, per ledger
 entry; the full check of ``microg study check``, per MB of frames (in CPU time: on a shared machine
 the wall clock mostly measures the wait for a core).
+The check on open of a study opened for writing (``microg.study.integrity``: what every verb that
+writes runs first), in CPU and wall time: with nothing new since the last check, with one
+participant's session new (the next session's start), and with no record to vouch for the file
+(every batch and SQLite's quick check, as after a change outside microg), also per MB of frames
+and against a 2 GB study; and SQLite's ``quick_check`` and ``integrity_check`` alone, per MB of the
+file. ``study``: the same on a copy of that study too (the demo's: ``microg-demo/study``).
 It lives in the study room because ``microg.bench`` may not import the study.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import sqlite3
 import statistics
 import tempfile
@@ -46,9 +53,78 @@ def _cpu_seconds(action) -> float:
     return _seconds(action, time.process_time)
 
 
+def _both(action) -> tuple[float, float]:
+    """(CPU, wall) seconds of ``action``."""
+    cpu, wall = time.process_time(), time.perf_counter()
+    action()
+    return time.process_time() - cpu, time.perf_counter() - wall
+
+
+GIGABYTES_2 = 2 * 1024
+"""A large study, in MB: what the check on open must stay cheap for."""
+SCALED_FROM_MB = 50
+"""A study with fewer MB of frames is not scaled to 2 GB: its fixed costs (opening, the schema) would be scaled too."""
+
+
+def check_on_open(study_dir: Path, note, label: str, repeats: int, *, one_session: int | None = None) -> None:
+    """Time the check on open for writing of the study in ``study_dir`` (a scratch copy: the checks
+    write its record): without a record, with one that vouches for everything, and, with
+    ``one_session`` (a session id), with one that vouches for all but that session's frames."""
+    from . import integrity, ledger
+    from .store import DATABASE, open_study
+
+    def opened() -> None:
+        open_study(study_dir).close()
+
+    def without_record() -> None:
+        (study_dir / integrity.RECORD).unlink(missing_ok=True)
+        opened()
+
+    with open_study(study_dir, readonly=True) as store:
+        megabytes = store.db.execute("SELECT COALESCE(SUM(length(data)), 0) FROM frames").fetchone()[0] / 1e6
+        entries = store.db.execute("SELECT COUNT(*) FROM ledger").fetchone()[0]
+        before = None if one_session is None else store.db.execute(
+            "SELECT MAX(seq) FROM ledger WHERE seq < (SELECT seq FROM ledger WHERE fact = 'session' AND key = ?)",
+            (ledger.key_text((one_session,)),)).fetchone()[0]
+        link = None if before is None else store.db.execute("SELECT link FROM ledger WHERE seq = ?",
+                                                              (before,)).fetchone()[0].hex()
+        size = (study_dir / DATABASE).stat().st_size / 1e6
+    note(f"{label}: frames", megabytes, "MB")
+    note(f"{label}: ledger entries", entries, "entries")
+    scale = GIGABYTES_2 / megabytes  # a study's ledger grows with its frames, as its blobs do
+    scratch = [_both(without_record) for _ in range(repeats)]
+    cpu, wall = (statistics.median(t) for t in zip(*scratch))
+    note(f"{label}: check on open for writing, no record (every batch, quick check), CPU", 1e3 * cpu, "ms")
+    note(f"{label}: check on open for writing, no record, wall", 1e3 * wall, "ms")
+    if megabytes >= SCALED_FROM_MB:
+        note(f"{label}: the same, CPU, scaled to a 2 GB study", cpu * scale, "s")
+    opened()  # a record that vouches for everything
+    vouched = [_both(opened) for _ in range(repeats)]
+    cpu, wall = (statistics.median(t) for t in zip(*vouched))
+    note(f"{label}: check on open for writing, nothing new since the last check, CPU", 1e3 * cpu, "ms")
+    note(f"{label}: check on open for writing, nothing new since the last check, wall", 1e3 * wall, "ms")
+    if megabytes >= SCALED_FROM_MB:
+        note(f"{label}: the same, CPU, scaled to a 2 GB study", cpu * scale, "s")
+    if before is not None:
+        def one_new() -> None:
+            integrity.write(study_dir, integrity.Record("bench", "open", True, (), f"{before}:{link}",
+                                                        integrity.file_state(study_dir / DATABASE)))
+            opened()
+        new = [_both(one_new) for _ in range(repeats)]
+        cpu, wall = (statistics.median(t) for t in zip(*new))
+        note(f"{label}: check on open for writing, one participant's session new (the next session's start), "
+             "CPU", 1e3 * cpu, "ms")
+        note(f"{label}: the same, wall", 1e3 * wall, "ms")
+    with open_study(study_dir, readonly=True) as store:
+        quick = _cpu_seconds(lambda: store.db.execute("PRAGMA quick_check").fetchall())
+        full = _cpu_seconds(lambda: store.db.execute("PRAGMA integrity_check").fetchall())
+    note(f"{label}: SQLite's quick_check alone, CPU per MB of the file", 1e3 * quick / size, "ms")
+    note(f"{label}: SQLite's integrity_check alone, CPU per MB of the file", 1e3 * full / size, "ms")
+
+
 def run(out: Path, quick: bool = False, say=print, study: Path | None = None) -> pd.DataFrame:
     """Measure (module docstring), write ``out/store.csv`` and return the table. ``study``: measure
-    the codecs on that study's frames."""
+    the codecs and the check on open on that study too."""
     from microg.paths import protocol_file
 
     from . import framelog, ledger
@@ -155,6 +231,11 @@ def run(out: Path, quick: bool = False, say=print, study: Path | None = None) ->
         note("of which the ledger check", statistics.median(checks) / statistics.median(opens), "ratio")
         note("the ledger check, CPU time per 1000 entries", 1e3 * statistics.median(checks) / entries * 1000, "ms")
         note("full check (study check), CPU time per MB of frames", 1e3 * full / megabytes, "ms")
+        check_on_open(study_dir, note, "the two participants' study", 3 if quick else 7, one_session=session.id)
+        if study is not None:
+            copy = Path(folder) / "given"
+            shutil.copytree(study, copy, ignore=shutil.ignore_patterns("locks", "export*", "resimulated"))
+            check_on_open(copy, note, "the study given (--study)", 1 if quick else 3)
     note("load average (1 min) at the end", os.getloadavg()[0], "processes")
     table = pd.DataFrame(rows)
     out.mkdir(parents=True, exist_ok=True)

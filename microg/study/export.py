@@ -321,9 +321,12 @@ def export_study(study_dir: str | Path, out_dir: str | Path, *, formats: tuple[s
     check_output(out_dir, overwrite)
     partial = out_dir.with_name(out_dir.name + PARTIAL)
     with open_study(study_dir, readonly=True, accept_damaged=accept_damaged) as store:
-        for problem in store.problems:
-            say(f"warning: exporting a damaged study: {problem}")
+        if store.damaged_batches and (frames or bids) and not accept_damaged:
+            raise StoreError(_refusal(store, store.damaged_batches[0], out_dir))
         damage = list(framelog.damaged(store.db)) if accept_damaged and (frames or bids) else []
+        for problem in store.problems:
+            if problem not in [p for _, p in damage]:
+                say(f"warning: exporting a damaged study: {problem}")
         for _, problem in damage:
             say(f"warning: left out of the frames and Motion-BIDS: {problem}")
         if partial.exists():
@@ -340,13 +343,18 @@ def export_study(study_dir: str | Path, out_dir: str | Path, *, formats: tuple[s
                              f"was. {'Free space on that disk' if full else 'Fix that'}, then export again") from None
         except framelog.DamagedFramesError as error:
             shutil.rmtree(partial, ignore_errors=True)
-            raise StoreError(f"{store.dir}: {error}. Nothing was exported ({out_dir} is as it was). See every damaged "
-                             f"batch with: microg study check {store.dir}; microg export --accept-damaged exports the "
-                             f"study without the damaged runs' frames, listed in {MANIFEST}") from None
+            raise StoreError(_refusal(store, error, out_dir)) from None
     if out_dir.exists():
         shutil.rmtree(out_dir)
     partial.rename(out_dir)
     return [out_dir / p for p in written]
+
+
+def _refusal(store: Store, damage, out_dir: Path) -> str:
+    """Why an export of frames stopped at a damaged batch, and what to do."""
+    return (f"{store.dir}: {damage}. Nothing was exported ({out_dir} is as it was). See every damaged batch with: "
+            f"microg study check {store.dir}; microg export --accept-damaged exports the study without the damaged "
+            f"runs' frames, listed in {MANIFEST}")
 
 
 def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frames: bool, frames_csv: bool, bids: bool,
@@ -394,7 +402,7 @@ def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frame
     head = ledger.head_of(store.db)
     (folder / MANIFEST).write_text(json.dumps({"study": str(store.dir.resolve()),
                                                "files": [str(p) for p in written],
-                                               "damaged": store.problems + [problem for _, problem in damage],
+                                               "damaged": list(dict.fromkeys(store.problems + [problem for _, problem in damage])),
                                                "frames_left_out": sorted(left_out),
                                                "ledger_head": None if head is None else str(head)}, indent=2))
     return written + [Path(MANIFEST)]

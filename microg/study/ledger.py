@@ -2,9 +2,9 @@
 changes made behind microg's back are found and named.
 
 A fact is a row as it was written (the study, its protocol, a participant's enrolment, a session,
-a planned task, a task run's start, an event, an answer, a frame batch, a station) or the final
-state a row reaches once (a task run's result, a session's end, a participant's withdrawal): ``FACTS``. The
-transaction that commits a fact adds its ledger entry (``seal``): the fact's digest, SHA-256 of its
+a planned task, a task run's start, an event, an answer, a frame batch, a station, a participant
+taken back from a station) or the final state a row reaches once (a task run's result, a session's
+end, a participant's withdrawal): ``FACTS``. The transaction that commits a fact adds its ledger entry (``seal``): the fact's digest, SHA-256 of its
 columns as canonical JSON with the fact's name (a frame batch's digest is its checksum,
 ``framelog.checksum``, which covers its row and its blob), and its link, SHA-256 of the previous
 entry's link and the digest. After each commit that starts or ends something (``Store.transaction``)
@@ -96,6 +96,7 @@ FACTS = (
          ("value", "source", "response_time_s", "t", "wall")),
     Fact("frames", "frames", ("run_id", "first"), ("count", "t_first", "t_last", "checksum"), checksummed=True),
     Fact("station", "stations", ("name",), ("participants", "made_at")),
+    Fact("give_up", "station_give_ups", ("station", "participant"), ("given_up_at", "reason")),
 )
 """Every fact of the store; together they cover every column of every table (a frame batch's blob
 through its checksum)."""
@@ -296,6 +297,7 @@ def describe(db: sqlite3.Connection, fact: Fact, key: tuple) -> str:
                           + (f", about {key[3]})" if key[3] else ")"),
         "frames": lambda: f"frames of {run_name(db, first)}, the batch from frame {key[1]}",
         "station": lambda: f"station {first}",
+        "give_up": lambda: f"participant {key[1]} taken back from station {first}",
     }
     try:
         return names[fact.name]()

@@ -685,7 +685,7 @@ def _read_scene(top: _Reader) -> tuple[tuple[float, float, float], float | None,
         raise scene.fail(key, options[key], f"the physics would step {steps:g} times a second "
                                             f"(tracking_rate x substeps); at most {MAX_STEP_RATE} run")
     filter_window = scene.integer("filter_window", FILTER_WINDOW, maximum=MAX_FILTER_WINDOW)
-    jump_distance = scene.number("jump_distance", GuardConfig.jump_distance, unit="m")
+    jump_distance = scene.number("jump_distance", GuardConfig.jump_distance, unit=" (m)", maximum=MAX_DISTANCE)
     scene.done()
     return gravity, None if table_height is None else float(table_height), options, filter_window, jump_distance
 

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass
 from typing import Callable, NamedTuple, Protocol as Interface
 
-from microg.instruments import Instrument, Item
+from microg.instruments import NUMBER, Instrument, Item
 
 from .protocol import Phase, Protocol
 
@@ -104,6 +104,8 @@ def parse_answer(question: Question, text: str) -> float | int | str:
         except ValueError:
             raise RatingError(f"{answer!r} is not one of the choices: {expected(question)}") from None
     try:
+        if not NUMBER.fullmatch(answer):
+            raise ValueError(answer)
         number = int(answer) if item.response.whole else float(answer)
     except ValueError:
         kind = "a whole number" if item.response.whole else "a number"

@@ -66,6 +66,10 @@ def resimulate(study_dir: str | Path, participants: list[str], *, interaction: s
     study_dir = Path(study_dir)
     target = study_dir / FOLDER / label
     with open_study(study_dir, readonly=True) as original:
+        if original.damaged_batches:
+            raise StoreError(f"{study_dir}: the study is damaged:\n" + "\n".join(
+                f"  - {p}" for p in original.damaged_batches) + f"\nNothing was re-simulated. See: microg study check "
+                f"{study_dir}")
         protocol = protocol_from_resolved(
             resimulated_protocol(original.protocol.resolved, settings, label), f"{target}")
         store = open_study(target) if (target / "study.db").exists() else create_study(target, protocol, original.seed)

@@ -3,6 +3,7 @@
 -- frames: one row per committed batch of logged frames, encoded by microg.study.framelog, with its checksum.
 -- ledger: one entry per fact committed, in a hash chain (microg.study.ledger).
 -- stations: the stations made from a central study; a station's study holds its own row (microg.study.stations).
+-- station_give_ups: a participant handed to a station and taken back by the central study (microg study station --give-up).
 CREATE TABLE study (
     id INTEGER PRIMARY KEY CHECK (id = 1),
     name TEXT NOT NULL,
@@ -124,6 +125,13 @@ CREATE TABLE stations (
     participants TEXT NOT NULL,
     made_at TEXT NOT NULL
 );
+CREATE TABLE station_give_ups (
+    station TEXT NOT NULL REFERENCES stations(name),
+    participant TEXT NOT NULL REFERENCES participants(id),
+    given_up_at TEXT NOT NULL,
+    reason TEXT,
+    PRIMARY KEY (station, participant)
+);
 CREATE TABLE ledger (
     seq INTEGER PRIMARY KEY,
     fact TEXT NOT NULL,
@@ -167,6 +175,11 @@ CREATE TRIGGER stations_no_update BEFORE UPDATE ON stations
 BEGIN SELECT RAISE(ABORT, 'stations rows are never changed: the log is append-only'); END;
 CREATE TRIGGER stations_no_delete BEFORE DELETE ON stations
 BEGIN SELECT RAISE(ABORT, 'stations rows are never deleted: the log is append-only'); END;
+
+CREATE TRIGGER station_give_ups_no_update BEFORE UPDATE ON station_give_ups
+BEGIN SELECT RAISE(ABORT, 'station_give_ups rows are never changed: the log is append-only'); END;
+CREATE TRIGGER station_give_ups_no_delete BEFORE DELETE ON station_give_ups
+BEGIN SELECT RAISE(ABORT, 'station_give_ups rows are never deleted: the log is append-only'); END;
 
 CREATE TRIGGER ledger_no_update BEFORE UPDATE ON ledger
 BEGIN SELECT RAISE(ABORT, 'ledger rows are never changed: the log is append-only'); END;

@@ -2,6 +2,7 @@
 
     microg study station STUDY --name B --out STATION_DIR [--participant P03 ...]
     microg study merge STUDY STATION_DIR...
+    microg study station STUDY --name B --give-up [--participant P03 ...]
 
 Making a station (``make_station``): the station's study has the central study's protocol (the
 same resolved protocol, so the same SHA-256), its seed, and the enrolment rows of the participants
@@ -26,7 +27,12 @@ Sessions still running at a station are left for a later merge and said so.
 Both sides are checked: a station is opened with the integrity check (a damaged one is refused),
 each of its frame batches is verified against its checksum as it is copied, and the central
 study's check runs on what the merge wrote before it commits. The merge is one transaction: killed
-at any point, it leaves the central study as it was.
+at any point, it leaves the central study as it was; one that another merge (or a session)
+overtook between its plan and its transaction plans again inside it.
+
+A participant handed to a station runs there: the central study refuses to run them
+(``Store.check_runs_here``) until the station gives them back (``give_up``: a ``station_give_ups``
+row, sealed); a merge then leaves the station's sessions and withdrawals of them out, naming them.
 """
 
 from __future__ import annotations
@@ -70,7 +76,8 @@ class Station:
 @dataclass
 class StationMerge:
     """What a merge did with one station: participants whose sessions it merged now, had merged
-    before (the same), left for later (still running at the station), and withdrawals it carried."""
+    before (the same), left for later (still running at the station), withdrawals it carried, and
+    participants taken back from the station (``give_up``) whose session or withdrawal there it left out."""
 
     station: str
     folder: Path
@@ -78,12 +85,18 @@ class StationMerge:
     already: list[str] = field(default_factory=list)
     running: list[str] = field(default_factory=list)
     withdrawn: list[str] = field(default_factory=list)
+    given_up: list[str] = field(default_factory=list)
 
 
 def stations(db: sqlite3.Connection) -> list[Station]:
     """The stations a study records, by name (a station's own study records itself)."""
     return [Station(r[0], tuple(json.loads(r[1])), r[2])
             for r in db.execute("SELECT name, participants, made_at FROM stations ORDER BY name")]
+
+
+def given_up(db: sqlite3.Connection, name: str) -> dict[str, str]:
+    """The participants taken back from station ``name`` (``give_up``) -> when."""
+    return dict(db.execute("SELECT participant, given_up_at FROM station_give_ups WHERE station = ?", (name,)))
 
 
 def _insert_station(db: sqlite3.Connection, station: Station) -> None:
@@ -118,7 +131,7 @@ def make_station(central: Store, name: str, *, out_dir: str | Path, participants
                          "name is used once: choose another")
     if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
         raise FileExistsError(f"{out_dir} exists and is not an empty folder; a station's study is made in a new one")
-    given = {pid: s.name for s in made.values() for pid in s.participants}
+    given = {pid: s.name for s in made.values() for pid in set(s.participants) - set(given_up(central.db, s.name))}
     if participants:
         chosen = _chosen(central, participants)
         for pid in chosen:
@@ -187,6 +200,51 @@ def _session_station(db: sqlite3.Connection, session_id: int) -> tuple[str | Non
     return tuple(db.execute("SELECT station, merged_at FROM sessions WHERE id = ?", (session_id,)).fetchone())
 
 
+# ---------------------------------------------------------------- taking participants back
+
+
+def give_up(central: Store, name: str, participants: Sequence[str] = (), reason: str | None = None) -> list[str]:
+    """Take back from station ``name`` the ``participants`` (default: every one of its participants
+    whose session was not merged from it and who was not taken back before): the central study may
+    run them (or hand them to another station), and a merge of the station leaves its sessions and
+    withdrawals of them out, naming them. A participant whose session was merged from the station
+    stays merged; one named that was not the station's, was merged or was taken back before is
+    refused. Returns the participants taken back."""
+    if central.station is not None:
+        raise StoreError(f"{central.dir} is station {central.station}'s study; a station is given up in the central "
+                         "study that made it")
+    made = {s.name: s for s in stations(central.db)}
+    if name not in made:
+        raise StoreError(f"--name {name!r}: study {central.name!r} made no station {name!r} (its stations: "
+                         f"{', '.join(made) or 'none'})")
+    station = made[name]
+    back = given_up(central.db, name)
+    merged = dict(central.db.execute("SELECT participant_id, merged_at FROM sessions WHERE station = ?", (name,)))
+    why = {pid: f"{pid}'s session was merged from station {name} on {merged[pid]}: it stays in the study"
+           for pid in station.participants if pid in merged}
+    why |= {pid: f"{pid} was taken back from station {name} on {back[pid]}" for pid in station.participants
+            if pid in back}
+    if participants:
+        for pid in dict.fromkeys(participants):
+            if pid not in station.participants:
+                raise ParticipantError(f"--participant {pid}: not one of station {name}'s participants "
+                                       f"({', '.join(station.participants)})")
+            if pid in why:
+                raise StoreError(f"--participant {pid}: {why[pid]}; nothing was given up")
+        chosen = list(dict.fromkeys(participants))
+    else:
+        chosen = [pid for pid in station.participants if pid not in why]
+        if not chosen:
+            raise StoreError(f"station {name}: nothing to give up: " + "; ".join(why.values()))
+    when = utc_now()
+    with central.transaction() as db:
+        for pid in chosen:
+            db.execute("INSERT INTO station_give_ups (station, participant, given_up_at, reason) VALUES (?, ?, ?, ?)",
+                       (name, pid, when, reason))
+            ledger.seal(db, "give_up", name, pid)
+    return chosen
+
+
 # ---------------------------------------------------------------- merging
 
 
@@ -246,16 +304,22 @@ def merge_stations(central: Store, folders: Sequence[str | Path]) -> list[Statio
         sides = []
         for folder in folders:
             try:
-                sides.append(stack.enter_context(open_study(folder, readonly=True)))
+                side = stack.enter_context(open_study(folder, readonly=True))
             except StoreError as error:
                 raise StoreError(f"{error}\nNothing was merged into {central.dir}.") from None
-        plans, conflicts = _plan(central, sides)
-        if conflicts:
-            raise MergeConflict(central.dir, conflicts)
+            if side.damaged_batches:
+                raise StoreError(f"{folder}: the station's study is damaged:\n"
+                                 + "\n".join(f"  - {p}" for p in side.damaged_batches)
+                                 + f"\nNothing was merged into {central.dir}. See: microg study check {folder}")
+            sides.append(side)
+        planned = ledger.head_of(central.db)
+        plans = _plan_or_refuse(central, sides)
         if not any(plan.sessions or plan.outcome.withdrawn for plan in plans):
             return [plan.outcome for plan in plans]
         merged_at = utc_now()
         with central.transaction() as db:
+            if ledger.head_of(db) != planned:  # another merge or a session committed meanwhile: plan again, now
+                plans = _plan_or_refuse(central, sides)
             for plan in plans:
                 for pid in plan.outcome.withdrawn:
                     withdrawn_at, reason = plan.side.db.execute(
@@ -274,6 +338,14 @@ def merge_stations(central: Store, folders: Sequence[str | Path]) -> list[Statio
                 raise StoreError(f"{central.dir}: the merged study would not be sound, so nothing was merged:\n"
                                  + "\n".join(f"  - {p}" for p in problems))
     return [plan.outcome for plan in plans]
+
+
+def _plan_or_refuse(central: Store, sides: list[Store]) -> list[_Plan]:
+    """``_plan``, or ``MergeConflict`` listing its conflicts."""
+    plans, conflicts = _plan(central, sides)
+    if conflicts:
+        raise MergeConflict(central.dir, conflicts)
+    return plans
 
 
 def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
@@ -301,7 +373,12 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
             continue
         plan = _Plan(side, StationMerge(side.station, side.dir))
         plans.append(plan)
+        back = given_up(central.db, side.station)
         for person in side.participants():
+            if person.id in back:
+                if person.status == "withdrawn":
+                    plan.outcome.given_up.append(person.id)
+                continue
             enrolled = _enrolment(central.db, person.id)
             if enrolled is None:
                 conflicts.append(f"{where}: participant {person.id} is not in the central study's roster")
@@ -314,6 +391,10 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
                 plan.outcome.withdrawn.append(person.id)
         for session in (side.session(r[0]) for r in side.db.execute("SELECT id FROM sessions ORDER BY id")):
             pid = session.participant_id
+            if pid in back:
+                if pid not in plan.outcome.given_up:
+                    plan.outcome.given_up.append(pid)
+                continue
             if session.status == "running":
                 plan.outcome.running.append(pid)
                 continue

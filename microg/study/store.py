@@ -24,13 +24,16 @@ Every statement goes through ``StudyConnection``, so a database that is locked b
 ``StoreError`` that says what happened and what to do, never in a half-written step. Opening a
 study checks its integrity (``check_integrity``: the append-only triggers are there, the stored
 protocol matches its SHA-256, finished task runs have their frames and events, participant ids map
-one-to-one onto BIDS labels) and refuses a damaged study unless the caller accepts it.
+one-to-one onto BIDS labels; and the frame batches new since the last check, ``integrity``) and
+refuses a damaged study unless the caller accepts it: every verb that writes opens the study so,
+and none writes into a damaged one.
 """
 
 from __future__ import annotations
 
 import datetime
 import fcntl
+import functools
 import hashlib
 import json
 import re
@@ -39,7 +42,7 @@ import platform
 import sqlite3
 import sys
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Iterator, Sequence
 
@@ -47,16 +50,17 @@ import numpy as np
 
 from microg import __version__
 
-from . import framelog, ledger
+from . import framelog, integrity, ledger
 from .assignment import Enrolled, Participant, ParticipantError, assign_group, assign_order, check_participant
 from .protocol import Protocol, canonical_json, protocol_from_resolved
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 SCHEMA_CHANGES = {
     5: "every committed fact is in the ledger's hash chain",
     6: "sessions keep the station that ran them (microg.study.stations)",
     7: "each answer names its instrument and administration and keeps its response time (issue 22)",
+    8: "participants handed to a station can be taken back (station_give_ups, issue 45)",
 }
 """What each schema version changed, for the message that refuses an older study."""
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
@@ -94,8 +98,9 @@ def database_error(error: sqlite3.Error, path: Path | str) -> StoreError:
                           "before it is kept. Free space on that disk, then run the command again (a session "
                           "carries on with: microg session resume)")
     if code in (sqlite3.SQLITE_NOTADB, sqlite3.SQLITE_CORRUPT):
-        return StoreError(f"{path}: the study database is damaged ({error}); keep a copy of the study folder and see "
-                          "what is wrong with: microg study check")
+        return StoreError(f"{path}: the study database is damaged ({error}); nothing more was written. Keep a copy of "
+                          f"the study folder as it is and see what is wrong with: microg study check "
+                          f"{Path(path).parent}; to carry on, restore the study from a copy made before the damage")
     if code == sqlite3.SQLITE_READONLY:
         return StoreError(f"{path}: the study database cannot be written ({error}); check the permissions of the "
                           "file and its folder")
@@ -266,27 +271,41 @@ def _connect(path: Path, readonly: bool = False) -> StudyConnection:
 class Store:
     """An open study database. Create with ``create_study``, open with ``open_study``."""
 
-    def __init__(self, study_dir: Path, connection: StudyConnection, problems: list[str] = ()):
+    def __init__(self, study_dir: Path, connection: StudyConnection, problems: list[str] = (), *,
+                 damaged_batches: list[str] = (), checked: integrity.Record | None = None):
         self.dir = study_dir
         self.db = connection
         self.problems = list(problems)
         """What the integrity check on open found (empty for a sound study)."""
+        self.damaged_batches = list(damaged_batches)
+        """Those of ``problems`` that are frame batches failing their checksums: a study opened read
+        only is read with them (``open_study``), and only a read of those batches fails."""
+        self._checked = checked
+        """The check on open of a study opened for writing, recorded again with the file as it is left (``close``)."""
         self._locks: dict[int, int] = {}
-        row = self.db.execute("SELECT s.name, s.seed, s.station, p.resolved FROM study s "
-                              "JOIN protocols p ON p.id = s.protocol_id").fetchone()
-        where = study_dir / DATABASE
+        row = self.db.execute("SELECT name, seed, station FROM study").fetchone()
         if row is None:
-            raise StoreError(f"{where}: the study row or its protocol is missing; see: microg study check {study_dir}")
+            raise StoreError(f"{study_dir / DATABASE}: the study row is missing; see: microg study check {study_dir}")
         self.name: str = row["name"]
         self.seed: int = row["seed"]
         self.station: str | None = row["station"]
         """The station's name in a station's study (``microg.study.stations``), else None."""
-        try:
-            resolved = json.loads(row["resolved"])
-        except (TypeError, ValueError) as error:
-            raise StoreError(f"{where}: the stored protocol is not readable JSON ({error}); see: microg study check "
-                             f"{study_dir}") from None
-        self.protocol: Protocol = protocol_from_resolved(resolved, str(where))
+
+    @functools.cached_property
+    def protocol(self) -> Protocol:
+        """The study's protocol as stored. One changed after the study was made is refused as such,
+        naming the hash recorded and the hash found, before anything of its content is read (its
+        values could send the researcher to mend a protocol file that is fine)."""
+        where = self.dir / DATABASE
+        row = self.db.execute("SELECT p.id, p.resolved FROM study s JOIN protocols p ON p.id = s.protocol_id").fetchone()
+        if row is None:
+            raise StoreError(f"{where}: the study's protocol is missing; see: microg study check {self.dir}")
+        changed = protocol_change(self.db, row["id"])
+        if changed is not None:
+            raise StoreError(f"{where}: {changed}. Nothing was changed; the protocol file the study was made from is "
+                             f"not at fault. See: microg study check {self.dir}; restore the study folder from a copy "
+                             "made before the change to carry on")
+        return protocol_from_resolved(json.loads(row["resolved"]), str(where))
 
     # ------------------------------------------------------------ plumbing
 
@@ -320,10 +339,17 @@ class Store:
         self.db.execute(f"PRAGMA synchronous = {'NORMAL' if simulated else 'FULL'}")
 
     def close(self) -> None:
+        """Close the database; a study opened for writing records its check again with the file as
+        this process leaves it (``microg.study.integrity``), unless a later check found damage."""
         for fd in self._locks.values():
             os.close(fd)
         self._locks.clear()
         self.db.close()
+        checked, self._checked = self._checked, None
+        if checked is not None and checked.sound:
+            last = integrity.read(self.dir)
+            if last is None or last.sound:
+                integrity.write(self.dir, replace(checked, file=integrity.file_state(self.dir / DATABASE)))
 
     def __enter__(self) -> Store:
         return self
@@ -443,6 +469,28 @@ class Store:
     def participants(self) -> list[ParticipantRecord]:
         return [self._participant(r) for r in self.db.execute("SELECT * FROM participants ORDER BY number")]
 
+    def station_holding(self, participant_id: str) -> tuple[str, str] | None:
+        """(name, made_at) of the station the central study handed the participant to and did not take
+        them back from (``microg.study.stations``); None in a station's own study, which runs them."""
+        if self.station is not None:
+            return None
+        row = self.db.execute("""
+            SELECT s.name, s.made_at FROM stations s, json_each(s.participants) p WHERE p.value = ?
+              AND NOT EXISTS (SELECT 1 FROM station_give_ups g WHERE g.station = s.name AND g.participant = p.value)
+            ORDER BY s.made_at DESC LIMIT 1""", (participant_id,)).fetchone()
+        return None if row is None else (row[0], row[1])
+
+    def check_runs_here(self, participant_id: str) -> None:
+        """Refuse to run a participant handed to a station (``station_holding``): a session of theirs
+        here would clash with the station's at the merge, after the person's time was spent."""
+        held = self.station_holding(participant_id)
+        if held is not None:
+            name, made_at = held
+            raise StoreError(f"participant {participant_id} was handed to station {name} on {made_at} (microg study "
+                             f"station): their session runs there and comes back with: microg study merge {self.dir} "
+                             f"STATION_DIR. To run them here instead, take them back from the station first: microg "
+                             f"study station {self.dir} --name {name} --give-up --participant {participant_id}")
+
     # ------------------------------------------------------------ sessions
 
     def create_session(self, participant_id: str, *, input_spec: str, simulated: bool, clock: str,
@@ -457,6 +505,7 @@ class Store:
             raise StoreError(f"participant {participant_id} already has session {existing.id} ({existing.status}); "
                              + ("continue it with: microg session resume" if existing.status == "running"
                                 else "a session is never run twice"))
+        self.check_runs_here(participant_id)
         protocol_id = self.db.execute("SELECT protocol_id FROM study").fetchone()[0]
         seed = derived_seed(self.seed, record.number)
         with self.transaction() as db:
@@ -699,9 +748,14 @@ def create_study(study_dir: str | Path, protocol: Protocol, seed: int, station: 
 
 
 def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged: bool = False) -> Store:
-    """The study in ``study_dir``, after the integrity check (``check_integrity``). A damaged study
-    raises ``DamagedStudyError`` unless ``accept_damaged``; ``Store.problems`` lists what is wrong.
-    ``readonly``: never write into the database (status, check, export, the view)."""
+    """The study in ``study_dir``, after the check on open: ``check_integrity`` and the frame
+    batches new since the last check (``microg.study.integrity``; every batch and SQLite's quick
+    check when the file changed outside microg), whose result is recorded beside the study.
+    ``Store.problems`` lists what is wrong. A damaged study raises ``DamagedStudyError`` unless
+    ``accept_damaged``: for writing, whatever the damage (every verb that writes opens the study
+    this way, so none writes into a damaged one); ``readonly`` (never write into the database:
+    status, check, export, the view), a study whose only damage is frame batches failing their
+    checksums is opened, with them in ``Store.damaged_batches`` for the reader to say so."""
     study_dir = Path(study_dir)
     path = study_dir / DATABASE
     if not path.exists():
@@ -722,6 +776,7 @@ def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged:
                          "published data set, a read-only mount), and this command writes into the study. Copy the "
                          "study folder to a writable place to carry on there; reading works as it is (microg study "
                          "status, study check, export, report, view)")
+    state = integrity.file_state(path)  # before connecting: a connection makes the write-ahead log
     connection = _connect(path, readonly)
     try:
         try:
@@ -743,13 +798,33 @@ def open_study(study_dir: str | Path, *, readonly: bool = False, accept_damaged:
             raise StoreError(f"{path}: schema version {None if row is None else row[0]}, this microg "
                              f"{__version__} reads {SCHEMA_VERSION}" + (f" (since then, {'; '.join(since)}); read "
                              "the study with the microg that wrote it" if since else ""))
-        problems = check_integrity(connection, study_dir)
-        if problems and not accept_damaged:
+        record = integrity.read(study_dir)
+        keep = not archived(path)  # an archive keeps no record: nothing may be written beside it
+        try:
+            problems = check_integrity(connection, study_dir)
+            try:
+                frames = integrity.verify_frames(connection, integrity.vouched(connection, record, state))
+            except sqlite3.Error as error:
+                raise database_error(error, path) from None
+        except StoreError as error:  # SQLite cannot read the file
+            if keep:
+                integrity.write(study_dir, integrity.Record(utc_now(), "open", False, (str(error),)))
+            raise
+        found = problems + frames.pages + frames.batches
+        checked = integrity.Record(utc_now(), "open", not found, tuple(found),
+                                   None if frames.batches or frames.verified is None else str(frames.verified), state)
+        if keep:
+            integrity.write(study_dir, checked)
+        refused = problems + frames.pages if readonly else found
+        if refused and not accept_damaged:
             raise DamagedStudyError(
-                f"{path}: the study is damaged:\n" + "\n".join(f"  - {p}" for p in problems)
-                + f"\nNothing was changed. See the full check with: microg study check {study_dir}; an export "
-                  "that knows it is damaged: microg export --accept-damaged", problems)
-        return Store(study_dir, connection, problems)
+                f"{path}: the study is damaged:\n" + "\n".join(f"  - {p}" for p in found)
+                + f"\nNothing was changed. See the full check with: microg study check {study_dir}. Keep the study "
+                  "folder as it is; to carry on, restore it from a copy made before the damage (check the copy "
+                  "with microg study check first); an export that knows it is damaged: microg export "
+                  "--accept-damaged", found)
+        return Store(study_dir, connection, found, damaged_batches=frames.batches,
+                     checked=None if readonly else checked)
     except BaseException:
         connection.close()
         raise
@@ -804,15 +879,10 @@ def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, *, fu
             elif _squeeze(present[name]) != _squeeze(sql):
                 problems.append(f"trigger {name} differs from the one microg wrote: the log may no longer be "
                                 "protected against changes")
-        for row in db.execute("SELECT id, sha256, resolved FROM protocols"):
-            try:
-                digest = hashlib.sha256(canonical_json(json.loads(row[2])).encode()).hexdigest()
-            except (TypeError, ValueError):
-                digest = "(not readable JSON)"
-            if digest != row[1]:
-                problems.append(f"protocols row {row[0]}: the stored protocol does not match its sha256 = "
-                                f"{row[1][:12]}... (it hashes to {digest[:12]}...): it was changed after the study "
-                                "was created")
+        for (protocol_id,) in db.execute("SELECT id FROM protocols").fetchall():
+            changed = protocol_change(db, protocol_id, against_ledger=False)  # the ledger's check names that
+            if changed is not None:
+                problems.append(changed)
         for row in db.execute("""
                 SELECT r.id, r.session_id, r.task_index, r.run, r.status, r.reason, r.frames, r.time_s, r.attempts,
                        (SELECT e.data FROM events e WHERE e.run_id = r.id AND e.kind = 'task_end') AS ended,
@@ -857,6 +927,41 @@ def check_integrity(db: sqlite3.Connection, study_dir: Path | None = None, *, fu
     finally:
         if snapshot:
             db.execute("COMMIT")
+    return problems
+
+
+def protocol_change(db: sqlite3.Connection, protocol_id: int, *, against_ledger: bool = True) -> str | None:
+    """How the stored protocol ``protocol_id`` was changed after the study was made, or None: its
+    text no longer hashes to its recorded SHA-256, or (``against_ledger``; the hash rewritten with
+    it) its row no longer matches its ledger entry."""
+    fact = ledger.FACT["protocol"]
+    row = tuple(db.execute(fact.select_one(), (protocol_id,)).fetchone())
+    sha256, resolved = row[2], row[3]
+    try:
+        found = hashlib.sha256(canonical_json(json.loads(resolved)).encode()).hexdigest()
+    except (TypeError, ValueError):
+        found = None
+    if found != sha256:
+        return (f"protocols row {protocol_id}: the stored protocol was changed after the study was made: its "
+                f"recorded sha256 is {sha256}, " + (f"its text now hashes to {found}" if found else
+                                                   "its text is no longer readable JSON"))
+    entry = db.execute("SELECT seq, digest FROM ledger WHERE fact = ? AND key = ?",
+                       (fact.name, ledger.key_text((protocol_id,)))).fetchone() if against_ledger else None
+    if entry is not None and bytes(entry[1]) != ledger.digest(fact, row):
+        return (f"protocols row {protocol_id}: the stored protocol was changed after the study was made: it no longer "
+                f"matches ledger entry {entry[0]} (its recorded sha256, now {sha256}, was rewritten with it)")
+    return None
+
+
+def check_study(store: Store, heads: Sequence[tuple[ledger.Head, str]] = ()) -> list[str]:
+    """``microg study check``: the full check (``check_integrity``, ``full``), recorded beside the
+    study as its last check (``microg.study.integrity``; an archive keeps no record)."""
+    state = integrity.file_state(store.dir / DATABASE)
+    head = ledger.head_of(store.db)  # before the check's snapshot: every batch up to it is in what is checked
+    problems = check_integrity(store.db, store.dir, full=True, heads=heads)
+    if not archived(store.dir / DATABASE):
+        integrity.write(store.dir, integrity.Record(utc_now(), "full", not problems, tuple(problems),
+                                                    None if problems or head is None else str(head), state))
     return problems
 
 

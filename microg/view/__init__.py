@@ -31,10 +31,10 @@ def serve(*args, **kwargs):
 def export_task(study_dir: str | Path, session: str, task_index: int, out: str | Path, *, run: int | None = None,
                 hands: str = "rendered", seconds: tuple[float, ...] = (), size: tuple[int, int] = (480, 360),
                 fps: float = 15.0, speed: float = 1.0, title: bool = True, overwrite: bool = False,
-                progress: bool = True) -> Path:
+                progress: bool = True, say=print) -> Path:
     """Pictures of one task run: an image strip (``out`` .png, .pdf, .svg) of its key moments, or
     of the frames at ``seconds`` into the task; or an animation (.gif, .webp). An existing ``out``
-    is replaced only with ``overwrite``."""
+    is replaced only with ``overwrite``. ``say`` gets a warning line for each problem of a damaged study."""
     from .picture import ANIMATION_FORMATS, STRIP_FORMATS, write_animation, write_strip
 
     out = Path(out)
@@ -49,6 +49,8 @@ def export_task(study_dir: str | Path, session: str, task_index: int, out: str |
     if out.exists() and not overwrite:
         raise FileExistsError(f"{out} exists; choose another --out or pass --overwrite")
     with open_readonly(study_dir) as store:
+        for problem in store.problems:
+            say(f"warning: the study is damaged: {problem}")
         record = find_session(store, session)
         if record is None:
             raise ValueError(f"--session {session}: participant {session} has no session yet")

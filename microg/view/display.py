@@ -40,9 +40,12 @@ from __future__ import annotations
 
 import asyncio
 import collections
+import errno
 import json
+import logging
 import math
 import mimetypes
+import os
 import queue
 import secrets
 import threading
@@ -67,6 +70,29 @@ ANSWER_POLL_S = 0.25
 """While waiting for an answer, the display hands on the page's events this often (s)."""
 DRAWN_KEPT = 3600
 """Drawn-frame reports kept: the last minute at 60 Hz."""
+
+
+class DisplayError(RuntimeError):
+    """The participant's page cannot be served where it was asked to be; the message says why and what to do."""
+
+
+class _QuietHandshakes(logging.Filter):
+    """Drops websockets' records of a connection that ended before it spoke HTTP (a browser's
+    preconnection it never used, a page refusing the certificate, a port scanner, garbage on the
+    port): logged as errors with their tracebacks, they would flood the researcher's terminal, and
+    nothing is wrong with the session. Any other record goes on."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        from websockets.exceptions import InvalidHandshake
+
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, (InvalidHandshake, EOFError, OSError, TimeoutError))
+
+
+SERVER_LOG = logging.getLogger(__name__)
+"""The page server's log (websockets'), without the records of connections that ended unspoken."""
+HANDSHAKES = _QuietHandshakes()
+SERVER_LOG.addFilter(HANDSHAKES)
 
 
 def now_ms() -> float:
@@ -112,6 +138,8 @@ class ParticipantDisplay:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._changed: asyncio.Condition | None = None
         self._started = threading.Event()
+        self._failed: OSError | None = None
+        """Why the server could not start (an address or port it cannot have), for ``start`` to say."""
         self._stop: asyncio.Event | None = None
         self._thread: threading.Thread | None = None
         self._clients = 0
@@ -138,9 +166,19 @@ class ParticipantDisplay:
         self._thread = threading.Thread(target=self._serve, name="participant-display", daemon=True)
         self._thread.start()
         self._started.wait()
+        if self._failed is not None:
+            error = self._failed
+            hint = {errno.EADDRINUSE: f"another program serves port {self._port} there: give another --port (0: a "
+                                      "free one)",
+                    errno.EADDRNOTAVAIL: f"{self.host} is not an address of this machine: give --host one of its own "
+                                         "(ip address lists them)",
+                    errno.EACCES: f"port {self._port} needs privileges: give a --port above 1023 (0: a free one)"}
+            raise DisplayError(f"cannot serve the participant's page at {self.host}:{self._port} "
+                               f"({os.strerror(error.errno) if error.errno else error}): "
+                               + hint.get(error.errno, "check --host and --port"))
 
     def close(self) -> None:
-        if self._loop is not None and self._stop is not None:
+        if self._loop is not None and self._stop is not None and self._failed is None:
             self._loop.call_soon_threadsafe(self._stop.set)
         if self._thread is not None:
             self._thread.join(timeout=10)
@@ -341,7 +379,13 @@ class ParticipantDisplay:
             self._wake()
 
     def _serve(self) -> None:
-        asyncio.run(self._main())
+        try:
+            asyncio.run(self._main())
+        except OSError as error:
+            if self._started.is_set():
+                raise
+            self._failed = error  # the address or port cannot be had: start says so
+            self._started.set()
 
     async def _main(self) -> None:
         from websockets.asyncio.server import serve
@@ -349,7 +393,7 @@ class ParticipantDisplay:
         self._stop = asyncio.Event()
         self._loop = asyncio.get_running_loop()
         async with serve(self._connection, self.host, self._port, process_request=self._http, ssl=self._tls,
-                         origins=None, compression=None, max_size=2 ** 20) as server:
+                         origins=None, compression=None, max_size=2 ** 20, logger=SERVER_LOG) as server:
             self._port = server.sockets[0].getsockname()[1]
             self._started.set()
             await self._stop.wait()

@@ -115,13 +115,18 @@ def study_certificate(folder: str | Path, host: str) -> Certificate:
     folder = Path(folder)
     cert, key = folder / CERT_FILE, folder / KEY_FILE
     earlier: tuple[str, ...] = ()
+    existing = None
     why = f"made a certificate for {host} in {folder}"
     if cert.exists() and key.exists():
         try:
             existing = x509.load_pem_x509_certificate(cert.read_bytes())
+            private = _private_key(key)
         except (ValueError, OSError):
-            why = f"made a new certificate in {folder}: the one there could not be read"
+            existing, why = None, f"made a new certificate in {folder}: the one there could not be read"
         else:
+            if not _pair(existing, private):
+                existing, why = None, f"made a new certificate in {folder}: {KEY_FILE} there was not its key"
+        if existing is not None:
             earlier = names_of(existing)
             expires = existing.not_valid_after_utc
             if covers(earlier, host) and expires - _now() > datetime.timedelta(days=RENEW_DAYS):
@@ -182,12 +187,10 @@ def lab_certificate(cert: str | Path, key: str | Path, host: str) -> Certificate
     except (ValueError, OSError) as error:
         raise CertificateError(f"--cert {cert}: not a readable PEM certificate ({error})") from None
     try:
-        private = serialization.load_pem_private_key(key.read_bytes(), password=None)
-    except (ValueError, TypeError, OSError) as error:
-        raise CertificateError(f"--key {key}: not a readable PEM private key without a passphrase ({error})") from None
-    spki = serialization.PublicFormat.SubjectPublicKeyInfo
-    if (private.public_key().public_bytes(serialization.Encoding.DER, spki)
-            != certificate.public_key().public_bytes(serialization.Encoding.DER, spki)):
+        private = _private_key(key)
+    except (ValueError, OSError) as error:
+        raise CertificateError(f"--key {key}: {error}") from None
+    if not _pair(certificate, private):
         raise CertificateError(f"--key {key} is not the key of --cert {cert}")
     names = names_of(certificate)
     if not covers(names, host):
@@ -195,4 +198,22 @@ def lab_certificate(cert: str | Path, key: str | Path, host: str) -> Certificate
                                f"browser would refuse it; make one that names {host} (e.g. mkcert {host})")
     if certificate.not_valid_after_utc <= _now():
         raise CertificateError(f"--cert {cert} expired on {certificate.not_valid_after_utc:%Y-%m-%d}")
+    if certificate.not_valid_before_utc > _now():
+        raise CertificateError(f"--cert {cert} is valid only from {certificate.not_valid_before_utc:%Y-%m-%d %H:%M} "
+                               "UTC: the browser would refuse it (is this machine's clock right?)")
     return Certificate(cert, key, names, fingerprint(certificate))
+
+
+def _private_key(key: Path):
+    """The private key in the PEM file ``key``; ValueError saying why it cannot be read."""
+    try:
+        return serialization.load_pem_private_key(key.read_bytes(), password=None)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"not a readable PEM private key without a passphrase ({error})") from None
+
+
+def _pair(certificate, private) -> bool:
+    """Whether ``private`` is the key of ``certificate``."""
+    spki = serialization.PublicFormat.SubjectPublicKeyInfo
+    return (private.public_key().public_bytes(serialization.Encoding.DER, spki)
+            == certificate.public_key().public_bytes(serialization.Encoding.DER, spki))

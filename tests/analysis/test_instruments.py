@@ -164,3 +164,30 @@ def test_an_unknown_instrument_name_lists_the_shipped_ones():
     with pytest.raises(InstrumentError, match=r"no instrument 'ssq2': shipped instruments are \['ipq', 'paper'"):
         load_instrument("ssq2")
     assert (INSTRUMENTS / "ssq.toml").is_file()
+
+
+def test_a_duplicate_item_among_many_is_named_without_the_whole_list(tmp_path):
+    """An instrument of 20,000 items with one id twice: the message names the id and shows the list's
+    start, not 20,000 ids (the check reads the list once)."""
+    items = "".join(f'[[items]]\nid = "c{k}"\ntext = "Item {k}"\n\n' for k in range(20_000))
+    text = MINE.split("[[items]]")[0] + items + '[[items]]\nid = "c7"\ntext = "Again"\n'
+    with pytest.raises(InstrumentError) as error:
+        load_instrument(instrument(tmp_path, text))
+    message = str(error.value)
+    assert "item id 'c7' appears twice" in message and "... 20001 in all" in message and len(message) < 500
+
+
+@pytest.mark.parametrize("typed", ["1_0", "nan", "inf", "0x3", "3e400", "--3"])
+def test_an_answer_python_would_read_as_a_number_but_nobody_writes_so_is_refused(typed):
+    from microg.study.questionnaire import RatingError, parse_answer, questions
+    from microg.study.protocol import load_protocol
+    from tests.study.conftest import PROTOCOLS
+
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    question = next(q for phase in protocol.timeline if phase.instruments for q in questions(protocol, phase))
+    assert question.item.response.describe() == "0-10"
+    with pytest.raises(RatingError, match="is not a whole number"):
+        parse_answer(question, typed)
+    with pytest.raises(ValueError, match="is not a number on the scale 0-10"):
+        question.item.read(typed)
+    assert parse_answer(question, " ７ ") == 7  # a digit of another script is a digit

@@ -139,6 +139,8 @@ def test_a_filling_in_is_scored_per_administration_and_interaction_model():
     ({"instrument": "ssq9"}, "column 'instrument' value 'ssq9' (data row 1): no instrument 'ssq9'"),
     ({"item": "ssq02"}, "participant 'P1' answered ssq item ssq02 twice"),
     ({"value": ""}, "participant 'P1', ssq item ssq01: the value is empty"),
+    ({"value": "1_0"}, "participant 'P1', ssq item ssq01: value '1_0' is not a number on the scale 0-3"),
+    ({"value": "0x2"}, "participant 'P1', ssq item ssq01: value '0x2' is not a number on the scale 0-3"),
 ])
 def test_bad_answers_are_refused_naming_participant_item_and_value(tmp_path, change, message):
     answers = pd.DataFrame({"participant": "P1", "instrument": "ssq", "item": SSQ, "value": "1"})
@@ -171,3 +173,19 @@ def test_a_researchers_own_instrument_is_scored_from_its_file(tmp_path):
     assert result.exit_code == 0, result.output
     # (80 + (100 - 30)) / 2
     assert pd.read_csv(tmp_path / "out" / "scores.csv").score.tolist() == [75.0]
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-8-sig", "latin-1"])
+def test_an_answers_table_in_another_encoding_is_read_or_refused_naming_it(tmp_path, encoding):
+    """A spreadsheet's "Unicode text" (UTF-16 with its mark) and UTF-8 with a mark read as UTF-8
+    does; any other encoding is refused saying to save the table as UTF-8."""
+    answers = pd.DataFrame({"participant": "Pé1", "instrument": "ssq", "item": SSQ, "value": "1"})
+    path = tmp_path / "answers.csv"
+    path.write_bytes(answers.to_csv(index=False).encode(encoding))
+    result = CliRunner().invoke(main, ["questionnaire", "score", str(path), "--out", str(tmp_path / "out")])
+    if encoding == "latin-1":
+        assert result.exit_code == 1 and f"Error: {path}: not UTF-8 text" in result.output, result.output
+        assert "save the table as UTF-8" in result.output and not (tmp_path / "out").exists()
+    else:
+        assert result.exit_code == 0, result.output
+        assert pd.read_csv(tmp_path / "out" / "scores.csv")["participant"].unique().tolist() == ["Pé1"]

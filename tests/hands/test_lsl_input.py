@@ -13,6 +13,7 @@ from microg.hands.lsl import CHANNELS, STREAM_TYPE, describe_channels, frame_of,
 from microg.study.export import run_frames, trials_table
 from microg.study.inputs import open_inputs, participant_plan
 from microg.study.session import SimulationClock, run_session
+from microg.study.store import open_study
 
 from tests.study.conftest import make_study  # noqa: F401  (the fixture)
 from tests.study.scripted import RATE, ScriptedPinch, pinch_keyframes
@@ -72,3 +73,67 @@ def test_a_hand_stream_published_on_lsl_drives_a_session(make_study):  # noqa: F
     first = published[0].hands[0]
     columns = [f"right_index_proximal_base_{a}" for a in "xyz"]
     assert np.array_equal(logged[columns].iloc[0].to_numpy(dtype=float), first.joints[1, 1])
+
+
+def stream(name: str):
+    info = pylsl.StreamInfo(name, STREAM_TYPE, len(CHANNELS), RATE, "double64", f"{name}-source")
+    describe_channels(info)
+    return pylsl.StreamOutlet(info)
+
+
+def test_a_stream_that_stops_sending_ends_its_source_with_a_clear_error():
+    """An input that never comes: a stream found but silent, or one that stops after some frames,
+    ends the source naming the stream (a session then stops and says how to resume), never a wait
+    without end."""
+    from microg.hands.lsl import LslInputError, LslSource
+
+    outlet = stream("microg-test-silent")
+    source = LslSource("microg-test-silent", frame_timeout=0.3, start_timeout=0.5)
+    try:
+        with pytest.raises(LslInputError, match="no sample from LSL stream 'microg-test-silent' for 0.5 s since it "
+                                                "was found: is its tracker publishing frames"):
+            source.next_frame()
+        outlet.push_sample(sample_of(HandFrame(0.0, (probe_hand({"index.distal": (0.0, 0.2, 0.0)}),))))
+        assert source.next_frame() is not None
+        with pytest.raises(LslInputError, match="for 0.3 s: did the tracker or its bridge stop publishing"):
+            source.next_frame()
+    finally:
+        source.close()
+    del outlet
+
+
+def test_a_session_whose_stream_stops_says_so_and_how_to_resume(make_study):  # noqa: F811
+    """The session's command ends with the stream's error and how to resume, no traceback; the run
+    cut off is kept, marked interrupted, and the study checks sound."""
+    from click.testing import CliRunner
+
+    from microg.cli import main
+
+    store, _ = make_study("tiny")
+    outlet = stream("microg-test-stopping")
+    task = store.tasks(store.create_session("P01", input_spec="lsl:microg-test-stopping", simulated=False,
+                                            clock="wall").id)[0]
+    store.close()  # the session below opens the study itself; a new session would be refused: it has one
+
+    def publish():
+        if outlet.wait_for_consumers(WAIT_S):
+            source = ScriptedPinch(pinch_keyframes(participant_plan(store.protocol, task)))
+            t0 = pylsl.local_clock()
+            for _ in range(30):  # then nothing more
+                frame = source.next_frame()
+                outlet.push_sample(sample_of(frame), t0 + frame.timestamp)
+
+    thread = threading.Thread(target=publish, daemon=True)
+    thread.start()
+    result = CliRunner().invoke(main, ["session", "resume", str(store.dir), "--participant", "P01",
+                                       "--no-display", "--questionnaire", "skip", "--quiet"], input="\n" * 20)
+    joined(thread, "the hand stream's publisher")
+    assert result.exit_code == 1 and "Traceback" not in result.output, result.output
+    assert "session 1 of P01 stopped: no sample from LSL stream 'microg-test-stopping' for 2 s" in result.output
+    assert f"microg session resume {store.dir} --participant P01" in result.output
+    with open_study(store.dir, readonly=True) as again:
+        run = again.runs(1)[-1]
+        assert run.status == "interrupted" and again.db.execute(
+            "SELECT frames FROM task_runs WHERE id = ?", (run.id,)).fetchone()[0] == 30
+    check = CliRunner().invoke(main, ["study", "check", str(store.dir)])
+    assert check.exit_code == 0, check.output

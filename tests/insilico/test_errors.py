@@ -60,6 +60,10 @@ def test_a_profile_with_a_negative_sd(tmp_path):
     ('measure = "time_s"\nn = 1\nmean = 10.0\nsd = 2.0', "targets[0].n = 1: an SD between people needs at least two"),
     ('measure = "time_s"\nn = 2.5\nmean = 10.0\nsd = 2.0', "targets[0].n = 2.5: must be a whole number"),
     ('measure = "time_s"\nmean = 10.0\nsd = 0.0', "targets[0].sd = 0.0: gives a standard error of 0"),
+    ('measure = "time_s"\nmean = 10.0\nse = 1e-300', "targets[0]: a standard error of 1e-300 (from se) is below "
+                                                     "1e-09: no data are that exact"),
+    ('measure = "time_s"\nn = 1e30\nmean = 10.0\nsd = 1e-5', "targets[0]: a standard error of 1e-20 (from "
+                                                             "sd and n) is below 1e-09"),
     ('measure = "completed"\nmean = 1.5\nse = 0.1', "targets[0].mean = 1.5: a share of tasks completed lies from 0"),
     ('measure = "time_s"\nmean = 10.0\nsd = 2.0\n[[targets]]\nmeasure = "time_s"\nmean = 20.0\nse = 1.0',
      "targets[1]: time_s.mean[] is given already by targets[0]; give each number once"),
@@ -139,3 +143,16 @@ def test_a_folder_that_is_no_study(tmp_path):
     assert f"no study in {tmp_path / 'nothing'}" in output
     assert "--protocol: a study is simulated with its own protocol" in calibrate(
         tmp_path / "nothing", "--protocol", "paper", "--out", tmp_path / "out.toml")
+
+
+def test_a_simulated_group_larger_than_a_study_can_run_is_refused_before_anything_runs(tmp_path):
+    """n_per_group of a published study of a billion people (or --participants as large) would set
+    the simulated studies' groups; they are refused naming the option, and nothing is written."""
+    targets = tmp_path / "targets.toml"
+    targets.write_text(TARGET.replace("n_per_group = 4", "n_per_group = 1000000000"))
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--out", tmp_path / "fit" / "out.toml")
+    assert "--participants = 1000000000: simulated studies have at most 1000 participants per group" in output
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--participants", "5000", "--out",
+                       tmp_path / "fit" / "out.toml")
+    assert "--participants = 5000: simulated studies have at most 1000" in output
+    assert not (tmp_path / "fit").exists()

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import re
 import shutil
 import sqlite3
@@ -17,7 +18,7 @@ import pytest
 from click.testing import CliRunner
 
 from microg.cli import main
-from microg.study import ledger, store as store_module
+from microg.study import integrity, ledger, store as store_module
 from microg.study.assignment import Participant
 from microg.study.export import export_study, read_tables, run_frames
 from microg.study.framelog import DamagedFramesError
@@ -58,16 +59,38 @@ def finished(tmp_path_factory) -> Path:
     return folder
 
 
-@pytest.fixture
-def copy(finished, tmp_path):
-    """A fresh copy of the finished study (its database and ledger head)."""
+@pytest.fixture(scope="module")
+def finished_long(tmp_path_factory) -> Path:
+    """The finished study with long frame batches, whose blobs lie mostly on SQLite's overflow pages."""
+    folder = tmp_path_factory.mktemp("integrity-long") / "study"
+    with create_study(folder, load_protocol(PROTOCOLS / "tiny-long-batches.toml"), 1) as store:
+        store.add_participant(Participant("P01", "female", 24, "right", True))
+        session = store.create_session("P01", input_spec="scripted", simulated=True, clock="simulation")
+        run_session(store, session.id, scripted_inputs(), clock=SimulationClock(),
+                    rater=answers("7", "6", "3", "4"))
+    return folder
+
+
+def copier(study: Path, tmp_path: Path):
     def make(name: str = "study") -> Path:
         target = tmp_path / name
         target.mkdir()
         for file in (DATABASE, ledger.HEAD_FILE):
-            shutil.copy2(finished / file, target / file)
+            shutil.copy2(study / file, target / file)
         return target
     return make
+
+
+@pytest.fixture
+def copy(finished, tmp_path):
+    """``copy(name)``: a fresh copy of the finished study (its database and ledger head)."""
+    return copier(finished, tmp_path)
+
+
+@pytest.fixture
+def copy_long(finished_long, tmp_path):
+    """``copy_long(name)``: a fresh copy of the finished study with long frame batches."""
+    return copier(finished_long, tmp_path)
 
 
 def query(study: Path, sql: str, *args):
@@ -413,3 +436,163 @@ def test_overwrite_replaces_an_earlier_export_only(finished, exported, tmp_path)
     assert (mine / "thesis.tex").read_text() == "years of work" and (finished / DATABASE).exists()
     result = cli("export", finished, "--out", exported, "--quiet", "--overwrite", "--no-bids")
     assert result.exit_code == 0 and (exported / "frames.parquet").exists()
+
+
+# ---------------------------------------------------------------- the check before a write (issue 45)
+
+
+def damage_frames_page(study: Path, kind: str) -> None:
+    """Turn 64 bytes of a page of the frames table in the file itself (a failing disk, a bad copy):
+    a ``leaf`` page's last blob bytes before its cell's overflow pointer, or the middle of a full
+    ``overflow`` page (nothing but blob bytes)."""
+    full = " AND payload = pgsize - 4" if kind == "overflow" else ""
+    pages = [p for (p,) in query(study, f"SELECT pageno FROM dbstat WHERE name = 'frames' AND pagetype = ?{full} "
+                                        "ORDER BY pageno", kind)]
+    size = query(study, "PRAGMA page_size")[0][0]
+    at = (pages[len(pages) // 2] - 1) * size + (size - 72 if kind == "leaf" else size // 2)
+    with open(study / DATABASE, "r+b") as stream:
+        stream.seek(at)
+        old = stream.read(64)
+        stream.seek(at)
+        stream.write(bytes(b ^ 0xFF for b in old))
+
+
+DAMAGED_BATCH = re.compile(r"frames of participant P01's session 1, task \d+ \([a-z0-9_]+, [a-z_]+\), run \d+ "
+                           r"\(task run \d+\), the batch from frame \d+ \(\d+ frames\): does not match its checksum")
+
+
+def record(study: Path) -> dict:
+    return json.loads((study / integrity.RECORD).read_text())
+
+
+@pytest.mark.parametrize("kind", ["leaf", "overflow"])
+def test_64_bytes_damaged_in_a_frames_page_stop_every_writer_and_every_reader_says_so(copy_long, tmp_path, kind):
+    """The issue's reproduction, after a writer's check had vouched for the file: every verb that
+    writes refuses naming the batch and what to do, nothing is written, the record beside the study
+    marks the damage; every verb that reads says so on a warning line."""
+    study = copy_long()
+    assert add_p02(study).exit_code == 0
+    assert record(study)["sound"] and record(study)["verified"] and record(study)["file"]
+    damage_frames_page(study, kind)
+    before = sha256(study / DATABASE)
+
+    writers = [cli("participant", "add", study, "--id", "P03", *ADD_P02[4:]),
+               cli("participant", "add-sample", study),
+               cli("participant", "withdraw", study, "--participant", "P02", "--reason", "moved away"),
+               cli("session", "run", study, "--participant", "P02", "--input", "simulated", "--quiet"),
+               cli("session", "resume", study, "--participant", "P01"),
+               cli("study", "station", study, "--name", "B", "--out", tmp_path / "b"),
+               cli("study", "merge", study, tmp_path / "b")]
+    for result in writers:
+        assert result.exit_code == 1 and "the study is damaged" in result.output, result.output
+        assert DAMAGED_BATCH.search(result.output), result.output
+        assert f"microg study check {study}" in result.output and "restore it from a copy" in result.output
+    result = cli("session", "resimulate", study, "--all", "--interaction", "soft_hand", "--quiet")
+    assert result.exit_code == 1 and DAMAGED_BATCH.search(result.output) and "Nothing was re-simulated" \
+        in result.output
+    assert sha256(study / DATABASE) == before and not (study / "resimulated").exists()
+    assert not (tmp_path / "b").exists()
+    mark = record(study)
+    assert not mark["sound"] and mark["verified"] is None and DAMAGED_BATCH.search(mark["problems"][0])
+
+    status = cli("study", "status", study)
+    assert status.exit_code == 0 and DAMAGED_BATCH.search(status.output) and "the study is damaged" in status.output
+    listed = cli("participant", "list", study)
+    assert listed.exit_code == 0 and "P02" in listed.output
+    assert re.search("warning: the study is damaged: " + DAMAGED_BATCH.pattern, listed.output)
+    tables = cli("export", study, "--out", tmp_path / "tables", "--quiet", "--no-frames", "--no-bids")
+    assert tables.exit_code == 0 and re.search("warning: exporting a damaged study: " + DAMAGED_BATCH.pattern,
+                                               tables.output)
+    refused = cli("export", study, "--out", tmp_path / "all", "--quiet")
+    assert refused.exit_code == 1 and "Nothing was exported" in refused.output and not (tmp_path / "all").exists()
+    reported = cli("report", study, "--out", tmp_path / "report")  # one participant: no ANOVA, but the warning
+    assert re.search("warning: the study is damaged: " + DAMAGED_BATCH.pattern, reported.output), reported.output
+    task = query(study, "SELECT task_index FROM tasks ORDER BY task_index LIMIT 1")[0][0]
+    viewed = cli("view", study, "--session", "P01", "--task", task, "--out", tmp_path / "strip.png")
+    assert re.search("warning: the study is damaged: " + DAMAGED_BATCH.pattern, viewed.output), viewed.output
+    assert sha256(study / DATABASE) == before
+
+
+def test_a_study_put_back_from_a_copy_is_found_sound_and_written_again(copy_long):
+    """After the refusal, the study restored from a copy: the next writer's check reads every batch
+    (the record no longer vouches), finds it sound, records it and writes."""
+    study = copy_long()
+    pristine = (study / DATABASE).read_bytes()
+    damage_frames_page(study, "overflow")
+    assert add_p02(study).exit_code == 1 and not record(study)["sound"]
+    (study / DATABASE).write_bytes(pristine)
+    assert add_p02(study).exit_code == 0
+    assert record(study)["sound"] and record(study)["problems"] == []
+    result = cli("study", "check", study)
+    assert result.exit_code == 0 and record(study)["check"] == "full" and record(study)["sound"]
+
+
+def test_the_check_on_open_reads_only_batches_new_since_a_record_that_still_vouches(copy_long):
+    """The record vouches only for the file as microg left it, and for a chain that still holds its
+    entry; then only the batches sealed after that entry are read (a damaged older batch is left to
+    study check), else every batch is."""
+    study = copy_long()
+    assert add_p02(study).exit_code == 0
+    kept = integrity.read(study)
+    database = study / DATABASE
+    enrolled, = query(study, "SELECT seq FROM ledger WHERE fact = 'participant' AND key = '[\"P02\"]'")[0]
+    with open_study(study, readonly=True) as store:  # what the writer verified before it wrote
+        assert integrity.vouched(store.db, kept, integrity.file_state(database)) == enrolled - 1
+        assert integrity.vouched(store.db, None, integrity.file_state(database)) is None
+        unsound = integrity.Record(kept.checked_at, "open", False, ("x",), kept.verified, kept.file)
+        assert integrity.vouched(store.db, unsound, integrity.file_state(database)) is None
+        rewritten = ledger.Head(ledger.head_of(store.db).entry, "0" * 64)
+        other_chain = integrity.Record(kept.checked_at, "open", True, (), str(rewritten), kept.file)
+        assert integrity.vouched(store.db, other_chain, integrity.file_state(database)) is None
+    stat = database.stat()
+    os.utime(database, ns=(stat.st_atime_ns, stat.st_mtime_ns))  # the same times written back: a change all the same
+    with open_study(study, readonly=True) as store:
+        assert integrity.vouched(store.db, kept, integrity.file_state(database)) is None
+
+    damage_frames_page(study, "overflow")
+    with sqlite3.connect(f"file:{database}?mode=ro", uri=True) as db:
+        head = ledger.head_of(db).entry
+        earlier = db.execute("SELECT MIN(seq) FROM ledger WHERE fact = 'frames'").fetchone()[0]
+        assert integrity.verify_frames(db, head).batches == []  # nothing new since the head
+        assert DAMAGED_BATCH.search(integrity.verify_frames(db, earlier - 1).batches[0])
+        whole = integrity.verify_frames(db, None)
+        assert whole.everything and len(whole.batches) == 1 and DAMAGED_BATCH.search(whole.batches[0])
+    db.close()
+
+
+FORGED_HOLD = ("DROP TRIGGER protocols_no_update",
+               "UPDATE protocols SET resolved = replace(resolved, '\"hold_s\":0.5', '\"hold_s\":9')")
+
+
+@pytest.mark.parametrize("rehash", [False, True], ids=["text", "text-and-hash"])
+def test_a_stored_protocol_changed_after_the_study_was_made_is_named_before_its_content(copy, tmp_path, rehash):
+    """The stored protocol's hold_s edited to a value its own validation refuses (the triggers dropped
+    and put back; with ``rehash`` its sha256 column recomputed too): every verb names the change and
+    the hashes, never the protocol's content, which would send the researcher to a file that is fine."""
+    study = copy()
+    recorded = query(study, "SELECT sha256 FROM protocols")[0][0]
+    forge(study, *FORGED_HOLD, trigger("protocols_no_update"))
+    resolved = query(study, "SELECT resolved FROM protocols")[0][0]
+    found = hashlib.sha256(json.dumps(json.loads(resolved), sort_keys=True, separators=(",", ":")).encode()
+                           ).hexdigest()
+    assert '"hold_s":9' in resolved and found != recorded
+    if rehash:
+        forge(study, "DROP TRIGGER protocols_no_update", ("UPDATE protocols SET sha256 = ?", (found,)),
+              trigger("protocols_no_update"))
+        named = ["protocols row 1", "no longer matches ledger entry 1"]  # the ledger's word, or the store's
+    else:
+        named = [f"the stored protocol was changed after the study was made: its recorded sha256 is {recorded}, "
+                 f"its text now hashes to {found}"]
+    verbs = [("participant", "add", study, "--id", "P03", *ADD_P02[4:]),
+             ("session", "run", study, "--participant", "P02", "--input", "simulated"),
+             ("session", "resume", study, "--participant", "P01"),
+             ("study", "status", study), ("study", "check", study), ("participant", "list", study),
+             ("export", study, "--out", tmp_path / "out", "--accept-damaged", "--quiet"),
+             ("view", study, "--session", "P01", "--task", "0", "--out", tmp_path / "strip.png"),
+             ("report", study, "--out", tmp_path / "report")]
+    for verb in verbs:
+        result = cli(*verb)
+        assert result.exit_code == 1, (verb, result.output)
+        assert all(name in result.output for name in named), (verb, result.output)
+        assert "hold_s = 9" not in result.output and "timeout_s" not in result.output, (verb, result.output)
+    assert not (tmp_path / "out").exists() and not (tmp_path / "strip.png").exists()

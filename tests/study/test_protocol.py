@@ -136,6 +136,10 @@ BAD = [
     ("timeout_s = 90.0", "timeout_s = 5.0",
      ["training.timeout_s = 5.0", "must exceed the 3 holds of task.hold_s = 9 s"]),
     ("tasks = 4", "tasks = 5", ["'training'", "minutes = 6", "5 x training.timeout_s = 7.5 minutes"]),
+    ("tracking_rate = 110.0", "tracking_rate = 110.0\njump_distance = 1e9",
+     ["scene.jump_distance = 1000000000.0", "must be at most 10 (m)"]),  # a guard that never sees a jump
+    ("tracking_rate = 110.0", "tracking_rate = 110.0\njump_distance = -0.1",
+     ["scene.jump_distance = -0.1", "must be a positive number (m)"]),
 ]
 
 

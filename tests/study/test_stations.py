@@ -23,7 +23,7 @@ from microg.study.assignment import Participant
 from microg.study.export import export_study
 from microg.study.protocol import load_protocol
 from microg.study.session import SimulationClock, run_session
-from microg.study.store import DATABASE, create_study, open_study
+from microg.study.store import DATABASE, StoreError, create_study, open_study
 
 from .conftest import PROTOCOLS, scripted_inputs
 
@@ -222,3 +222,83 @@ def test_a_merge_killed_with_sigkill_leaves_the_central_study_as_it_was(lab, tmp
     assert "sound" in ok("study", "check", central)
     said = ok("study", "merge", central, lab["a"], lab["b"])
     assert "merged 2 session(s) (P01, P02)" in said and "merged 2 session(s) (P03, P04)" in said
+
+
+def test_a_participant_handed_to_a_station_runs_there_until_the_station_gives_them_back(tmp_path):
+    """The central study refuses to run a participant handed to a station, naming the station and
+    how to take them back; giving the station up takes back only who was not merged, refuses the
+    rest by name, and a later merge leaves the station's sessions of those taken back out."""
+    central = enrolled(tmp_path / "central")
+    ok("study", "station", central, "--name", "B", "--out", tmp_path / "b", "--participant", "P03",
+       "--participant", "P04")
+    before = state(central)
+    for verb in (["session", "run", central, "--participant", "P03", "--input", "simulated"],
+                 ["session", "run", central, "--participant", "P04", "--input", "replay:nothing.json"]):
+        refused = cli(*verb)
+        assert refused.exit_code == 1 and "participant " + verb[4] + " was handed to station B on 20" in refused.output
+        assert f"microg study station {central} --name B --give-up --participant {verb[4]}" in refused.output
+    with open_study(central) as store, pytest.raises(StoreError, match="P03 was handed to station B"):
+        store.create_session("P03", input_spec="scripted", simulated=True, clock="simulation")
+    assert state(central) == before
+
+    run_scripted(tmp_path / "b", "P03")  # P03's session ends at the station; P04's is cut off after it started
+    with open_study(tmp_path / "b") as store:
+        store.create_session("P04", input_spec="scripted", simulated=True, clock="simulation")
+    said = ok("study", "merge", central, tmp_path / "b")
+    assert "merged 1 session(s) (P03)" in said and "still running at the station, not merged: P04" in said
+
+    for args, refusal in ((["--participant", "P03"], "P03's session was merged from station B on 20"),
+                          (["--participant", "P01"], "--participant P01: not one of station B's participants"),
+                          (["--name", "Z"], "made no station 'Z' (its stations: B)")):
+        named = ["--name", "B", *args] if args[0] != "--name" else args
+        refused = cli("study", "station", central, *named, "--give-up")
+        assert refused.exit_code == 1 and refusal in refused.output, refused.output
+    said = ok("study", "station", central, "--name", "B", "--give-up", "--reason", "the station's tracker broke")
+    assert "took P04 back from station B" in said
+    again = cli("study", "station", central, "--name", "B", "--give-up")
+    assert again.exit_code == 1 and "nothing to give up" in again.output and "P04 was taken back from station B" \
+        in again.output
+    assert "taken back: P04" in ok("study", "status", central)
+
+    run_scripted(central, "P04")  # now it runs here
+    with open_study(tmp_path / "b") as store:  # and the station finishes its own session of P04 all the same
+        run_session(store, store.session_of("P04").id, scripted_inputs(), clock=SimulationClock())
+    merged = state(central)
+    said = ok("study", "merge", central, tmp_path / "b")
+    assert "merged 0 session(s); 1 merged before, unchanged (P03)" in said
+    assert "taken back from the station (study station --give-up), not merged: P04" in said
+    assert state(central) == merged and "sound" in ok("study", "check", central)
+    with open_study(central, readonly=True) as store:
+        assert [tuple(r) for r in store.db.execute("SELECT participant_id, station FROM sessions ORDER BY id")] == [
+            ("P03", "B"), ("P04", None)]
+
+    ok("study", "station", central, "--name", "C", "--out", tmp_path / "c")  # everyone left: P01, P02
+    said = cli("session", "run", central, "--all", "--input", "simulated", "--quiet")
+    assert said.exit_code == 0 and "left out P01: handed to station C" in said.output
+    assert "left out P02: handed to station C" in said.output and "ran 0 session(s)" in said.output
+
+
+def test_a_merge_overtaken_by_another_plans_again_and_merges_nothing_twice(tmp_path, monkeypatch):
+    """Two merges of one station at once: the second waits for the first's transaction, then finds
+    what the first merged (before, it failed on the database's uniqueness of a participant's session)."""
+    from microg.study import stations
+
+    central = enrolled(tmp_path / "central")
+    ok("study", "station", central, "--name", "B", "--out", tmp_path / "b", "--participant", "P03")
+    run_scripted(tmp_path / "b", "P03")
+    planned, overtaken = stations._plan, []
+
+    def overtaking(central_store, sides):
+        plan = planned(central_store, sides)
+        if not overtaken:  # the other merge commits between this merge's plan and its transaction
+            overtaken.append(None)
+            overtaken[0] = ok("study", "merge", central, tmp_path / "b")
+        return plan
+
+    monkeypatch.setattr(stations, "_plan", overtaking)
+    said = ok("study", "merge", central, tmp_path / "b")
+    assert "merged 1 session(s) (P03)" in overtaken[0]
+    assert "merged 0 session(s); 1 merged before, unchanged (P03)" in said
+    with open_study(central, readonly=True) as store:
+        assert store.db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0] == 1
+    assert "sound" in ok("study", "check", central)

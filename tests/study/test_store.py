@@ -209,7 +209,7 @@ TRIGGER = "CREATE TRIGGER protocols_no_update BEFORE UPDATE ON protocols\n" \
       "BEGIN SELECT 1; END"], "trigger events_while_running differs from the one microg wrote"),
     (["DROP TRIGGER protocols_no_update",
       "UPDATE protocols SET resolved = replace(resolved, '\"hold_s\":0.5', '\"hold_s\":0.4')", TRIGGER],
-     "protocols row 1: the stored protocol does not match its sha256"),
+     "protocols row 1: the stored protocol was changed after the study was made: its recorded sha256 is "),
 ])
 def test_dropped_triggers_and_a_changed_protocol_are_found_on_open(make_study, statements, problem):
     store, _ = make_study("tiny")

@@ -10,6 +10,7 @@ import datetime
 import hashlib
 import ipaddress
 import os
+import sqlite3
 import ssl
 import stat
 import subprocess
@@ -243,3 +244,134 @@ def test_the_studys_certificate_is_kept_and_made_anew_only_for_an_address_it_doe
     assert study_certificate(tmp_path, LAN).fingerprint == moved.fingerprint
     with pytest.raises(ValueError, match="give it a certificate"):
         ParticipantDisplay(load_protocol(PROTOCOLS / "tiny.toml"), host=LAN)
+
+
+def started_or_refused(display: ParticipantDisplay):
+    """What ``display.start()`` did, in a thread the test waits for with a bound: "started", or the error."""
+    import threading
+
+    from tests.waiting import joined
+
+    outcome = []
+
+    def start():
+        try:
+            display.start()
+            outcome.append("started")
+        except Exception as error:  # noqa: BLE001 (the test looks at it)
+            outcome.append(error)
+
+    thread = threading.Thread(target=start, daemon=True)
+    thread.start()
+    joined(thread, "the participant page's server to start or refuse")
+    return outcome[0]
+
+
+def test_a_page_address_or_port_that_cannot_be_had_is_refused_not_waited_for(tmp_path):
+    """A --port another program serves, a --host that is not this machine's: the page says so
+    (before this, the session waited for the server's start for ever)."""
+    import socket
+
+    from microg.view.display import DisplayError
+
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        refused = started_or_refused(ParticipantDisplay(protocol, port=port))
+        assert isinstance(refused, DisplayError)
+        assert str(refused).startswith(f"cannot serve the participant's page at 127.0.0.1:{port} (Address already "
+                                       "in use): another program serves port")
+    elsewhere = "192.0.2.7"  # TEST-NET-1: never an address of this machine; nothing is sent anywhere
+    refused = started_or_refused(ParticipantDisplay(protocol, host=elsewhere,
+                                                    certificate=study_certificate(tmp_path / "tls", elsewhere)))
+    assert isinstance(refused, DisplayError) and f"{elsewhere} is not an address of this machine" in str(refused)
+
+
+def test_connections_that_end_before_speaking_http_leave_no_traceback(tmp_path, capsys, monkeypatch):
+    """A browser's unused preconnection, a request cut off, garbage over TLS: the server logs them,
+    its log drops them (they would print tracebacks into the session's terminal), the page works on."""
+    import socket
+    import threading
+
+    from microg.view import display as display_module
+    from tests.waiting import wait_until
+
+    seen, lock = [], threading.Lock()
+    drop = display_module.HANDSHAKES.filter
+
+    def noting(record):
+        kept = drop(record)
+        with lock:
+            seen.append((record.getMessage(), kept))
+        return kept
+
+    monkeypatch.setattr(display_module.HANDSHAKES, "filter", noting)
+    protocol = load_protocol(PROTOCOLS / "tiny.toml")
+    certificate = study_certificate(tmp_path / "tls", LAN)
+    context = ssl.create_default_context(cafile=str(certificate.cert))
+    with ParticipantDisplay(protocol, host=LAN, certificate=certificate) as display:
+        for payload in (b"", b"GET / HTT", b"\x00\xff" * 600):
+            with socket.create_connection((LAN, display.port), timeout=WORK_S) as raw:
+                with context.wrap_socket(raw, server_hostname=LAN) as tls:
+                    tls.sendall(payload)
+        with socket.create_connection(("127.0.0.2", display.port), timeout=WORK_S):
+            pass  # a connection closed before its TLS handshake
+        wait_until(lambda: len(seen) >= 3, "the server's records of the three connections that spoke no HTTP",
+                   seen=lambda: seen, timeout=WORK_S)
+        own = f"https://{LAN}:{display.port}"
+        assert answer(f"wss://{LAN}:{display.port}/ws?token={display.token}", own, context) == 101
+    assert all(not kept for _, kept in seen), seen
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_a_broken_key_of_the_studys_certificate_is_made_anew_and_a_labs_certificate_not_yet_valid_is_refused(
+        tmp_path):
+    first = study_certificate(tmp_path, LAN)
+    (tmp_path / "key.pem").write_text("-----BEGIN PRIVATE KEY-----\nbroken\n-----END PRIVATE KEY-----\n")
+    again = study_certificate(tmp_path, LAN)
+    assert again.note.startswith(f"made a new certificate in {tmp_path}: the one there could not be read")
+    again.context()  # it serves
+    other = study_certificate(tmp_path / "other", LAN)
+    (tmp_path / "key.pem").write_bytes((tmp_path / "other" / "key.pem").read_bytes())  # another pair's key
+    third = study_certificate(tmp_path, LAN)
+    assert third.note.startswith(f"made a new certificate in {tmp_path}: key.pem there was not its key")
+    assert len({first.fingerprint, again.fingerprint, third.fingerprint, other.fingerprint}) == 4
+    third.context()
+
+    _, cert, key = authority(tmp_path / "lab", [LAN])
+    key_object = serialization.load_pem_private_key(key.read_bytes(), password=None)
+    later = datetime.datetime.now(datetime.timezone.utc) + datetime.timedelta(days=2)
+    issued = x509.load_pem_x509_certificate(cert.read_bytes())
+    early = (x509.CertificateBuilder().subject_name(issued.subject).issuer_name(issued.subject)
+             .public_key(key_object.public_key()).serial_number(x509.random_serial_number())
+             .not_valid_before(later).not_valid_after(later + datetime.timedelta(days=30))
+             .add_extension(x509.SubjectAlternativeName([x509.IPAddress(ipaddress.ip_address(LAN))]), critical=False)
+             .sign(key_object, hashes.SHA256()))
+    cert.write_bytes(early.public_bytes(serialization.Encoding.PEM))
+    with pytest.raises(CertificateError, match=f"--cert {cert} is valid only from .* UTC: the browser would refuse"):
+        lab_certificate(cert, key, LAN)
+
+
+def test_a_session_whose_page_cannot_be_served_there_says_so_and_writes_nothing(tmp_path):
+    import socket
+
+    from tests.waiting import ended
+
+    study = new_study(tmp_path / "study")
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        child = subprocess.Popen([sys.executable, "-c", "from microg.cli import main; main()", "session", "run",
+                                  str(study), "--participant", "P01", "--input", "webxr", "--port", str(port),
+                                  "--quiet"], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                 stderr=subprocess.STDOUT, text=True)
+        assert ended(child, "the session refusing the taken port") == 1
+        said = child.stdout.read()
+    assert "Traceback" not in said and f"Error: cannot serve the participant's page at 127.0.0.1:{port}" in said
+    assert "another program serves port" in said
+    with sqlite3.connect(f"file:{study / 'study.db'}?mode=ro", uri=True) as db:
+        assert db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0] == 0
+    db.close()
