@@ -6,15 +6,15 @@ window filter, the physics, the kind's rules, respawn), its simulated participan
 ``play_tasks`` plays many tasks side by side through the same code: the tasks of one kind on worlds
 of one compiled step (one interaction model, with or without meshes) are lanes of one ``Lanes``,
 ``BATCH`` at a time, each frame keeping only its time. Python sees the batch once per task's end,
-where the next task takes the finished one's lane. The outcome of each task is what a session's
-run records (status, completion time, attempts, the kind's measures) and every frame's time, from
-which the session clock is rebuilt exactly as a session advances it.
+where the next task takes the finished one's lane. The result of each task is what a session's
+run records (``microg.task.TaskResult``: status, completion time, attempts, the kind's measures) with
+every frame's time, from which the session clock is rebuilt exactly as a session advances it.
 """
 
 from __future__ import annotations
 
 import multiprocessing
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from microg.participant.runner import Players, run
 from microg.participant.skill import SkillProfile
 from microg.sim import make_world
 from microg.study.protocol import Protocol
-from microg.task import COMPLETED, KINDS, Lanes
+from microg.task import KINDS, Lanes, TaskResult
 
 BATCH = 32
 """Tasks played side by side at most (per kind and compiled step)."""
@@ -47,27 +47,14 @@ class TaskUnit:
     object_name: str
 
 
-@dataclass(frozen=True)
-class Outcome:
-    """How a task played out: ``completed``, ``timeout`` or ``aborted`` (the participant gave no
-    more frames), its completion time and attempts (as the task's rules count them), its kind's own
-    measures (of a finished task), and the time of every frame (s, the participant's clock)."""
-
-    status: str
-    time_s: float | None
-    attempts: int
-    frame_times: np.ndarray
-    measures: dict = field(default_factory=dict)
-
-
-def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers: int = 1) -> list[Outcome]:
+def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers: int = 1) -> list[TaskResult]:
     """Play every task of ``units`` (a task's world is the protocol's scene of its object, interaction
-    model and kind); the outcomes in the order of ``units``. ``progress(done)`` is told the number of
+    model and kind); the results in the order of ``units``. ``progress(done)`` is told the number of
     tasks finished as they finish. With ``workers`` > 1 the tasks are dealt out in turn into
     ``SHARES_PER_WORKER`` shares per worker, each with a like share of every batch, which as many
-    processes take as they come free (each task's outcome depends on its own seed only; a task's
+    processes take as they come free (each task's result depends on its own seed only; a task's
     length is not known before it is played, so shares even out the load)."""
-    outcomes: list[Outcome | None] = [None] * len(units)
+    results: list[TaskResult | None] = [None] * len(units)
     if workers > 1 and len(units) > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -79,23 +66,23 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
             futures = {pool.submit(play_tasks, protocol, [units[i] for i in share]): share for share in shares}
             done = 0
             for future in as_completed(futures):
-                for i, outcome in zip(futures[future], future.result()):
-                    outcomes[i] = outcome
+                for i, result in zip(futures[future], future.result()):
+                    results[i] = result
                 done += len(futures[future])
                 if progress is not None:
                     progress(done)
-        return outcomes
+        return results
     batches: dict[tuple, list[int]] = {}
     for i, unit in enumerate(units):
         batches.setdefault(_batch_key(protocol, unit), []).append(i)
     done = 0
     for indices in batches.values():
-        for i, outcome in _play_batch(protocol, [units[i] for i in indices]):
-            outcomes[indices[i]] = outcome
+        for i, result in _play_batch(protocol, [units[i] for i in indices]):
+            results[indices[i]] = result
             done += 1
             if progress is not None:
                 progress(done)
-    return outcomes
+    return results
 
 
 def _batch_key(protocol: Protocol, unit: TaskUnit) -> tuple:
@@ -126,41 +113,32 @@ def _lanes(protocol: Protocol, units: list[TaskUnit], size: int) -> tuple[Lanes,
     return lanes, Players(kind, size)
 
 
-def _load(lanes: Lanes, players: Players, slot: int, protocol: Protocol, unit: TaskUnit) -> None:
-    lanes.load(slot, _world(protocol, unit), unit.plan.rules)
-    players.load(slot, unit.plan, unit.skill, unit.seed, time_limit_s=unit.time_limit_s)
+def _load(lanes: Lanes, players: Players, lane: int, protocol: Protocol, unit: TaskUnit) -> None:
+    lanes.load(lane, _world(protocol, unit), unit.plan.rules)
+    players.load(lane, unit.plan, unit.skill, unit.seed, time_limit_s=unit.time_limit_s)
 
 
 def _play_batch(protocol: Protocol, units: list[TaskUnit]):
     """The tasks of one kind and compiled step, ``BATCH`` at a time; yields (index in ``units``,
-    outcome) as each ends."""
+    result) as each ends."""
     size = min(BATCH, len(units))
     lanes, players = _lanes(protocol, units, size)
     queue = list(range(len(units)))
-    slots = [-1] * size
-    for slot in range(size):
-        slots[slot] = queue.pop(0)
-        _load(lanes, players, slot, protocol, units[slots[slot]])
-    while any(index >= 0 for index in slots):
+    playing = [-1] * size  # which unit each lane plays (-1: none)
+    for lane in range(size):
+        playing[lane] = queue.pop(0)
+        _load(lanes, players, lane, protocol, units[playing[lane]])
+    while any(index >= 0 for index in playing):
         run(lanes, players, lanes.times.shape[1])
-        for slot in np.flatnonzero(players.ended):
-            yield slots[slot], _outcome(lanes, slot)
-            players.ended[slot] = False
+        for lane in np.flatnonzero(players.ended):
+            n = int(lanes.n_frames[lane])
+            yield playing[lane], lanes.result(lane, n, lanes.times[lane, :n].copy())
+            players.ended[lane] = False
             if queue:
-                slots[slot] = queue.pop(0)
-                _load(lanes, players, slot, protocol, units[slots[slot]])
+                playing[lane] = queue.pop(0)
+                _load(lanes, players, lane, protocol, units[playing[lane]])
             else:
-                slots[slot] = -1
-
-
-def _outcome(lanes: Lanes, slot: int) -> Outcome:
-    state = lanes.state(slot)
-    times = lanes.times[slot, :lanes.n_frames[slot]].copy()
-    if state.stage == COMPLETED:
-        return Outcome("completed", state.completion_time, state.attempts, times, lanes.kind.measured(state.record))
-    if state.finished:
-        return Outcome("timeout", None, state.attempts, times, lanes.kind.measured(state.record))
-    return Outcome("aborted", None, state.attempts, times)
+                playing[lane] = -1
 
 
 def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:

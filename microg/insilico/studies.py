@@ -105,18 +105,18 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
             units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
             played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))
         sessions.append((session, played))
-    outcomes = iter(play_tasks(protocol, units, workers=workers))
+    results = iter(play_tasks(protocol, units, workers=workers))
     for session, played in sessions:
         clock = SimulationClock()
         for task, seed, source in played:
-            outcome = next(outcomes)
+            result = next(results)
             run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
-            times = outcome.frame_times
+            times = result.frame_times
             clock.elapse_each(np.diff(times))
             reason = {"completed": None, "timeout": timeout_reason(protocol.rules(task.phase)),
-                      "aborted": f"the hand source ({source}) ended before the task did"}[outcome.status]
-            measured = [Event(clock.now(), "measures", {"kind": task_kind, **outcome.measures})
-                        for task_kind in [protocol.kind(task.phase)] if outcome.measures]
-            store.end_run(run_id, outcome.status, clock.now(), time_s=outcome.time_s, attempts=outcome.attempts,
+                      "aborted": f"the hand source ({source}) ended before the task did"}[result.status]
+            measured = [Event(clock.now(), "measures", {"kind": task_kind, **result.measures})
+                        for task_kind in [protocol.kind(task.phase)] if result.measures]
+            store.end_run(run_id, result.status, clock.now(), time_s=result.time_s, attempts=result.attempts,
                           reason=reason, events=measured + [Event(clock.now(), "in_silico", {"frames": len(times)})])
         store.finish_session(session.id, clock.now())

@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 from numba.typed import List
 
-from microg.sim.compiled import specialised
+from microg.sim.compiled import entry_point, specialised
 from microg.skeleton import HANDS, SIDES
 from microg.task import COMPLETED, TIMEOUT, Kind, Lanes, frame_path
 
@@ -52,6 +52,8 @@ class Players:
         self.over = np.array([i in final for i in range(len(kind.stages))])
         self.loose = np.array([stage.loose for stage in kind.stages])
         self.release = np.array([stage.release for stage in kind.stages])
+        self.run = None
+        """The compiled runner for these players' lanes (``run``), once called."""
 
     def load(self, b: int, plan: TaskPlan, skill: SkillProfile, seed: int, timing: FrameTiming = MEASURED_TIMING,
              noise: TrackingNoiseLevels = MEASURED_NOISE, time_limit_s: float = 300.0) -> None:
@@ -165,4 +167,7 @@ def runner(kind: Kind, effects: frozenset[str], meshes: bool):
 def run(lanes: Lanes, players: Players, until: int, stop_on_events: bool = False) -> None:
     """Play ``lanes`` with ``players`` until a lane ends, a lane keeps ``until`` frames, or (with
     ``stop_on_events``) a frame made events."""
-    runner(lanes.kind, lanes.effects, lanes.meshes)(lanes.arrays(), players.arrays(), until, stop_on_events)
+    args = (lanes.arrays(), players.arrays(), until, stop_on_events)
+    if players.run is None:
+        players.run = entry_point(runner(lanes.kind, lanes.effects, lanes.meshes), args)
+    players.run(*args)

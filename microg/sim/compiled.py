@@ -12,7 +12,8 @@ reads, so that nobody writes an offset by hand:
   attributes of a class (read on first access).
 - ``specialised`` composes compiled functions into one: a function made from a template with the
   functions it calls as globals of their own names, so that numba's disk cache keys it (it
-  cannot key a function that closes over a compiled one).
+  cannot key a function that closes over a compiled one); ``entry_point`` calls such a function
+  without numba's dispatch, for a loop that calls it with arguments of the same types again and again.
 
 Recipe:
 
@@ -33,7 +34,7 @@ from collections import namedtuple
 from typing import Callable, NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, typeof, types
 from numba.core import cgutils
 from numba.core.registry import CPUDispatcher
 from numba.experimental import structref
@@ -216,6 +217,14 @@ def attach(cls: type, names, read: Callable) -> None:
     """Give ``cls`` an attribute per name, ``read(instance, name)`` on first access (``_Kept``)."""
     for name in names:
         setattr(cls, name, _Kept(name, read))
+
+
+def entry_point(function, args: tuple) -> Callable:
+    """The compiled code of ``function`` for arguments of the types of ``args``, to be called
+    directly with such arguments: numba's dispatcher types every argument at every call, and a
+    record array's type costs tens of microseconds to make, a millisecond for the frame path's
+    arguments; a loop that calls the same code again and again need not pay it each time."""
+    return function.compile(tuple(typeof(a) for a in args))
 
 
 def specialised(template: str, name: str, calls: dict[str, Callable], where: str, namespace: dict):

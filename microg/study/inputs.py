@@ -8,8 +8,9 @@ task's plan and seed). The hand-input and participant modules are imported only 
 
 from __future__ import annotations
 
+import typing
 from pathlib import Path
-from typing import Callable, Protocol as Interface
+from typing import Callable
 
 from microg.hands.source import Borrowed, HandSource
 from microg.participant.plan import TaskPlan
@@ -33,7 +34,7 @@ def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right",
                     phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object)
 
 
-class Inputs(Interface):
+class Inputs(typing.Protocol):
     spec: str
     """As given on the command line; stored with the session."""
     simulated: bool

@@ -12,8 +12,9 @@ asks in the terminal; the participant's page asks on the screen or in the headse
 from __future__ import annotations
 
 import time
+import typing
 from dataclasses import dataclass
-from typing import Callable, NamedTuple, Protocol as Interface
+from typing import Callable, NamedTuple
 
 from microg.instruments import NUMBER, Instrument, Item
 
@@ -51,7 +52,7 @@ class Answer(NamedTuple):
     """From showing the item to the answer that counted (rejected tries included); None for the rating model."""
 
 
-class Rater(Interface):
+class Rater(typing.Protocol):
     source: str
     """``participant`` (a person answered) or ``model`` (a simulated participant's rating model)."""
 

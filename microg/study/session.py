@@ -29,8 +29,9 @@ import contextlib
 import signal
 import threading
 import time
+import typing
 from dataclasses import dataclass, field
-from typing import Protocol as Interface, Sequence
+from typing import Sequence
 
 import numpy as np
 from tqdm import tqdm
@@ -38,7 +39,7 @@ from tqdm import tqdm
 from microg.participant.plan import TaskPlan
 from microg.participant.runner import Players, run
 from microg.sim import World, make_world
-from microg.task import COMPLETED, KINDS, Lanes, Moments, TaskRules, play
+from microg.task import COMPLETED, KINDS, MOMENT, Lanes, Moments, TaskResult, TaskRules, play
 from microg.task.rules import timeout_reason
 
 from . import framelog
@@ -48,7 +49,7 @@ from .questionnaire import Rater, questions
 from .store import Event, PlannedTask, Store, derived_seed
 
 
-class Clock(Interface):
+class Clock(typing.Protocol):
     name: str
 
     def now(self) -> float: ...
@@ -127,7 +128,7 @@ def make_clock(kind: str, start: float = 0.0) -> Clock:
     return WallClock(offset=start) if kind == "wall" else SimulationClock(t=start)
 
 
-class Operator(Interface):
+class Operator(typing.Protocol):
     """The researcher's side of a session."""
 
     def present(self, phase: Phase) -> None:
@@ -153,7 +154,7 @@ class Unattended:
         pass
 
 
-class FrameSink(Interface):
+class FrameSink(typing.Protocol):
     """What a frame feeds (the run's log, the participant's page, LSL's MoCap stream, a progress
     bar): it takes the frames the physics and the task's rules made (``microg.task.Moments``: one
     source frame's, or a simulated participant's batch), in order."""
@@ -161,7 +162,7 @@ class FrameSink(Interface):
     def take(self, moments: Moments) -> None: ...
 
 
-class Markers(Interface):
+class Markers(typing.Protocol):
     """Receives every event the session logs, once it is committed (an LSL marker outlet,
     ``microg.study.lsl.MarkerOutlet``, which stamps the marker with the event's own time)."""
 
@@ -204,15 +205,6 @@ class EventLog:
                 self.markers.mark(event)
 
 
-@dataclass(frozen=True)
-class TaskResult:
-    status: str
-    """completed, timeout, aborted (the hand source ended) or skipped."""
-    time_s: float | None
-    attempts: int | None
-    frames: int
-
-
 # ---------------------------------------------------------------- one task
 
 
@@ -230,8 +222,7 @@ class RunLog:
     def __init__(self, log: EventLog, run_id: int, batch: int):
         self.log, self.run_id, self.batch = log, run_id, batch
         self.logged, self.pending, self.last_t = 0, [], None
-        self.frames = 0
-        self.state = None
+        self.frames, self.kind = 0, None
 
     def take(self, moments: Moments) -> None:
         times = moments.records["hands"]["t"]
@@ -241,12 +232,20 @@ class RunLog:
         for i in np.flatnonzero(moments.records["n_events"]):
             self.log.commit([Event(float(now[i]), e.kind, dict(e.data, frame_t=e.t))
                              for e in moments.task_events(int(i))], self.run_id)
-        self.pending.append(framelog.frames_of(moments))
+        self.kind = moments.kind
+        self.pending.append(moments.records)
         self.frames += len(moments)
-        while self.frames - self.logged >= self.batch:
+        if self.frames - self.logged >= self.batch:
             waiting = np.concatenate(self.pending)
-            self.log.store.add_frames(self.run_id, self.logged, waiting[:self.batch])
-            self.logged, self.pending = self.logged + self.batch, [waiting[self.batch:]]
+            whole = (len(waiting) // self.batch) * self.batch
+            for first in range(0, whole, self.batch):
+                self.log.store.add_frames(self.run_id, self.logged, self._frames(waiting[first:first + self.batch]))
+                self.logged += self.batch
+            self.pending = [waiting[whole:]]
+
+    def _frames(self, records: np.ndarray) -> np.ndarray:
+        """``records`` (``MOMENT``) as the frame log keeps them."""
+        return framelog.frames_of(Moments(self.kind, records, None))
 
     def end(self, status: str, *, time_s: float | None, attempts: int | None, reason: str | None,
             events: list[Event] = ()) -> None:
@@ -254,8 +253,8 @@ class RunLog:
         cut off (Ctrl-C, SIGTERM) just as a batch was committed has that batch stored already: only
         what the store does not hold goes in."""
         stored = framelog.count(self.log.store.db, self.run_id)
-        waiting = np.concatenate(self.pending) if self.pending else np.zeros(0, framelog.FRAME)
-        rest = waiting[stored - self.logged:]
+        waiting = np.concatenate(self.pending) if self.pending else np.zeros(0, MOMENT)
+        rest = self._frames(waiting[stored - self.logged:]) if self.kind else np.zeros(0, framelog.FRAME)
         self.log.mark(self.log.store.end_run(self.run_id, status, self.log.clock.now(), time_s=time_s,
                                              attempts=attempts, reason=reason, events=list(events),
                                              frames=(stored, rest)))
@@ -303,16 +302,10 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
         raise
     finally:
         source.close()
-    state = lanes.state(0)
-    if run_log.frames and state.finished:
-        status = state.stage if state.stage == COMPLETED else "timeout"
-        result = TaskResult(status, state.completion_time, state.attempts, run_log.frames)
-        reason = None if status == COMPLETED else timeout_reason(rules)
-    else:
-        result = TaskResult("aborted", None, state.attempts, run_log.frames)
-        reason = f"the hand source ({source.description}) ended before the task did"
-    measured = kind.measured(state.record) if run_log.frames and state.finished else {}
-    ending = [Event(log.clock.now(), "measures", {"kind": rules.kind, **measured})] if measured else []
+    result = lanes.result(0, run_log.frames)
+    reason = {COMPLETED: None, "timeout": timeout_reason(rules),
+              "aborted": f"the hand source ({source.description}) ended before the task did"}[result.status]
+    ending = [Event(log.clock.now(), "measures", {"kind": rules.kind, **result.measures})] if result.measures else []
     run_log.end(result.status, time_s=result.time_s, attempts=result.attempts, reason=reason,
                 events=ending + [Event(log.clock.now(), "tracking_guard", lanes.counts_of(0).as_dict())])
     return result

@@ -13,8 +13,8 @@ sees of the world), ``play`` (one frame's way, compiled once for sessions and in
 from .kind import COMPLETED, TIMEOUT, Kind, TaskDisplay, TaskEvent, TaskState
 from .kinds import KINDS, PICK_AND_PLACE, register
 from .observation import Observation, observe
-from .play import MOMENT, Lanes, Moments, frame_path, play
+from .play import MOMENT, Lanes, Moments, TaskResult, frame_path, play
 from .rules import TaskRules
 
 __all__ = ["COMPLETED", "KINDS", "Kind", "Lanes", "MOMENT", "Moments", "Observation", "PICK_AND_PLACE", "TIMEOUT",
-           "TaskDisplay", "TaskEvent", "TaskRules", "TaskState", "frame_path", "observe", "play", "register"]
+           "TaskDisplay", "TaskEvent", "TaskResult", "TaskRules", "TaskState", "frame_path", "observe", "play", "register"]

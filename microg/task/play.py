@@ -41,7 +41,7 @@ from numba import njit
 from microg.hands.filter import filter_dtype, smooth
 from microg.hands.guard import GUARD, GuardConfig, admit, finish, new_guard
 from microg.sim import World
-from microg.sim.compiled import specialised
+from microg.sim.compiled import entry_point, specialised
 from microg.sim.observe import SNAPSHOT, Snapshot, observe
 from microg.sim.state import OBJECT_COUNT, set_motion
 from microg.skeleton import HANDS, HandFrame, hand_frame, hands_record
@@ -173,13 +173,21 @@ class Lanes:
         self.moments = np.zeros((size, capacity if record else 1), MOMENT)
         self.events = np.zeros((size, capacity if record else 1, MAX_EVENTS), EVENT)
         self.times, self.n_frames = np.zeros((size, capacity)), np.zeros(size, dtype=np.int64)
-        self.take = frame_path(kind, self.effects, self.meshes)
+        self._take = None
 
     def arrays(self) -> tuple:
         """The lanes' records and arrays, in the order the compiled frame path takes them."""
         return (self.config, self.guards, self.pending, self.decided, self.filters, self.period, self.params,
                 self.ints, self.reals, self.flags, self.counts, self.tasks, self.rules, self.starts, self.admitted,
                 self.smoothed, self.seen, self.moments, self.events, self.times, self.n_frames, self.record)
+
+    def take(self, b: int, frame, ending: bool = False) -> int:
+        """Lane ``b``'s source gave ``frame`` (a ``HANDS`` record; with ``ending``, it has ended): the
+        compiled frame path (``frame_path``); how many frames the guard released."""
+        args = (self.arrays(), b, frame, ending)
+        if self._take is None:
+            self._take = entry_point(frame_path(self.kind, self.effects, self.meshes), args)
+        return self._take(*args)
 
     def load(self, b: int, world: World, rules) -> None:
         """Put a task in lane ``b``: ``world`` (its object at its start, moving as the task starts it)
@@ -221,6 +229,15 @@ class Lanes:
                            seen["orientation"].copy(), seen["touching"].astype(bool), display,
                            seen["velocity"].copy(), seen["angular_velocity"].copy(), seen["grasped_by"].astype(bool))
 
+    def result(self, b: int, frames: int, frame_times: np.ndarray | None = None) -> TaskResult:
+        """How lane ``b``'s task ended after ``frames`` frames (``TaskResult``)."""
+        state = self.state(b)
+        if not frames or not state.finished:
+            return TaskResult("aborted", None, state.attempts, frames, {}, frame_times)
+        status = COMPLETED if state.stage == COMPLETED else "timeout"
+        return TaskResult(status, state.completion_time, state.attempts, frames, self.kind.measured(state.record),
+                          frame_times)
+
     def counts_of(self, b: int):
         """What lane ``b``'s tracking guard did (``microg.hands.GuardCounts``)."""
         from microg.hands.guard import GuardCounts
@@ -231,6 +248,20 @@ class Lanes:
 @njit(cache=True)
 def _observe_world(reals, flags, counts, n, out):
     observe(reals, flags, counts, n, 0, out, False)
+
+
+class TaskResult(NamedTuple):
+    """How a task ended, as its run records it: ``completed``, ``timeout``, ``aborted`` (its hand
+    source ended first) or ``skipped`` (by the operator), its completion time and attempts (as its
+    kind's rules count them), its kind's own measures (of a finished task), its frames, and their
+    times where the player keeps them (an in-silico study, to rebuild the session's clock)."""
+
+    status: str
+    time_s: float | None
+    attempts: int | None
+    frames: int
+    measures: dict = {}
+    frame_times: np.ndarray | None = None
 
 
 class Moments(NamedTuple):
@@ -269,7 +300,7 @@ def play(lanes: Lanes, source, b: int = 0) -> Iterator[Moments]:
     """Play lane ``b``'s task with frames from ``source`` (a ``microg.hands.HandSource``: its
     ``next_frame`` gets the last observation) until the task is finished or the frames end; yields
     the ``Moments`` of each source frame (none when the guard holds it back)."""
-    arrays, frame = lanes.arrays(), np.zeros(1, HANDS)[0]
+    frame = np.zeros(1, HANDS)[0]
     finished = lanes.kind.index(COMPLETED)
     ending = False
     while not ending and lanes.tasks[b]["stage"] < finished:
@@ -277,6 +308,6 @@ def play(lanes: Lanes, source, b: int = 0) -> Iterator[Moments]:
         ending = given is None
         if not ending:
             hands_record(given, frame)
-        lanes.take(arrays, b, frame, ending)
+        lanes.take(b, frame, ending)
         if lanes.n_frames[b]:
             yield lanes.taken(b)
