@@ -85,6 +85,8 @@ MAX_FILTER_WINDOW = 100
 MAX_FRAME_BATCH = 10_000
 """Frames per database transaction: a crash loses at most these (90 s at 110 Hz)."""
 MAX_PLACES = 100
+MAX_TASKS = 10_000
+"""The most tasks a phase that trains to a criterion runs, and its tasks in a row."""
 MAX_AGE = 150
 FOV_RANGE = (10.0, 120.0)
 """Degrees: the vertical field of view a screen may span from the eyes (as ``--fov``)."""
@@ -134,10 +136,53 @@ class Viewpoint:
     fov_deg: float = 40.0
 
 
+STAIRCASE_RULES = {"1-up-1-down": 1, "2-down-1-up": 2, "3-down-1-up": 3}
+"""Levitt's (1971) transformed up-down rules: how many successes in a row make the task harder (one
+failure makes it easier): they converge on 50 %, 70.7 % and 79.4 % successes."""
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """A proficiency criterion (a phase's ``until``): a task counts when it was completed within
+    ``time_s`` with at most ``attempts``; ``consecutive`` counting tasks in a row meet it. An
+    object's own thresholds (``objects``: its code, then time_s and attempts) replace the phase's for
+    that object's tasks."""
+
+    time_s: float
+    attempts: int
+    consecutive: int
+    objects: tuple[tuple[str, float, int], ...] = ()
+
+    def counts(self, object_code: str, completed: bool, time_s: float | None, attempts: int | None) -> bool:
+        """Whether a task of ``object_code`` that ended so counts toward the criterion."""
+        limit, most = next(((t, a) for code, t, a in self.objects if code == object_code),
+                           (self.time_s, self.attempts))
+        return bool(completed) and time_s is not None and time_s <= limit and (attempts or 0) <= most
+
+
+@dataclass(frozen=True)
+class Staircase:
+    """A phase's adaptive difficulty (``[phases.staircase]``): one number of its task kind
+    (``parameter``, one the kind declares: ``Kind.difficulty``) starts at ``start`` and moves by
+    ``step`` (added) or ``factor`` (multiplied) after each task by a transformed up-down ``rule``
+    (``STAIRCASE_RULES``), within ``minimum`` .. ``maximum``. A success is a task that meets the
+    phase's criterion (or is completed, without one)."""
+
+    parameter: str
+    start: float
+    step: float | None
+    factor: float | None
+    rule: str
+    minimum: float
+    maximum: float
+
+
 @dataclass(frozen=True)
 class TaskPhase:
     """One of the protocol's ``[[phases]]``: a block of tasks the study compares (the paper's stage 1
-    and stage 2). Its name is also a phase of the timeline (``Phase``)."""
+    and stage 2), or trains with. Its name is also a phase of the timeline (``Phase``). A phase with
+    a criterion (``until``) repeats its task, the objects in turn, until the criterion is met or
+    ``max_tasks`` were done; a staircase adapts one number of its task from task to task."""
 
     name: str
     interaction: str
@@ -149,6 +194,29 @@ class TaskPhase:
     than the physics had it (the physics and the log are not delayed)."""
     kind: str = PICK_AND_PLACE
     """The task kind its tasks are (``microg.task.KINDS``; default: the ``task`` table's ``kind``)."""
+    until: Criterion | None = None
+    max_tasks: int | None = None
+    """The most tasks a phase with a criterion runs (its bound)."""
+    staircase: Staircase | None = None
+
+
+@dataclass(frozen=True)
+class SessionPlan:
+    """One of the protocol's ``[[sessions]]``: a sitting of a training program, its ``phases`` (names
+    of ``[[phases]]`` and ``training``, in the timeline's order), at least ``after_days`` days after
+    the participant's previous session (0 for the first) and, with ``within_days``, due within that
+    many days more (past it, overdue: still runnable); ``groups``: only these groups have it (None:
+    everyone)."""
+
+    name: str
+    phases: tuple[str, ...]
+    after_days: int
+    within_days: int | None = None
+    groups: tuple[str, ...] | None = None
+
+
+ONE_SESSION = "main"
+"""The name of the one session of a protocol without ``[[sessions]]``."""
 
 
 @dataclass(frozen=True)
@@ -183,6 +251,9 @@ class Phase:
     interaction model (``each``), or none (None)."""
     administration: str = ""
     """The name its answers are kept under (``pre``, ``post``, ...): its ``administration``, else its name."""
+    session: str | None = None
+    """The session it runs in (a training program's); None: every session that runs its phase of
+    tasks, or the first session for a phase without tasks."""
 
 
 @dataclass(frozen=True)
@@ -230,6 +301,9 @@ class Protocol:
     resolved: dict = field(repr=False, compare=False)
     """The merged protocol as plain data, with object file texts: what the study database keeps."""
     dataset: Dataset = Dataset()
+    sessions: tuple[SessionPlan, ...] = ()
+    """The training program's sessions (``[[sessions]]``); one, ``ONE_SESSION``, running the whole
+    timeline, for a protocol without them."""
     _rules: dict[tuple[str, float], TaskRules] = field(default_factory=dict, repr=False, compare=False)
     """``rules`` of each kind and time limit but the ``task`` table's, made once."""
 
@@ -253,22 +327,24 @@ class Protocol:
             y = self.table_height + below
         return (x, y, z), self.task.start_orientation
 
-    def scene(self, name: str, interaction: str, kind: str = PICK_AND_PLACE) -> Scene:
+    def scene(self, name: str, interaction: str, kind: str = PICK_AND_PLACE, rules: TaskRules | None = None) -> Scene:
         """The physics scene of a task of ``kind`` with object ``name`` under ``interaction``: the object
-        alone at its start pose (on the table, if there is one), moving as the kind starts it
-        (``start_motion``), under the protocol's gravity and scene options."""
+        alone at its start pose (on the table, if there is one), moving as the kind starts it by
+        ``rules`` (the protocol's task, unless a staircase changed them: ``start_motion``), under the
+        protocol's gravity and scene options."""
         position, orientation = self.start_pose(name)
-        velocity, angular_velocity = self.start_motion(kind)
+        velocity, angular_velocity = self.start_motion(kind, rules)
         placed = PlacedObject(self.object(name).spec, position, orientation, velocity, angular_velocity)
         table = None if self.table_height is None else TableParameters(height=self.table_height)
         return compose_scene([placed], interaction, self.gravity, table=table, **self.scene_options)
 
-    def start_motion(self, kind: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    def start_motion(self, kind: str, rules: TaskRules | None = None
+                     ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
         """The velocity (m/s) and angular velocity (rad/s, tracker frame) a task of ``kind`` starts its
-        object with (the kind's ``start_motion``: a catch's launch, a stop of a spin's spin); at rest
-        for a kind without one."""
+        object with by ``rules`` (default: the protocol's task): the kind's ``start_motion`` (a
+        catch's launch, a stop of a spin's spin); at rest for a kind without one."""
         start_motion = KINDS[kind].start_motion
-        return ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) if start_motion is None else start_motion(self.task)
+        return ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) if start_motion is None else start_motion(rules or self.task)
 
     def kind(self, phase: str) -> str:
         """The task kind of a phase of tasks (the training, or one of ``[[phases]]``)."""
@@ -276,9 +352,13 @@ class Protocol:
             return self.training.kind
         return next((p.kind for p in self.phases if p.name == phase), self.task.kind)
 
-    def rules(self, phase: str) -> TaskRules:
+    def rules(self, phase: str, difficulty: float | None = None) -> TaskRules:
         """The rules a phase's tasks are judged by: the ``task`` table's, of the phase's kind and, for
-        the training, with its own time limit (one object per kind and limit, made once)."""
+        the training, with its own time limit (one object per kind and limit, made once); with a
+        staircase's ``difficulty``, its number set to that value (``Kind.difficulty``)."""
+        if difficulty is not None:
+            staircase = self.phase(phase).staircase
+            return KINDS[self.kind(phase)].difficulty[staircase.parameter].set(self.rules(phase), difficulty)
         kind = self.kind(phase)
         timeout_s = self.training.timeout_s if phase == "training" and self.training is not None else \
             self.task.timeout_s
@@ -314,9 +394,46 @@ class Protocol:
         about no interaction model)."""
         return _about(phase, self.phases)
 
-    def phases_for(self, group: str) -> tuple[Phase, ...]:
-        """The timeline as a participant of ``group`` goes through it."""
-        return tuple(p for p in self.timeline if p.groups is None or group in p.groups)
+    def phases_for(self, group: str, session: str | None = None) -> tuple[Phase, ...]:
+        """The timeline as a participant of ``group`` goes through it in ``session`` (default: the
+        group's first): the phases of tasks the session runs, the entries that name it, and, in the
+        group's first session, the other entries that name no session."""
+        plans = self.sessions_for(group)
+        plan = plans[0] if session is None else self.session(session)
+        out = []
+        for entry in self.timeline:
+            if entry.groups is not None and group not in entry.groups:
+                continue
+            if entry.session is not None:
+                keep = entry.session == plan.name
+            elif self.runs_tasks(entry):
+                keep = entry.name in plan.phases
+            else:
+                keep = plan.name == plans[0].name
+            if keep:
+                out.append(entry)
+        return tuple(out)
+
+    def sessions_for(self, group: str) -> tuple[SessionPlan, ...]:
+        """The sessions a participant of ``group`` has, in order."""
+        return tuple(s for s in self.sessions if s.groups is None or group in s.groups)
+
+    def session(self, name: str) -> SessionPlan:
+        """The session called ``name`` (KeyError naming the protocol's sessions for another)."""
+        for plan in self.sessions:
+            if plan.name == name:
+                return plan
+        raise KeyError(f"protocol {self.name!r} has no session {name!r} (its sessions: "
+                       f"{', '.join(s.name for s in self.sessions)})")
+
+    @property
+    def program(self) -> bool:
+        """Whether the protocol declares sessions (a training program) rather than one sitting."""
+        return "sessions" in self.resolved
+
+    def phase(self, name: str) -> TaskPhase | None:
+        """The one of ``[[phases]]`` called ``name`` (None: the training, or no phase of tasks)."""
+        return next((p for p in self.phases if p.name == name), None)
 
     def added_latency_ms(self, phase: str) -> float:
         """The display latency a phase of tasks adds (ms; 0 for the training and any other phase)."""
@@ -821,11 +938,13 @@ def _renamed(reader: _Reader, old: str, message: str) -> None:
         raise ProtocolError(f"{reader.where}: {message}")
 
 
-def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
+def _read_phases(top: _Reader, task: TaskRules, objects: tuple[StudyObject, ...]) -> tuple[TaskPhase, ...]:
     """``[[phases]]``: each phase's name, the interaction model it runs, how the participant
-    hears it named, the display latency it adds and its task kind. The report compares interaction
-    models within each task kind, so no two phases run the same model with the same kind; phases of
-    one model share its label (the participant hears one name for it, and is asked about it once)."""
+    hears it named, the display latency it adds, its task kind, and for a phase that trains to a
+    criterion its ``until``, ``max_tasks`` and ``staircase``. The report compares interaction models
+    within each task kind, so no two phases of tests run the same model with the same kind (a phase
+    that trains to a criterion may); phases of one model share its label (the participant hears one
+    name for it, and is asked about it once)."""
     _renamed(top, "stages", "`[[stages]]` is now `[[phases]]`: rename the tables (their keys stay the same, "
                             "but `system` is now `interaction`)")
     phases = []
@@ -833,17 +952,20 @@ def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
         _renamed(p, "system", f"{p.prefix}system is now {p.prefix}interaction (the interaction model the phase "
                               "runs)")
         interaction = p.text("interaction", choices=tuple(INTERACTION_MODELS))
+        kind = p.text("kind", task.kind, tuple(KINDS))
+        _needs_numbers(p, "kind", kind, task)
+        until, max_tasks = _read_until(p, objects)
         phases.append(TaskPhase(name=p.label("name", "it names files in exports"), interaction=interaction,
                                 label=p.text("label"),
                                 added_latency_ms=p.number("added_latency_ms", 0.0, positive=False, unit=" (ms)",
                                                           maximum=MAX_ADDED_LATENCY_MS),
-                                kind=p.text("kind", task.kind, tuple(KINDS))))
-        _needs_numbers(p, "kind", phases[-1].kind, task)
+                                kind=kind, until=until, max_tasks=max_tasks,
+                                staircase=_read_staircase(p, task, kind)))
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
     for i, phase in enumerate(phases):
         for j, other in enumerate(phases[:i]):
-            if (other.interaction, other.kind) == (phase.interaction, phase.kind):
+            if (other.interaction, other.kind) == (phase.interaction, phase.kind) and not (other.until or phase.until):
                 raise top.fail(f"phases[{i}].interaction", phase.interaction, f"phases[{j}] runs this interaction "
                                f"model already with the same task kind ({phase.kind}); the report compares "
                                "interaction models within each task kind: give this phase another model or kind")
@@ -855,6 +977,107 @@ def _read_phases(top: _Reader, task: TaskRules) -> tuple[TaskPhase, ...]:
                                "of its own"
                                + ("" if same else f" ({phase.label!r} appears twice)"))
     return tuple(phases)
+
+
+def _read_until(p: _Reader, objects: tuple[StudyObject, ...]) -> tuple[Criterion | None, int | None]:
+    """A phase's ``until`` (``time_s``, ``attempts``, ``consecutive``, and ``objects``: an object's code
+    with its own ``time_s`` and ``attempts``) and the ``max_tasks`` that bounds it; both or neither."""
+    until = p.table("until", None)
+    max_tasks = p.integer("max_tasks", None, maximum=MAX_TASKS)
+    if until is not None and max_tasks is None:
+        raise p.fail("until", p.data["until"], "a criterion needs its bound: add max_tasks = N, the most tasks "
+                     "the phase runs before it ends without the criterion met")
+    if until is None and max_tasks is not None:
+        raise p.fail("max_tasks", max_tasks, "bounds a phase that repeats its task until a criterion: add until = "
+                     "{ time_s = ..., attempts = ..., consecutive = ... }")
+    if until is None:
+        return None, None
+    time_s = until.number("time_s", unit=" (seconds)")
+    attempts = until.integer("attempts", minimum=0)
+    own = []
+    codes = {o.code for o in objects}
+    by_object = until.table("objects", {})
+    for code in list(by_object.data):
+        if code not in codes:
+            raise by_object.fail(code, by_object.data[code], f"names no object of the protocol (codes: {sorted(codes)})")
+        one = by_object.table(code)
+        own.append((code, one.number("time_s", time_s, unit=" (seconds)"), one.integer("attempts", attempts, minimum=0)))
+        one.done()
+    by_object.done()
+    criterion = Criterion(time_s, attempts, until.integer("consecutive", 1, maximum=MAX_TASKS), tuple(own))
+    until.done()
+    return criterion, max_tasks
+
+
+def _read_staircase(p: _Reader, task: TaskRules, kind: str) -> Staircase | None:
+    """A phase's ``[phases.staircase]``: the number of its kind it adapts (``parameter``), ``start``,
+    ``step`` or ``factor``, ``rule``, ``min`` and ``max``."""
+    st = p.table("staircase", None)
+    if st is None:
+        return None
+    adaptable = KINDS[kind].difficulty
+    parameter = st.text("parameter")
+    if parameter not in adaptable:
+        raise st.fail("parameter", parameter, f"a {kind} task adapts none such: one of {sorted(adaptable)}"
+                      if adaptable else f"a {kind} task has no number a staircase adapts")
+    unit = f" ({adaptable[parameter].unit})"
+    if ("step" in st.data) == ("factor" in st.data):
+        raise st.fail("step", st.data.get("step"), "give the staircase either step = (added) or factor = "
+                      "(multiplied), not both or neither")
+    step = st.number("step", unit=unit) if "step" in st.data else None
+    factor = st.number("factor") if "factor" in st.data else None
+    if factor is not None and factor <= 1:
+        raise st.fail("factor", factor, "must exceed 1 (the number is multiplied or divided by it)")
+    rule = st.text("rule", choices=tuple(STAIRCASE_RULES))
+    low, high = st.number("min", unit=unit), st.number("max", unit=unit)
+    if low >= high:
+        raise st.fail("min", low, f"must be below max = {high:g}")
+    start = st.number("start", unit=unit)
+    if not low <= start <= high:
+        raise st.fail("start", start, f"must lie within min = {low:g} .. max = {high:g}")
+    st.done()
+    staircase = Staircase(parameter, start, step, factor, rule, low, high)
+    for value in (low, high):
+        try:
+            KINDS[kind].difficulty[parameter].set(task, value)
+        except (ValueError, ZeroDivisionError) as error:
+            raise st.fail("min" if value == low else "max", value, f"cannot be set: {error}") from None
+    return staircase
+
+
+def _read_sessions(top: _Reader, *, phases: tuple[TaskPhase, ...], training: Training | None,
+                   groups: tuple[Group, ...], timeline_phases: list[str]) -> tuple[SessionPlan, ...]:
+    """``[[sessions]]``: each session's name, its phases, ``after_days``, ``within_days``, ``groups``;
+    without it, one session (``ONE_SESSION``) that runs every phase of tasks."""
+    runnable = [name for name in timeline_phases
+                if name == "training" and training is not None or any(p.name == name for p in phases)]
+    if "sessions" not in top.data:
+        return (SessionPlan(ONE_SESSION, tuple(runnable), 0),)
+    codes = [g.code for g in groups]
+    plans = []
+    for s in top.tables("sessions"):
+        name = s.label("name", "it names the session in tables and files (BIDS ses-)")
+        names = s.strings("phases")
+        for phase in names:
+            if phase not in runnable:
+                raise s.fail("phases", list(names), f"names phase {phase!r}; the phases of tasks are {runnable}")
+        s.unique("phases", list(names), "phase")
+        after = s.integer("after_days", minimum=0)
+        if not plans and after != 0:
+            raise s.fail("after_days", after, "the first session's after_days is 0 (it follows no session)")
+        within = s.integer("within_days", None, minimum=0)
+        session_groups = s.strings("groups") if "groups" in s.data else None
+        for code in session_groups or ():
+            if code not in codes:
+                raise s.fail("groups", list(session_groups), f"names group {code!r}; groups are {codes}")
+        plans.append(SessionPlan(name, tuple(sorted(names, key=timeline_phases.index)), after, within,
+                                 session_groups))
+        s.done()
+    top.unique("sessions", [p.name for p in plans], "session name")
+    missing = [name for name in runnable if not any(name in p.phases for p in plans)]
+    if missing:
+        raise top.fail("sessions", [p.name for p in plans], f"no session runs phase {missing[0]!r}")
+    return tuple(plans)
 
 
 def _read_training(top: _Reader, *, groups: tuple[Group, ...], task: TaskRules, sources: dict, files: dict,
@@ -942,7 +1165,8 @@ def _read_timeline(top: _Reader, *, groups: tuple[Group, ...], phases: tuple[Tas
         asking = _read_asking(p, name, reserved=PHASES_INFO + required, phases=phases, instruments=instruments, before=[t.name for t in timeline]) \
             if asks else {}
         timeline.append(Phase(name=name, minutes=p.number("minutes", unit=" (minutes)"), text=p.text("text", ""),
-                              groups=training.groups if name == "training" else phase_groups, **asking))
+                              groups=training.groups if name == "training" else phase_groups,
+                              session=p.text("session") if "session" in p.data else None, **asking))
         p.done()
     seen = [p.name for p in timeline]
     for name in required:
@@ -1023,19 +1247,40 @@ def _read_dataset(top: _Reader) -> Dataset:
 
 
 def _check_timeline_fits(top: _Reader, protocol: Protocol) -> None:
-    """The phases fit the study's minutes, and each task phase's tasks fit its minutes at their timeout."""
-    total = sum(p.minutes for p in protocol.timeline)
-    if total > protocol.duration_minutes + 1e-9:
-        raise top.fail("duration_minutes", protocol.duration_minutes, f"the timeline's phases take {total:g} minutes")
-    task_phases = [p.name for p in protocol.phases]
+    """Each session's phases fit the study's minutes (a sitting), and each task phase's tasks (a
+    phase with a criterion: its ``max_tasks``) fit its minutes at their timeout."""
+    for group in protocol.groups:
+        for plan in protocol.sessions_for(group.code):
+            total = sum(p.minutes for p in protocol.phases_for(group.code, plan.name))
+            if total > protocol.duration_minutes + 1e-9:
+                raise top.fail("duration_minutes", protocol.duration_minutes, f"the timeline's phases take {total:g} "
+                               "minutes" + (f" in session {plan.name!r}" if protocol.program else ""))
+    task_phases = {p.name: p for p in protocol.phases}
     for phase in protocol.timeline:
         count = protocol.training.tasks if phase.name == "training" else \
-            len(protocol.objects) if phase.name in task_phases else 0
+            (task_phases[phase.name].max_tasks or len(protocol.objects)) if phase.name in task_phases else 0
         limit, key = protocol.rules(phase.name).timeout_s, _timeout_key(protocol, phase.name)
         if count * limit > phase.minutes * 60 + 1e-9:
             raise ProtocolError(
                 f"{top.where}: timeline phase {phase.name!r} has minutes = {phase.minutes:g}, but its {count} "
                 f"task(s) may take {count} x {key} = {count * limit / 60:g} minutes")
+
+
+def _check_timeline_sessions(top: _Reader, timeline: tuple[Phase, ...], sessions: tuple[SessionPlan, ...],
+                             phases: tuple[TaskPhase, ...]) -> None:
+    """A timeline entry that names a session names one of ``[[sessions]]`` (a phase of tasks only one
+    that runs it)."""
+    names = [s.name for s in sessions]
+    for i, entry in enumerate(timeline):
+        if entry.session is None:
+            continue
+        if entry.session not in names:
+            raise top.fail(f"timeline[{i}].session", entry.session, f"names no session of the protocol {names}")
+        plan = sessions[names.index(entry.session)]
+        runs_tasks = entry.name == "training" or any(p.name == entry.name for p in phases)
+        if runs_tasks and entry.name not in plan.phases:
+            raise top.fail(f"timeline[{i}].session", entry.session, f"does not run phase {entry.name!r} (its phases: "
+                           f"{list(plan.phases)})")
 
 
 def _check_objects(top: _Reader, protocol: Protocol) -> None:
@@ -1098,10 +1343,13 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
     groups = _read_groups(top, people, total, resolved.get("population_files", {}))
     objects, order = _read_objects(top, sources, files, meshes)
     task = _read_task(top)
-    phases = _read_phases(top, task)
+    phases = _read_phases(top, task, objects)
     training = _read_training(top, groups=groups, task=task, sources=sources, files=files, meshes=meshes)
     instruments = _read_instruments(top, resolved, files)
     timeline = _read_timeline(top, groups=groups, phases=phases, training=training, instruments=instruments)
+    sessions = _read_sessions(top, phases=phases, training=training, groups=groups,
+                              timeline_phases=[p.name for p in timeline])
+    _check_timeline_sessions(top, timeline, sessions, phases)
     logging = top.table("logging", {})
     frame_batch = logging.integer("frame_batch", 64, maximum=MAX_FRAME_BATCH)
     logging.done()
@@ -1118,7 +1366,7 @@ def _build(top: _Reader, resolved: dict, files: dict) -> Protocol:
                         filter_window=filter_window, jump_distance=jump_distance, total_participants=total, balance=balance, age_range=age_range,
                         groups=groups, objects=objects, order=order, task=task, training=training, phases=phases,
                         instruments=instruments, timeline=timeline, frame_batch=frame_batch, viewpoint=viewpoint,
-                        resolved=resolved, dataset=dataset)
+                        resolved=resolved, dataset=dataset, sessions=sessions)
     _check_timeline_fits(top, protocol)
     _check_objects(top, protocol)
     _check_worlds(top, protocol)

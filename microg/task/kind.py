@@ -121,6 +121,17 @@ class Aims(NamedTuple):
     first_hand: str | None = None
 
 
+class Difficulty(NamedTuple):
+    """A number of a kind's task that a phase's staircase may adapt (``Kind.difficulty``): how to read
+    it from a ``TaskRules`` and set it in one, whether a larger value makes the task harder
+    (``harder`` 1) or easier (-1), and its unit."""
+
+    get: Callable
+    set: Callable
+    harder: int
+    unit: str
+
+
 class View(NamedTuple):
     """What the participant's page and a picture show of a kind's task: the task's ``places`` (the
     pick-and-place's marks), the ``zone`` the object must reach (``zone(rules) -> (centre, radius)``),
@@ -190,6 +201,9 @@ class Kind:
     measures: tuple[Measure, ...] = ()
     play: Play = Play()
     view: View = View()
+    difficulty: dict = field(default_factory=dict)
+    """The numbers of its task a staircase may adapt, by the name a protocol gives them
+    (``[phases.staircase] parameter``): each a ``Difficulty``."""
     table: str | None = None
     """Its table under the protocol's ``task`` table (``[task.NAME]``); None: its numbers are the
     ``task`` table's own (the pick-and-place's places and holds)."""

@@ -97,7 +97,7 @@ def test_a_launch_away_from_the_hand_beyond_its_reach_times_out_untouched():
     the task times out (the object goes back and is launched again each time it leaves)."""
     plan, _ = plan_and_world("catching")
     away = dataclasses.replace(PROTOCOL.task.catch, launch_speed=1.0, direction=(0.0, 0.0, -1.0))
-    rules = dataclasses.replace(plan.rules, catch=away, timeout_s=4.0)
+    rules = dataclasses.replace(plan.rules.with_numbers("catch", away), timeout_s=4.0)
     plan = dataclasses.replace(plan, rules=rules)
     start, orientation = PROTOCOL.start_pose("cube")
     launched = PlacedObject(plan.object, start, orientation, (0.0, 0.0, -1.0), (0.0, 0.0, 0.0))

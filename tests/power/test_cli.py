@@ -72,15 +72,6 @@ def test_an_object_name_of_the_other_factor_is_refused_for_the_interaction_desig
     assert result.exit_code == 1 and "means.veteran.cube = 45.0: no interaction 'cube'" in result.output
 
 
-def test_simulated_power_for_a_protocol_of_other_task_kinds_says_what_it_cannot_play(tmp_path):
-    result = CliRunner().invoke(main, ["power", "--protocol", "microgravity-skills", "--simulated", "--n", "4",
-                                       "--out", str(tmp_path)])  # fmt: skip
-    assert result.exit_code == 1 and isinstance(result.exception, SystemExit)  # a message, not a traceback
-    assert "microgravity-skills.toml: phase 'training' runs catch tasks: in-silico studies play only " \
-           "pick_and_place tasks" in result.output
-    assert not list(tmp_path.iterdir())
-
-
 def test_sensitivity_answers_with_the_smallest_effect_per_test(effects_file, design, tmp_path):
     """Scaled by the factor it reports, the pattern of means gives every ANOVA term and contrast the
     target power exactly; the effect sizes are those of that power (Superpower's convention)."""

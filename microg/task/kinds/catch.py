@@ -20,13 +20,14 @@ Rules (times are the observations' clock; the numbers are the protocol's ``[task
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, Aims, EventSpec, Kind,
-                              Measure, Play, Stage, View, emit, grasped, hold_task, inside, start_and_time_out, touched)
+from microg.task.kind import (COUNT, EPS, FINAL, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, Aims, Difficulty, EventSpec,
+                              Kind, Measure, Play, Stage, View, emit, grasped, hold_task, inside, start_and_time_out,
+                              touched)
 
 STAGES = (Stage("approach", "Catch the object as it floats to you", loose=True), Stage("catch", "Hold on to it")) + FINAL
 _APPROACH, _CATCH, _COMPLETED, _TIMEOUT = range(len(STAGES))
@@ -146,4 +147,8 @@ KIND = Kind(
                       "the grasp that caught the object; empty unless a catch was completed", "time_to_catch"),),
     play=Play(approach="intercept", take="grasp", then="keep", squeeze="path"),
     view=View(path=lambda rules: rules.catch.direction, taken="taken", done="caught"),
-    table="catch", read=read, start_motion=start_motion, module=__name__)
+    table="catch", read=read, start_motion=start_motion,
+    difficulty={"catch.speed": Difficulty(lambda r: r.catch.launch_speed,
+                                          lambda r, v: r.with_numbers("catch", replace(r.catch, launch_speed=v)), 1,
+                                          "m/s")},
+    module=__name__)

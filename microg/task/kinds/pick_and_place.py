@@ -18,11 +18,12 @@ Rules (times are the observations' clock; a protocol's ``task`` table sets every
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, PLACE_OR_NONE, STAGE, Aims, EventSpec, Kind, Play, Stage, View,
-                              emit, grasped, hold_task, start_and_time_out)
+from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, PLACE_OR_NONE, STAGE, Aims, Difficulty, EventSpec, Kind, Play,
+                              Stage, View, emit, grasped, hold_task, start_and_time_out)
 
 MAX_PLACES = 8
 """The most places a task may have."""
@@ -131,4 +132,7 @@ KIND = Kind(
     rules=[("places", "f8", (MAX_PLACES, 3)), ("n_places", "i8"), ("place_radius", "f8"), ("hold_s", "f8")],
     judge=judge, fill_rules=fill_rules, aims=aims, least_time=least_time, attempts="drops",
     play=Play(approach="reach", take="grasp", then="carry"),
-    view=View(places=True, taken="picked up", done="released"), module=__name__)
+    view=View(places=True, taken="picked up", done="released"),
+    difficulty={"place_radius": Difficulty(lambda r: r.place_radius, lambda r, v: replace(r, place_radius=v), -1, "m"),
+                "hold_s": Difficulty(lambda r: r.hold_s, lambda r, v: replace(r, hold_s=v), 1, "s")},
+    module=__name__)

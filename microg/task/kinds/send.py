@@ -32,13 +32,13 @@ Rules (times are the observations' clock, places the tracker frame; the numbers 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
 
-from microg.task.kind import (COUNT, EPS, FINAL, MAX_DISTANCE, NUMBER, NUMBER_OR_NONE, STAGE, VECTOR, Aims, EventSpec,
-                              Kind, Measure, Play, Stage, View, emit, grasped, hold_task, inside, length,
+from microg.task.kind import (COUNT, EPS, FINAL, MAX_DISTANCE, NUMBER, NUMBER_OR_NONE, STAGE, VECTOR, Aims, Difficulty,
+                              EventSpec, Kind, Measure, Play, Stage, View, emit, grasped, hold_task, inside, length,
                               start_and_time_out)
 
 STAGES = (Stage("pick_up", "Pick up the object", loose=True), Stage("carry", "Let it go so that it floats into the blue rings"),
@@ -206,6 +206,18 @@ def least_time(rules) -> tuple[str, float]:
     return "task.send.arrival_s", rules.send.arrival_s
 
 
+def _distance_of(rules) -> float:
+    """How far (m) the target's centre lies from the task's start: what a send's staircase adapts."""
+    return float(np.linalg.norm(np.subtract(rules.send.target, rules.start)))
+
+
+def _at_distance(rules, distance: float):
+    """``rules`` with the target moved along its line from the start to ``distance`` (m)."""
+    way = np.subtract(rules.send.target, rules.start)
+    target = tuple(float(v) for v in np.add(rules.start, way * (distance / np.linalg.norm(way))))
+    return rules.with_numbers("send", replace(rules.send, target=target))
+
+
 def fill_rules(rules, record) -> None:
     send = rules.send
     record["target"], record["radius"], record["arrival_s"] = send.target, send.radius, send.arrival_s
@@ -231,4 +243,5 @@ KIND = Kind(
                       "before a first send", "release_speed_error", signed=True)),
     play=Play(approach="reach", take="grasp", then="push", squeeze="path"),
     view=View(zone=lambda rules: (rules.send.target, rules.send.radius), taken="picked up", done="arrived"),
-    table="send", read=read, module=__name__)
+    table="send", read=read, difficulty={"send.distance": Difficulty(_distance_of, _at_distance, 1, "m")},
+    module=__name__)

@@ -27,14 +27,14 @@ the protocol's ``[task.stop_spin]``):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
 
 from microg.sim.rotation import quat_to_matrix
 from microg.task.kind import (COUNT, EPS, FINAL, FLAG, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, VECTOR, Aims,
-                              EventSpec, Kind, Measure, Play, Stage, View, emit, grasped, hold_task, length,
+                              Difficulty, EventSpec, Kind, Measure, Play, Stage, View, emit, grasped, hold_task, length,
                               start_and_time_out, touched)
 
 FREE_DV = 1e-4
@@ -167,4 +167,8 @@ KIND = Kind(
                       "turned over its spin axis (the intermediate-axis flip); empty for other kinds and for tasks "
                       "not finished", "flipped", proportion=True)),
     play=Play(approach="reach", take="grasp", then="keep"), view=View(taken="taken", done="at rest"),
-    table="stop_spin", read=read, start_motion=start_motion, module=__name__)
+    table="stop_spin", read=read, start_motion=start_motion,
+    difficulty={"stop_spin.spin": Difficulty(lambda r: r.stop_spin.spin_rate,
+                                             lambda r, v: r.with_numbers("stop_spin", replace(r.stop_spin, spin_rate=v)),
+                                             1, "rad/s")},
+    module=__name__)
