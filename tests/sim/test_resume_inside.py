@@ -5,10 +5,16 @@ a dropout, a new track id, or a jump of ``jump_distance`` or more on the same id
 ``microg.skeleton.is_jump``, which the world applies as the tracking guard does) had no path from
 outside: it is a ghost and exerts nothing until it has left the object (``microg.sim.contact``).
 The fingertip here resumes at a point the object is star-shaped about and leaves in a straight
-line, so it never meets the object again: analytically, the object stays at rest. That is the
-bound asserted: speed 0, whatever the object, the interaction model, the kind of resume, the
-direction and the speed (0.05 to 1 m/s) the hand leaves at; no restitution or spring term arises
-because no contact does.
+line, whatever the object, the interaction model, the kind of resume, the direction and the speed
+(0.05 to 1 m/s). Once it has left, only a contact from outside could move the object, and none
+sends it faster than (1 + e) times the hand's speed with the paper's model (Newton's impact law,
+Eq. 10: Delta v = j / m <= (1 + e) u since n^T K n >= 1 / m; plus what the spring (Eq. 16) can add
+on the depth the finger overshot in the step the contact was found, gamma v dt^2 / (2 e m)), nor
+faster than twice it with the baselines (the elastic limit, below): that is the bound asserted.
+For a box or a sphere (convex) the fingertip never meets the object again, so the object stays at
+rest: speed 0, asserted too. The mallet's collision shape, the convex parts it is cut into, is not
+quite the mallet (``STAR_CENTRES``): a fingertip leaving beside its handle can graze it (at 6 % of
+its speed, measured), a contact from outside within the bound.
 
 The positive control: the same fingertip entering from outside, straight at the object's centre
 of mass along one of its body axes (a central impact on every shipped object), still pushes the
@@ -49,7 +55,10 @@ STAR_CENTRES = {"mallet": (0.0418, 0.0, 0.0)}
 """A point (body frame) each shipped object is star-shaped about, where it is not its centre of
 mass: the middle of the mallet's head (x from 0.0268 to 0.0568, y +-0.035, on its axis; its centre
 of mass is on the handle, 2.7 cm from the head). A ray from there leaves through the head, or the
-head then the handle, once; from the centre of mass one could leave the handle and enter the head."""
+head then the handle, once; from the centre of mass one could leave the handle and enter the head.
+Its convex parts (``ObjectSpec.mesh.parts``) add two slivers 0.4 mm thick on its faces beside the
+handle (y from 0.0115 to 0.035, z at +-0.0125), which such a ray can pass within a fingertip's
+radius of."""
 KINDS = ("first frame", "dropout", "new id", "same-id jump")
 BEFORE = 0.1
 """s the hand is tracked outside before it resumes (and the dropout's length)."""
@@ -117,6 +126,17 @@ def fastest(world, frames) -> float:
     return top
 
 
+def contact_bound(world) -> float:
+    """The fastest a contact from outside can send the world's object at rest off, per m/s of the
+    hand (module docstring): Newton's law and the overshoot's spring with the paper's model, the
+    elastic limit with the baselines."""
+    model = world.model
+    if "impulse" not in model.effects:
+        return 2.0
+    e = model.restitution[0]
+    return 1 + e + model.penetration_stiffness * model.dt ** 2 / (2 * e * model.mass[0])
+
+
 def world_of(spec, interaction: str):
     return make_world(compose_scene([PlacedObject(spec, tuple(CENTRE))], interaction))
 
@@ -138,8 +158,12 @@ def test_a_hand_resuming_inside_an_object_never_moves_it(name, interaction, kind
     # tracked before outside the object, and a jump away (10 cm or more) from where it resumes
     before = CENTRE + start + away * (max(far, JUMP_DISTANCE) + 0.01)
     frames = resume_frames(kind, CENTRE + start, before, leave, speed, duration=(far + 0.002) / speed)
-    top = fastest(world_of(spec, interaction), frames)
-    assert top == 0.0, f"{name} ({interaction}, {kind}): sent off at {top:.3g} m/s by a hand leaving at {speed:.3g} m/s"
+    world = world_of(spec, interaction)
+    top = fastest(world, frames)
+    said = f"{name} ({interaction}, {kind}): sent off at {top:.3g} m/s by a hand leaving at {speed:.3g} m/s"
+    assert top <= contact_bound(world) * speed, said
+    if spec.mesh is None:
+        assert top == 0.0, said
 
 
 AXES = [sign * axis for axis in np.eye(3) for sign in (1.0, -1.0)]
