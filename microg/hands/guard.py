@@ -46,7 +46,7 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
-from microg.skeleton import HANDS, N_BONES, N_DIGITS, POINTS, HandFrame, hand_frame, hands_record, is_jump
+from microg.skeleton import HANDS, JUMP_DISTANCE, N_BONES, N_DIGITS, POINTS, HandFrame, hand_frame, hands_record, is_jump
 
 RECENT_INTERVALS = 31
 """Intervals between arrived frames the typical period is the median of."""
@@ -54,9 +54,10 @@ RECENT_INTERVALS = 31
 
 @dataclass(frozen=True)
 class GuardConfig:
-    jump_distance: float = 0.10
+    jump_distance: float = JUMP_DISTANCE
     """m: a hand that moved this far between two frames jumped (``microg.skeleton.is_jump``); the
-    physics learns of an accepted jump by the new track id the guard gives it."""
+    physics learns of an accepted jump by the new track id the guard gives it (and applies the
+    rule itself too, with the scene's ``jump_distance``: ``microg.sim.hand_path``)."""
     confirm_frames: int = 3
     """Frames in a row at a jumped-to place before it is accepted as a new track."""
     max_hold: int = 10

@@ -165,7 +165,7 @@ def specialise(effects: frozenset[str], meshes: bool = False):
         wrench, stiffness, damping = np.zeros(6), np.zeros((6, 6)), np.zeros((6, 6))
         s = unpack(reals, flags, counts, n)
         interval = start_frame(s, frame.t)
-        take_hands(s, frame.present, frame.track_id, frame.points, frame.widths, interval)  # phalanges (3.2)
+        take_hands(p, s, frame.present, frame.track_id, frame.points, frame.widths, interval)  # phalanges (3.2)
         due = steps_due(s, p.dt)
         while s.counter[COUNT_STEPS] < due:
             parts = parts_of_step(p, s, p.dt, springs)

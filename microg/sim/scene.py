@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from microg.skeleton import JUMP_DISTANCE
 from .bodies import ObjectSpec, SceneError, load_object
 
 EFFECTS: dict[str, str] = {
@@ -103,6 +104,10 @@ class Scene:
     angular_integrator: str = "midpoint"
     resting_tolerance: float = 1e-3
     """|v| below this (m/s) classifies a contact as resting (Eq. 8)."""
+    jump_distance: float = JUMP_DISTANCE
+    """m: a hand that moved this far between two frames jumped (``microg.skeleton.is_jump``): the
+    world starts a new track for it, as the tracking guard does (``hand_path``). A study's scene
+    has its protocol's, the guard's (``scene.jump_distance``)."""
     soft_hand: SoftHandParameters = field(default_factory=SoftHandParameters)
     table: TableParameters | None = None
 
@@ -130,7 +135,7 @@ class Scene:
             raise SceneError(f"{where}: gravity = {list(self.gravity)}: must be three finite numbers (m/s^2)")
         if gravity.any() and "gravity" not in self.effects:
             raise SceneError(f"{where}: gravity = {list(self.gravity)} but effects does not name 'gravity'")
-        for name in ("tracking_rate", "penetration_stiffness", "resting_tolerance"):
+        for name in ("tracking_rate", "penetration_stiffness", "resting_tolerance", "jump_distance"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
                 raise SceneError(f"{where}: {name} = {value!r}: must be a positive number")

@@ -26,7 +26,7 @@ import numpy as np
 from numba import types
 from numba.experimental import structref
 
-from microg.skeleton import POINTS  # noqa: F401  (a frame's points per side, as the physics reads them)
+from microg.skeleton import POINTS
 from .bodies import SHAPES
 from .compiled import StructType, array_type, kernel, places, tail, views, where
 from .scene import ANGULAR_INTEGRATORS
@@ -52,6 +52,7 @@ FIELDS: tuple[tuple[str, int, tuple], ...] = (
     ("hand_to", REALS, ("K", 3)),
     ("hand_velocity", REALS, ("K", 3)),
     ("radius", REALS, ("K",)),
+    ("last_points", REALS, (2, POINTS, 3)),  # each side's palm and joints in the last frame: for the jump rule
     ("anchor", REALS, ("K", "N", 3)),
     ("normal", REALS, ("K", "N", 3)),
     ("depth", REALS, ("K", "N")),
@@ -85,6 +86,7 @@ PARAMETERS: tuple[tuple[str, int, tuple, Callable], ...] = (
     ("gravity", MODEL_REALS, (3,), lambda scene: scene.gravity),
     ("penetration_stiffness", MODEL_REALS, (), lambda scene: scene.penetration_stiffness),
     ("resting_tolerance", MODEL_REALS, (), lambda scene: scene.resting_tolerance),
+    ("jump_distance", MODEL_REALS, (), lambda scene: scene.jump_distance),
     ("dt", MODEL_REALS, (), lambda scene: scene.dt),
     ("soft_stiffness", MODEL_REALS, (), lambda scene: scene.soft_hand.stiffness),
     ("soft_damping", MODEL_REALS, (), lambda scene: scene.soft_hand.damping),

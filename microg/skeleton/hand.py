@@ -36,6 +36,14 @@ MIN_PHALANX_LENGTH = 1e-4
 """Bones shorter than this (m) are not phalanges: the thumb's metacarpal is one."""
 POINTS = 1 + N_DIGITS * (N_BONES + 1)
 """A hand's palm and its 25 joints: the points a jump is measured on (``Hand.points``)."""
+JUMP_DISTANCE = 0.10
+"""m: how far a hand may move between two frames before it jumped (``is_jump``): 11 m/s at the Leap
+Motion's 110 Hz, faster than a hand moves. The tracking guard's and the physics' default; a protocol
+may set another (``scene.jump_distance``)."""
+JUMP_ROUNDING = 1e-12
+"""m: a move this much shorter than the jump distance still counts as reaching it (``is_jump``):
+positions within ``MAX_REACH`` are rounded to about 1e-15 m, so a move of 10 cm written in
+decimals (y from 0.3 to 0.2) measures 0.09999999999999998 m. No tracker resolves a picometre."""
 
 
 def slot(side: str, digit: int, bone: int) -> int:
@@ -91,9 +99,12 @@ def displacement(points, previous):
 @njit(cache=True)
 def is_jump(points, previous, jump_distance):
     """The jump rule: a hand whose palm or some joint moved ``jump_distance`` or more between two
-    frames did not get there by moving; it is a new track (no velocity, no filter history). The
-    tracking guard and the world both ask this, here (the world from compiled code)."""
-    return displacement(points, previous) >= jump_distance
+    frames (give or take ``JUMP_ROUNDING``) did not get there by moving; it is a new track (no
+    velocity, no filter history, no contact). The tracking guard asks it of every hand it admits
+    (``microg.hands.guard``: a jump that stays gets a new track id), and the world asks it again of
+    every frame it takes (``microg.sim.hand_path``, from compiled code), for callers of the physics
+    that pass no guard: a hand that jumped on the same id starts a new track there too."""
+    return displacement(points, previous) >= jump_distance - JUMP_ROUNDING
 
 
 @njit(cache=True)

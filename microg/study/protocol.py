@@ -283,7 +283,8 @@ class Protocol:
     filter_window: int
     """F of the window filter on the tracked hand (Eq. 1, ``microg.hands.filter``)."""
     jump_distance: float
-    """How far (m) a hand may move between two frames before the tracking guard calls it a jump."""
+    """How far (m) a hand may move between two frames before the tracking guard (and the physics, with
+    the same rule) calls it a jump."""
     total_participants: int
     balance: str
     age_range: tuple[int, int] | None
@@ -331,12 +332,14 @@ class Protocol:
         """The physics scene of a task of ``kind`` with object ``name`` under ``interaction``: the object
         alone at its start pose (on the table, if there is one), moving as the kind starts it by
         ``rules`` (the protocol's task, unless a staircase changed them: ``start_motion``), under the
-        protocol's gravity and scene options."""
+        protocol's gravity and scene options, with the tracking guard's jump distance (the world
+        applies the jump rule too: ``microg.sim.hand_path``)."""
         position, orientation = self.start_pose(name)
         velocity, angular_velocity = self.start_motion(kind, rules)
         placed = PlacedObject(self.object(name).spec, position, orientation, velocity, angular_velocity)
         table = None if self.table_height is None else TableParameters(height=self.table_height)
-        return compose_scene([placed], interaction, self.gravity, table=table, **self.scene_options)
+        return compose_scene([placed], interaction, self.gravity, table=table, jump_distance=self.guard.jump_distance,
+                             **self.scene_options)
 
     def start_motion(self, kind: str, rules: TaskRules | None = None
                      ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:

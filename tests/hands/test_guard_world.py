@@ -4,9 +4,10 @@ A flat hand sweeps sideways at 0.25 m/s into the 6 cm cube (microgravity, the pa
 and penetration model with the window filter, as a study scene composes it). Hit by a kinematic
 hand, the cube can leave at most at (1 + e) times the hand's speed (Newton's impact law, Eq. 10).
 Each corrupted stream goes through the tracking guard into the world; the cube must stay under
-that bound. Without the guard, disordered streams stop the world with an error and gaps are
-harmless to the world itself (Eq. 1 keeps its lag across gaps); a jump is the guard's to catch
-alone (the jump rule's one place: the world learns of a jump by the new track id it gives).
+that bound. Without the guard, disordered streams stop the world with an error, while gaps and
+jumps are harmless to the world itself: Eq. 1 keeps its lag across gaps, and the world applies the
+jump rule too (``microg.skeleton.is_jump``, in ``microg.sim.hand_path``), so a hand that jumped on
+the same track id is a new track there as it is for the guard.
 """
 
 import numpy as np
@@ -105,11 +106,9 @@ def test_without_the_guard_disordered_frames_stop_the_world(case):
         fastest_cube(CASES[case], guard=False)
 
 
-def test_even_without_the_guard_gaps_do_not_launch_the_cube():
-    assert fastest_cube(CASES["dropped frames around contact"], guard=False) <= BOUND * (1 + 1e-9)
-
-
-def test_without_the_guard_a_jump_reaches_the_physics_as_motion():
-    """The jump rule is applied once, by the guard: without it, fingers jumping 12 cm through the
-    cube are a swipe at 13 m/s to the physics."""
-    assert fastest_cube(CASES["fingers jump 12 cm, palm steady"], guard=False) > 2 * BOUND
+@pytest.mark.parametrize("case", ["dropped frames around contact", "fingers jump 12 cm, palm steady"])
+def test_even_without_the_guard_gaps_and_jumps_do_not_launch_the_cube(case):
+    """Fingers jumping 12 cm through the cube and back, on the same track id, would be a swipe at
+    13 m/s if the world took the jump for motion; it is a new track there (and again when they come
+    back), and the hand then hits the cube as it really moves."""
+    assert 0.9 * BOUND < fastest_cube(CASES[case], guard=False) <= BOUND * (1 + 1e-9)

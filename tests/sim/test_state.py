@@ -16,7 +16,7 @@ def field_sums(reals, flags, counts, n):
     return np.array([
         s.clock.sum(), s.position.sum(), s.orientation.sum(), s.velocity.sum(), s.angular_velocity.sum(),
         s.hand_position.sum(), s.hand_previous.sum(), s.hand_from.sum(), s.hand_to.sum(), s.hand_velocity.sum(),
-        s.radius.sum(), s.anchor.sum(), s.normal.sum(), s.depth.sum(), s.normal_velocity.sum(),
+        s.radius.sum(), s.last_points.sum(), s.anchor.sum(), s.normal.sum(), s.depth.sum(), s.normal_velocity.sum(),
         s.impulse.sum(), s.valid.sum(), s.fresh.sum(), s.present.sum(), s.active.sum(), s.ghost.sum(),
         s.onset.sum(), s.sliding.sum(), s.counter.sum(), s.track_id.sum()], dtype=np.float64)
 
@@ -42,8 +42,8 @@ def parameters_seen(reals, ints, n):
     p = unpack_params(reals, ints, n)
     return (p.angular_method, p.shape.copy(), p.half_size.copy(), p.mass.copy(), p.inertia.copy(),
             p.restitution.copy(), p.static_friction.copy(), p.dynamic_friction.copy(), p.gravity.copy(),
-            np.array([p.penetration_stiffness, p.resting_tolerance, p.dt, p.soft_stiffness, p.soft_damping,
-                      p.soft_slip_velocity, p.table_height, p.table_stiffness, p.table_damping,
+            np.array([p.penetration_stiffness, p.resting_tolerance, p.jump_distance, p.dt, p.soft_stiffness,
+                      p.soft_damping, p.soft_slip_velocity, p.table_height, p.table_stiffness, p.table_damping,
                       p.table_slip_velocity]))
 
 
@@ -53,13 +53,15 @@ def test_every_parameter_comes_from_its_place_in_the_scene_to_the_kernels_and_th
     scene = compose_scene([PlacedObject(box, (0.0, 0.2, 0.0)), PlacedObject(ball, (0.2, 0.2, 0.0))],
                           gravity=(0.0, -9.81, 0.0), table=TableParameters(0.11, 2100.0, 11.0, 0.002),
                           tracking_rate=90.0, substeps=3, penetration_stiffness=120.0, resting_tolerance=2e-3,
+                          jump_distance=0.07,
                           angular_integrator="explicit_euler", soft_hand=SoftHandParameters(210.0, 2.5, 0.006))
     model = make_world(scene).model
     expected = {
         "angular_method": 2, "shape": [0, 1], "half_size": [[0.03, 0.01, 0.02], [0.035] * 3], "mass": [0.15, 0.12],
         "inertia": [box.principal_inertia, ball.principal_inertia], "restitution": [0.4, 0.6],
         "static_friction": [0.8, 0.7], "dynamic_friction": [0.5, 0.3], "gravity": [0.0, -9.81, 0.0],
-        "penetration_stiffness": 120.0, "resting_tolerance": 2e-3, "dt": 1 / 270, "soft_stiffness": 210.0,
+        "penetration_stiffness": 120.0, "resting_tolerance": 2e-3, "jump_distance": 0.07, "dt": 1 / 270,
+        "soft_stiffness": 210.0,
         "soft_damping": 2.5, "soft_slip_velocity": 0.006, "table_height": 0.11, "table_stiffness": 2100.0,
         "table_damping": 11.0, "table_slip_velocity": 0.002}
     assert [name for name, *_ in PARAMETERS] == list(expected)
@@ -69,4 +71,4 @@ def test_every_parameter_comes_from_its_place_in_the_scene_to_the_kernels_and_th
     for value, name in zip(seen[:-1], expected):
         assert np.asarray(value) == pytest.approx(np.asarray(expected[name]), rel=1e-15), name
     assert seen[-1] == pytest.approx([expected[name] for name in list(expected)[9:]], rel=1e-15)
-    assert model.params.size == 10 * 2 + 3 + 10 and model.ints.size == 2 + 2  # nothing else, nothing twice
+    assert model.params.size == 10 * 2 + 3 + 11 and model.ints.size == 2 + 2  # nothing else, nothing twice

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from microg.paths import INSTRUMENTS, PROTOCOLS
+from microg.skeleton import JUMP_DISTANCE
 from microg.study.protocol import ProtocolError, load_protocol
 from microg.study.questionnaire import questions
 from microg.study.store import plan_tasks
@@ -74,6 +75,17 @@ def test_the_microgravity_variant_differs_only_in_gravity_and_support():
     assert micro.gravity == (0.0, 0.0, 0.0) and micro.table_height is None and paper.table_height == 0.15
     assert micro.task.places == paper.task.places and micro.groups == paper.groups
     assert micro.instruments == paper.instruments and micro.sha256 != paper.sha256
+
+
+def test_a_protocols_jump_distance_is_the_tracking_guards_and_the_physics(tmp_path):
+    """One jump distance for both places that apply the jump rule (``microg.skeleton.is_jump``):
+    the tracking guard and every scene the protocol makes (the world's frame intake)."""
+    paper = load_protocol(PAPER)
+    assert paper.guard.jump_distance == paper.scene("cube", "impulse_penetration").jump_distance == JUMP_DISTANCE
+    mine = load_protocol(edited(tmp_path, "tracking_rate = 110.0", "tracking_rate = 110.0\njump_distance = 0.05"))
+    assert mine.guard.jump_distance == 0.05
+    assert {mine.scene(o.name, interaction).jump_distance for o in mine.objects
+            for interaction in mine.interactions} == {0.05}
 
 
 def test_the_protocol_digest_depends_on_content_not_on_where_the_file_is(tmp_path):
