@@ -25,7 +25,7 @@ class Column(NamedTuple):
     description: str
     optional: bool = False
     unit: str = ""
-    """Its unit, for a number that has one: s, ms, m, m/s, rad/s, years; empty for none."""
+    """Its unit, for a number that has one: s, min, ms, m, m/s, rad/s, years; empty for none."""
     values: tuple[str, ...] = ()
     """The values it may take, when the code fixes them."""
     minimum: float | None = None
@@ -123,14 +123,48 @@ TRIALS = (
            "(the protocol's added_latency_ms); 0 for none", optional=True, unit="ms", minimum=0, source=PROTOCOL),
     Column("runs", "Int64", "how many times the task was run", minimum=0, source=SESSION_LOG),
     Column("withdrawn", "bool", "whether the participant withdrew from the study", source=ENROLMENT),
-    Column("session", "Int64", "id of the session in the study's log", minimum=1, source=SESSION_LOG),
-    Column("task_index", "Int64", "index of the task within its session, from 0", minimum=0, source=SESSION_LOG),
+    Column("session", "string", "the session the task ran in: a training program's session by its name in the "
+           "protocol's [[sessions]], else main (the one session)", levels="sessions", source=PROTOCOL),
+    Column("task_index", "Int64", "index of the task within its session, from 0 (a phase trained to a criterion "
+           "keeps max_tasks indexes, so indexes may skip)", minimum=0, source=SESSION_LOG),
     Column("station", "string", "the station that ran the session (microg study merge); empty for a session run "
            "in the study itself", optional=True, source=MERGE),
     Column("task_kind", "string", "the task's kind", optional=True, levels="kinds", source=PROTOCOL),
+    Column("session_id", "Int64", "id of the session in the study's log", minimum=1, source=SESSION_LOG),
+    Column("session_index", "Int64", "the session's place among the participant's sessions, from 1", minimum=1,
+           source=SESSION_LOG),
+    Column("session_date", "string", "the day the session ran (ISO 8601 date; on the simulated calendar for a "
+           "simulated participant: each session on the earliest day it may run)", source=SESSION_LOG),
+    Column("task_in_phase", "Int64", "the task's place in its phase, from 1", minimum=1, source=SESSION_LOG),
+    Column("criterion_met", "boolean", "in a phase trained to a criterion (the protocol's until): whether the "
+           "criterion was met at this task (true on that one task only); empty in other phases", optional=True,
+           source=SESSION_LOG),
+    Column("difficulty", "float64", "the value of the phase's staircase parameter the task ran with; empty without "
+           "a staircase", optional=True, source=PROTOCOL),
 )
 """The trials table's columns every study has; each task kind's own measures follow them
 (``microg.study.export.trial_declarations``)."""
+
+PROGRESSION = (
+    Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
+    Column("group", "string", "the participant's group code", levels="groups", source=ASSIGNMENT),
+    Column("session", "string", "the session (as in trials)", levels="sessions", source=PROTOCOL),
+    Column("session_index", "Int64", "the session's place among the participant's sessions, from 1", minimum=1,
+           source=SESSION_LOG),
+    Column("phase", "string", "the phase of tasks", levels="phases", source=PROTOCOL),
+    Column("tasks", "Int64", "tasks the phase ran (ended: completed, timed out, aborted or skipped)", minimum=0,
+           source=SESSION_LOG),
+    Column("criterion_met", "boolean", "whether the phase met its criterion (the protocol's until); empty for a "
+           "phase without one", optional=True, source=SESSION_LOG),
+    Column("tasks_to_criterion", "Int64", "the task at which the criterion was met (its task_in_phase); empty when "
+           "it was not met (max_tasks reached: censored) or the phase has none", optional=True, minimum=1,
+           source=SESSION_LOG),
+    Column("minutes", "float64", "the phase's duration, from its start to its end on the session's clock; empty "
+           "for a phase not ended", optional=True, unit="min", minimum=0, source=SESSION_LOG),
+    Column("final_difficulty", "float64", "the staircase's value of the phase's last task; empty without a "
+           "staircase", optional=True, source=PROTOCOL),
+)
+"""``progression``: one row per participant, session and phase of tasks: how far training went."""
 
 QUESTIONNAIRE = (
     Column("study", "string", "the study's name", source=STUDY),

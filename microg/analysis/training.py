@@ -726,7 +726,8 @@ def _power_law(x: np.ndarray, y: np.ndarray, upper_c: float) -> dict:
     sigma = math.sqrt(rss / (len(x) - 3))
     j = jacobian(theta)
     try:
-        se = np.sqrt(np.diag(np.linalg.inv(j.T @ j)) * sigma**2)
+        with np.errstate(invalid="ignore"):  # a fit at a bound may leave no variance: its error is NaN
+            se = np.sqrt(np.diag(np.linalg.inv(j.T @ j)) * sigma**2)
     except np.linalg.LinAlgError:
         se = np.full(3, np.nan)
     names = ("a", "b", "c")

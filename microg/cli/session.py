@@ -20,7 +20,7 @@ from microg.study.session import (EventLog, Outputs, Unattended, handling_stop_s
                                   run_session)
 from microg.study.protocol import ProtocolError
 from microg.study.replay import ReplayError, ReplayInputs
-from microg.study.store import PlannedTask, Store, describe_counts, open_study, plan_tasks
+from microg.study.store import PlannedTask, Store, StoreError, describe_counts, open_study, plan_tasks
 
 from .common import PAGE_OPTIONS, announce_page, clear_errors, page_certificate, study_dir_argument
 
@@ -45,6 +45,9 @@ class TerminalOperator:
 
     def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
         click.echo(f"task {task.index} {status}" + (f" in {time_s:.1f} s" if time_s is not None else ""))
+
+    def progressed(self, text: str) -> None:
+        click.echo(text)
 
 
 @click.group("session")
@@ -106,13 +109,19 @@ def _point(text: str | None, name: str) -> tuple[float, float, float] | None:
 
 
 def _run_one(store: Store, participant_id: str, *, input_spec: str | None, options: SessionOptions,
-             resume: bool) -> str:
+             resume: bool, session: str | None = None, ignore_schedule: bool = False) -> str:
     record = store.participant(participant_id)
     existing = store.session_of(participant_id)
     if resume and existing is None:
         raise click.ClickException(f"participant {participant_id} has no session to resume; start one with: "
                                    f"microg session run {store.dir} --participant {participant_id} --input ...")
-    spec = input_spec or (existing.input if existing else None)
+    if resume and existing.status != "running":
+        named = f" ({existing.name!r})" if store.protocol.program else ""
+        raise click.ClickException(f"session {existing.id}{named} of {participant_id} is {existing.status}; there is "
+                                   "nothing to resume" + (f" (their next session runs with: microg session run "
+                                                          f"{store.dir} --participant {participant_id} --input ...)"
+                                                          if named else ""))
+    spec = input_spec or (existing.input if resume else None)
     if spec is None:
         raise click.ClickException("give --input leap, webxr, lsl:NAME, replay:FILE or simulated[:PROFILE]")
     kind = parse_input(spec)[0]
@@ -121,11 +130,10 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         raise click.UsageError("--input webxr reads the hands from the participant's page: it needs --display")
     if resume:
         session_record = existing
-        if session_record.status != "running":
-            raise click.ClickException(f"session {existing.id} of {participant_id} is {existing.status}; "
-                                       "there is nothing to resume")
-    if existing is None or existing.status == "running":
         store.check_runs_here(participant_id)
+    else:  # refused before anything opens: out of order, run before, not due yet
+        planned = store.next_session(participant_id, simulated=kind == "simulated", session=session,
+                                     ignore_schedule=ignore_schedule)[0].name
     rating = options.questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
     problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
     if problems:
@@ -139,14 +147,16 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         if shown and kind not in LIVE:
             inputs = PacedInputs(inputs, options.pace)
         if isinstance(inputs, ReplayInputs):  # every task has its recording, before anything runs
-            tasks = plan_tasks(store.protocol, record.group, record.object_order)
+            tasks = plan_tasks(store.protocol, record.group, record.object_order,
+                               session_record.name if resume else planned)
             try:
                 inputs.check([participant_plan(store.protocol, task, participant=participant_id) for task in tasks])
             except ReplayError as error:
                 raise click.ClickException(str(error)) from None
         if not resume:
             session_record = store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,
-                                                  clock=inputs.clock)
+                                                  clock=inputs.clock, session=planned,
+                                                  ignore_schedule=ignore_schedule)
         store.lock_session(session_record.id)
         clock = make_clock(inputs.clock, store.last_time(session_record.id))
         log = EventLog(store, session_record.id, clock)
@@ -289,10 +299,27 @@ def _pause_on_signals():
         pause.check()
 
 
+def _runnable(store: Store, participant_id: str, *, simulated: bool, ignore_schedule: bool) -> bool:
+    """Whether ``run --all`` runs the participant: a session of theirs is running, or their next is
+    due (one handed to a station is left for the station, said later)."""
+    latest = store.session_of(participant_id)
+    if latest is not None and latest.status == "running":
+        return True
+    if store.station_holding(participant_id) is not None:
+        return True
+    try:
+        store.next_session(participant_id, simulated=simulated, ignore_schedule=ignore_schedule)
+    except StoreError:
+        return False
+    return True
+
+
 def _outcome(store: Store, participant_id: str, status: str) -> str:
-    """How a session ended, with how its tasks stand: ``session of P01: incomplete, 6 tasks: 6 aborted``."""
-    counts = store.task_counts(store.session_of(participant_id).id)
-    return f"session of {participant_id}: {status}, {describe_counts(counts)}"
+    """How a session ended, with how its tasks stand: ``session of P01: incomplete, 6 tasks: 6 aborted``
+    (a training program's names the session: ``session 'train1' of P01: ...``)."""
+    session = store.session_of(participant_id)
+    named = "" if not store.protocol.program else f" {session.name!r}"
+    return f"session{named} of {participant_id}: {status}, {describe_counts(store.task_counts(session.id))}"
 
 
 @contextlib.contextmanager
@@ -372,25 +399,36 @@ def session_options(command):
 
 @session.command("run")
 @study_dir_argument
-@click.option("--participant", "participant_id", help="The participant whose session to run.")
+@click.option("--participant", "participant_id", help="The participant whose session to run: their next one.")
 @click.option("--all", "run_all", is_flag=True,
-              help="Run every active participant without a finished session (resuming unfinished ones).")
+              help="Run every active participant's next session that is due (resuming unfinished ones).")
+@click.option("--session", "session_name", default=None,
+              help="A training program's session to run (its name in the protocol's [[sessions]]); default: the "
+                   "participant's next. It must be their next: sessions run in order, each once.")
+@click.option("--ignore-schedule", is_flag=True,
+              help="Run the session even before it is due (after_days after the previous one); the session "
+                   "records that it did.")
 @click.option("--input", "input_spec", required=True, help=INPUT_HELP)
 @session_options
 @clear_errors
-def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: str, **shared) -> None:
-    """Run a participant's session: timeline, tasks, questionnaire; everything is logged as it happens."""
+def run(study_dir: str, participant_id: str | None, run_all: bool, session_name: str | None, ignore_schedule: bool,
+        input_spec: str, **shared) -> None:
+    """Run a participant's next session: timeline, tasks, questionnaire; everything is logged as it
+    happens. A training program's session runs no earlier than its due date (see: microg study schedule)."""
     if bool(participant_id) == run_all:
         raise click.UsageError("give either --participant ID or --all")
-    parse_input(input_spec)
+    if run_all and session_name:
+        raise click.UsageError("--session names one participant's session: give it with --participant")
+    kind = parse_input(input_spec)[0]
     options = SessionOptions(**shared)
     with open_study(study_dir) as store:
         if participant_id:
-            status = _run_one(store, participant_id, input_spec=input_spec, options=options, resume=False)
+            status = _run_one(store, participant_id, input_spec=input_spec, options=options, resume=False,
+                              session=session_name, ignore_schedule=ignore_schedule)
             click.echo(_outcome(store, participant_id, status))
             return
         todo = [p.id for p in store.participants() if p.status == "active"
-                and (store.session_of(p.id) is None or store.session_of(p.id).status == "running")]
+                and _runnable(store, p.id, simulated=kind == "simulated", ignore_schedule=ignore_schedule)]
         held = {pid: store.station_holding(pid) for pid in todo}
         for pid, station in held.items():
             if station is not None:
@@ -398,8 +436,10 @@ def run(study_dir: str, participant_id: str | None, run_all: bool, input_spec: s
                            "comes back with microg study merge", err=True)
         todo = [pid for pid in todo if held[pid] is None]
         for pid in tqdm(todo, unit="participant", desc="participants", disable=options.quiet):
-            resume = store.session_of(pid) is not None
-            status = _run_one(store, pid, input_spec=None if resume else input_spec, options=options, resume=resume)
+            latest = store.session_of(pid)
+            resume = latest is not None and latest.status == "running"
+            status = _run_one(store, pid, input_spec=None if resume else input_spec, options=options, resume=resume,
+                              ignore_schedule=ignore_schedule)
             click.echo(_outcome(store, pid, status))
         click.echo(f"ran {len(todo)} session(s)")
 

@@ -1,11 +1,14 @@
 """``microg study init``: create a study from a protocol; ``microg study status``: where it stands;
+``microg study schedule``: who is due for which session of a training program in the coming days;
 ``microg study check``: the study database's full integrity check; ``microg study station`` (and
 ``--give-up``) and ``microg study merge``: several stations run one study (``microg.study.stations``)."""
 
 from __future__ import annotations
 
+import datetime
 import secrets
 from collections import Counter
+from pathlib import Path
 
 import click
 
@@ -13,6 +16,7 @@ from microg.paths import protocol_file
 
 from microg.study import ledger
 from microg.study.protocol import load_protocol
+from microg.study.schedule import overdue_from, session_states
 from microg.study.stations import give_up, given_up, make_station, merge_stations, stations
 from microg.study.store import DATABASE, archived, check_study, create_study, describe_counts, open_study
 from .common import SEED, clear_errors, study_dir_argument
@@ -61,11 +65,16 @@ def status(study_dir: str) -> None:
             counts = Counter(p.participant.gender for p in active if p.group == group.code)
             click.echo(f"  {group.code} ({group.name}): {sum(counts.values())}/{group.size}  "
                        + ", ".join(f"{g} {n}" for g, n in sorted(counts.items())))
+        today = datetime.date.today()
         for p in people:
-            session = store.session_of(p.id)
-            if session is None:
+            sessions = store.sessions_of(p.id)
+            if store.protocol.program:
+                states = session_states(store.protocol, p.group, [s.sitting for s in sessions], today)
+                state = "; ".join(s.describe() for s in states if p.status == "active" or s.state != "due")
+            elif not sessions:
                 state = "no session"
             else:
+                session = sessions[-1]
                 state = f"session {session.id} {session.status}, {describe_counts(store.task_counts(session.id))} " \
                         f"({session.input})"
             click.echo(f"  {p.id:>6} {p.group} {p.participant.gender:<11} {p.status:<9} {state}")
@@ -83,6 +92,49 @@ def status(study_dir: str) -> None:
                        f"{study_dir}", err=True)
         if archived(store.dir / DATABASE):
             click.echo("read only here (an archive): the commands that write into a study refuse it")
+
+
+@study.command("schedule")
+@study_dir_argument
+@click.option("--days", type=click.IntRange(min=1), default=7, show_default=True,
+              help="How many days ahead to list, today included (a lab's week).")
+@click.option("--out", "out_file", type=click.Path(dir_okay=False), default=None,
+              help="Where to write the table as CSV; default: STUDY_DIR/schedule.csv (written anew each time).")
+@clear_errors
+def schedule(study_dir: str, days: int, out_file: str | None) -> None:
+    """Who is due for which session of a training program in the coming --days, and who is overdue:
+    a table (participant, group, session, due, overdue_from, state) printed and written as
+    schedule.csv (read only on the study)."""
+    import pandas as pd
+
+    today = datetime.date.today()
+    with open_study(study_dir, readonly=True, accept_damaged=True) as store:
+        for problem in store.problems:
+            click.echo(f"damaged: {problem}", err=True)
+        rows = []
+        for p in store.participants():
+            if p.status != "active":
+                continue
+            states = session_states(store.protocol, p.group, [s.sitting for s in store.sessions_of(p.id)], today)
+            for state in states:
+                if state.state in ("due", "overdue", "running"):
+                    plan = store.protocol.session(state.name)
+                    due = state.due or state.date
+                    late = None if state.due is None else overdue_from(plan, state.due)
+                    rows.append({"participant": p.id, "group": p.group, "session": state.name,
+                                 "due": due.isoformat(), "overdue_from": late.isoformat() if late else "",
+                                 "state": state.state})
+        table = pd.DataFrame(rows, columns=["participant", "group", "session", "due", "overdue_from", "state"])
+        last = today + datetime.timedelta(days=days - 1)
+        table = table[(table["state"] != "due") | (table["due"] <= last.isoformat())].sort_values(
+            ["due", "participant"], kind="stable")
+        target = Path(out_file) if out_file else Path(study_dir) / "schedule.csv"
+    table.to_csv(target, index=False)
+    click.echo(f"study {store.name!r} on {today.isoformat()}: {len(table)} session(s) due or running up to "
+               f"{last.isoformat()}")
+    if len(table):
+        click.echo(table.to_string(index=False))
+    click.echo(f"wrote {target}")
 
 
 def _head(value: str) -> ledger.Head:

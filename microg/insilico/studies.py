@@ -91,6 +91,11 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
     from microg.study.store import Event
 
     protocol = store.protocol
+    trained = [p.name for p in protocol.phases if p.until is not None]
+    if trained:
+        raise ValueError(f"protocol {protocol.name!r}: phase(s) {', '.join(trained)} train to a criterion, which an "
+                         "in-silico study does not play yet; run its simulated participants as logged sessions "
+                         "(microg session run --input simulated, or microg demo)")
     sessions, units = [], []
     for record in store.participants():
         session = store.session_of(record.participant.id)
@@ -98,7 +103,8 @@ def play_sessions(store, inputs_of, workers: int = 1) -> None:
             continue
         inputs, tasks = inputs_of(session), store.tasks(session.id)
         played = []
-        for task, plan, seed in [run for phase in protocol.phases_for(record.group) if protocol.runs_tasks(phase)
+        for task, plan, seed in [run for phase in protocol.phases_for(record.group, session.name)
+                                 if protocol.runs_tasks(phase)
                                  for run in planned_runs(protocol, session, participant=record, tasks=tasks,
                                                          phase=phase)]:
             skill = inputs.skill(plan)

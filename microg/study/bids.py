@@ -4,6 +4,7 @@ Layout (the run's phase is the BIDS task, its object the acquisition, its run nu
 
     bids/dataset_description.json, participants.tsv, participants.json
     bids/sub-P01/motion/sub-P01_task-stage1_tracksys-hand_acq-cube_run-1_motion.tsv
+    (a training program's: bids/sub-P01/ses-train1/motion/sub-P01_ses-train1_task-...)
                         ..._motion.json   TaskName, SamplingFrequency, TrackingSystemName, counts
                         ..._channels.tsv  name, component, type, tracked_point, units, reference_frame
                         ..._channels.json the reference frame
@@ -58,8 +59,10 @@ def label(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9]", "", text)
 
 
-def recording_name(participant: str, phase: str, obj: str, run: int) -> str:
-    return f"sub-{label(participant)}_task-{label(phase)}_tracksys-{TRACKSYS}_acq-{label(obj)}_run-{run}"
+def recording_name(participant: str, phase: str, obj: str, run: int, session: str | None = None) -> str:
+    """A recording's BIDS name; ``session``: a training program's session (the ``ses-`` entity)."""
+    ses = "" if session is None else f"_ses-{label(session)}"
+    return f"sub-{label(participant)}{ses}_task-{label(phase)}_tracksys-{TRACKSYS}_acq-{label(obj)}_run-{run}"
 
 
 def _channels(sides: list[str], obj: str) -> list[dict]:
@@ -199,6 +202,7 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None, runs: list[di
     instructions = " ".join(" ".join(p.text.split()) for p in protocol.timeline if p.name == "instructions") or "n/a"
     with ThreadPoolExecutor(max_workers=WRITERS) as background:
         writing: list[Future] = []
+        numbers: dict[tuple, int] = {}
         for run in run_list(store) if runs is None else runs:
             frames = framelog.frame_columns(framelog.read(store.db, run["run_id"]))
             sides = [s for s in SIDES if not np.isnan(frames[f"{s}_palm_x"]).all()]
@@ -206,12 +210,18 @@ def write_motion_bids(store: Store, out_dir: str | Path, bar=None, runs: list[di
             values = {c["name"]: frames[c["source"]] for c in channels}
             t0 = float(frames["t"][0])
             values["latency"] = frames["t"] - t0
-            name = recording_name(run["participant"], run["phase"], run["object"], run["run"])
-            folder = out_dir / f"sub-{label(run['participant'])}" / "motion"
+            # the run entity counts a participant's recordings of one phase and object in a session (a task run
+            # again after a cut, or a phase trained to a criterion that gives the object again)
+            session = run["session"] if store.protocol.program else None
+            key = (run["participant"], session, run["phase"], run["object"])
+            numbers[key] = numbers.get(key, 0) + 1
+            name = recording_name(run["participant"], run["phase"], run["object"], numbers[key], session)
+            folder = out_dir / f"sub-{label(run['participant'])}" / ("" if session is None else
+                                                                    f"ses-{label(session)}") / "motion"
             duration = float(values["latency"][-1])
             sidecar = _motion_sidecar(run, channels, samples=len(values["latency"]), duration=duration, rate=rate,
                                       instructions=instructions, about=about)
-            events = [e for e in store.events(run["session"], run["run_id"]) if "frame_t" in e.data]
+            events = [e for e in store.events(run["session_id"], run["run_id"]) if "frame_t" in e.data]
             event_table = pd.DataFrame([{
                 "onset": round(e.data["frame_t"] - t0, 6), "duration": 0.0, "trial_type": e.kind,
                 "stage": e.data.get("stage", "n/a"), "place": e.data.get("place", "n/a")} for e in events],

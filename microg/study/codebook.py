@@ -69,6 +69,8 @@ def study_levels(protocol: Protocol, interactions: Sequence[str] = ()) -> dict[s
         "object_names": {o.name: o.name if o.code == o.name else f"code {o.code}" for o in objects},
         "instruments": {key: instrument.title for key, instrument in protocol.instruments.items()},
         "kinds": {kind.name: kind.title for kind in kinds},
+        "sessions": {plan.name: f"{', '.join(plan.phases) or 'no tasks'}; {plan.after_days} day(s) after the "
+                     "previous session" for plan in protocol.sessions},
         "stages": {stage.name: stage.text for kind in kinds for stage in kind.stages},
     }
 

@@ -1,7 +1,8 @@
 """The main job end to end: a whole simulated study, from protocol to report.
 
 ``run_demo`` creates a study from a protocol (the paper's by default), enrols simulated
-participants with the paper's demographics, runs every session through the real session runner
+participants with the paper's demographics, runs every session (each session of a training program in turn, on the simulated calendar)
+through the real session runner
 and physics with simulated hands (``--input simulated``: the protocol's ``practice`` profile, so
 the veterans differ from the beginners only by the practice their training gave), answers the
 questionnaires with the rating model (``microg.participant.ratings``; marked simulated), exports the
@@ -31,7 +32,8 @@ from .inputs import InputError, open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .simulated_rater import SimulatedRater
 from .session import SimulationClock, run_session
-from .store import FINAL_RUN, Store, StoreError, create_study, open_study
+from .schedule import next_session
+from .store import FINAL_RUN, Store, StoreError, create_study, open_study, plan_tasks
 
 
 @dataclass(frozen=True)
@@ -60,16 +62,34 @@ def _open_in_worker(study_dir: str) -> None:
     Finalize(_worker_store, _worker_store.close, exitpriority=1)  # closed when the worker ends
 
 
-def _run_session(session_id: int) -> str:
-    """One simulated session (in a worker process)."""
+def _run_sessions(session_id: int) -> str:
+    """One simulated participant's session and, in a training program, each of their sessions after it
+    in turn, on the simulated calendar (in a worker process); the last one's status."""
     store = _worker_store
     session = store.session(session_id)
-    store.lock_session(session_id)
-    try:
-        return run_session(store, session_id, _inputs(store, session.participant_id, session.input),
-                           clock=SimulationClock(), rater=SimulatedRater(store, session_id, session.seed))
-    finally:
-        store.unlock_session(session_id)
+    group = store.participant(session.participant_id).group
+    while True:
+        store.lock_session(session.id)
+        try:
+            status = run_session(store, session.id, _inputs(store, session.participant_id, session.input),
+                                 clock=SimulationClock(), rater=SimulatedRater(store, session.id, session.seed))
+        finally:
+            store.unlock_session(session.id)
+        sittings = [s.sitting for s in store.sessions_of(session.participant_id)]
+        if next_session(store.protocol, group, sittings) is None:
+            return status
+        session = store.create_session(session.participant_id, input_spec=session.input, simulated=True,
+                                       clock=session.clock)
+
+
+def _most_tasks(store: Store, participant_id: str) -> int:
+    """The most tasks a participant's sessions run (each phase trained to a criterion counted at its bound)."""
+    record = store.participant(participant_id)
+    fixed = sum(len(plan_tasks(store.protocol, record.group, record.object_order, plan.name))
+                for plan in store.protocol.sessions_for(record.group))
+    bounds = sum(store.protocol.phase(name).max_tasks for plan in store.protocol.sessions_for(record.group)
+                 for name in plan.phases if store.protocol.phase(name) and store.protocol.phase(name).until)
+    return fixed + bounds
 
 
 def _tasks_finished(store: Store) -> int:
@@ -112,7 +132,7 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             inputs = profiled or _inputs(store, participant_id)
             sessions.append(store.create_session(participant_id, input_spec=inputs.spec, simulated=inputs.simulated,
                                                  clock=inputs.clock).id)
-        planned = {session_id: len(store.tasks(session_id)) for session_id in sessions}
+        planned = {session_id: _most_tasks(store, store.session(session_id).participant_id) for session_id in sessions}
         total_tasks = sum(planned.values())
         # Longest first: the last session to start is a short one, so the workers finish close together.
         sessions.sort(key=lambda session_id: -planned[session_id])
@@ -121,7 +141,7 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     bar = tqdm(total=total_tasks, unit="task", desc=f"{participants} simulated participants", disable=not progress,
                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} tasks [{elapsed}<{remaining}, {rate_fmt}] {postfix}")
     with ProcessPoolExecutor(max_workers=jobs, initializer=_open_in_worker, initargs=(str(study_dir),)) as pool:
-        pending = {pool.submit(_run_session, session_id) for session_id in sessions}
+        pending = {pool.submit(_run_sessions, session_id) for session_id in sessions}
         from microg.analysis import write_report  # a few seconds, while the workers run the sessions
         with open_study(study_dir, readonly=True) as watcher:  # opened after the workers start
             done_participants = 0
@@ -133,6 +153,7 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
                 bar.n = _tasks_finished(watcher)
                 bar.set_postfix_str(f"participants {done_participants}/{participants}")
                 bar.refresh()
+    bar.total = bar.n  # a phase trained to a criterion may end before its bound
     bar.close()
 
     tables = out / "tables"
@@ -141,4 +162,6 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
     report = write_report(tables / "trials.csv", tables / "questionnaire.csv", out / "report",
                           title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}",
                           answers=answers, instruments=instruments, kinds=kind_infos())
-    return DemoStudy(study_dir, report, tables, participants, total_tasks, time.monotonic() - started)
+    with open_study(study_dir, readonly=True) as done:
+        ran = _tasks_finished(done)
+    return DemoStudy(study_dir, report, tables, participants, ran, time.monotonic() - started)

@@ -34,7 +34,7 @@ import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
 from microg.instruments import Instrument, load_instrument
-from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, ANSWERS, ENROLMENT, PROTOCOL, QUESTIONNAIRE, \
+from microg.schema import ANSWER_COLUMNS, ANSWER_DTYPES, ANSWERS, ENROLMENT, PROGRESSION, PROTOCOL, QUESTIONNAIRE, \
     QUESTIONNAIRE_COLUMNS, QUESTIONNAIRE_DTYPES, SCORES, SESSION_LOG, STUDY, TASK_RULES, TRIALS, Column, KindInfo, \
     KindMeasure
 from microg.skeleton import HandFrame
@@ -61,9 +61,9 @@ def trials_table(store: Store) -> pd.DataFrame:
     labels = interaction_labels(store)
     rows = store.db.execute("""
         SELECT p.id AS participant, p.group_code, p.gender, p.age, p.handedness, p.mr_experience,
-               p.status AS participant_status, s.id AS session, s.simulated, s.station, t.task_index, t.phase,
-               t.interaction,
-               t.object, t.object_code, t.order_position,
+               p.status AS participant_status, s.id AS session_id, s.name AS session, s.session_index, s.date,
+               s.simulated, s.station, t.task_index, t.phase, t.interaction,
+               t.object, t.object_code, t.order_position, t.task_in_phase, t.difficulty,
                r.id AS run_id, r.status, r.time_s, r.attempts, r.started_at, r.ended_at,
                (SELECT COUNT(*) FROM task_runs c WHERE c.session_id = t.session_id AND c.task_index = t.task_index) AS runs
         FROM tasks t
@@ -71,8 +71,9 @@ def trials_table(store: Store) -> pd.DataFrame:
         JOIN participants p ON p.id = s.participant_id
         LEFT JOIN task_runs r ON r.session_id = t.session_id AND r.task_index = t.task_index
              AND r.run = (SELECT MAX(run) FROM task_runs m WHERE m.session_id = t.session_id AND m.task_index = t.task_index)
-        ORDER BY p.number, t.task_index""").fetchall()
-    measured = _measures(store)
+        ORDER BY p.number, s.session_index, t.task_index""").fetchall()
+    measured, met = _measures(store), _criterion_met(store)
+    trained = {p.name for p in store.protocol.phases if p.until is not None}
     table = pd.DataFrame([{
         "study": store.name, "participant": r["participant"], "group": r["group_code"], "gender": r["gender"],
         "age": r["age"], "handedness": r["handedness"], "mr_experience": bool(r["mr_experience"]),
@@ -87,7 +88,10 @@ def trials_table(store: Store) -> pd.DataFrame:
         "ended_at": r["ended_at"] if r["status"] in FINAL_RUN else None,
         "status": _status(r["status"]), "runs": r["runs"], "simulated": bool(r["simulated"]),
         "withdrawn": r["participant_status"] == "withdrawn", "session": r["session"], "task_index": r["task_index"],
-        "station": r["station"], "task_kind": store.protocol.kind(r["phase"]),
+        "station": r["station"], "task_kind": store.protocol.kind(r["phase"]), "session_id": r["session_id"],
+        "session_index": r["session_index"], "session_date": r["date"], "task_in_phase": r["task_in_phase"],
+        "criterion_met": met.get((r["session_id"], r["phase"])) == r["task_in_phase"] if r["phase"] in trained
+        else None, "difficulty": r["difficulty"],
         **{column.name: measured.get(r["run_id"], {}).get(column.name) for column in measure_declarations()},
     } for r in rows], columns=[column.name for column in trial_declarations()])
     return table.astype({column.name: column.dtype for column in trial_declarations()})
@@ -113,6 +117,39 @@ def kind_infos() -> dict[str, KindInfo]:
                                 tuple(KindMeasure(m.name, f"{m.label} ({m.unit})" if m.unit else m.label,
                                                   m.proportion, m.signed) for m in kind.measures))
             for kind in KINDS.values()}
+
+
+def progression_table(store: Store, trials: pd.DataFrame | None = None) -> pd.DataFrame:
+    """One row per participant, session and phase of tasks: the tasks it ran, whether and at which
+    task it met its criterion, its minutes and its staircase's last value (``microg.schema.PROGRESSION``)."""
+    trials = trials_table(store) if trials is None else trials
+    spans = {}
+    for r in store.db.execute("SELECT session_id, t, kind, data FROM events WHERE kind IN ('phase_start', 'phase_end') "
+                              "ORDER BY id"):
+        spans.setdefault((r["session_id"], json.loads(r["data"])["phase"]), {})[r["kind"]] = r["t"]
+    rows = []
+    keys = ["participant", "group", "session", "session_index", "phase", "session_id"]
+    for key, tasks in trials.groupby(keys, sort=False):
+        span = spans.get((key[-1], key[-2]), {})
+        trained = tasks["criterion_met"].notna().any()
+        met = tasks.loc[tasks["criterion_met"].fillna(False).astype(bool), "task_in_phase"]
+        ran = tasks[tasks["status"].isin(FINAL_RUN)]
+        rows.append(dict(zip(PROGRESSION_KEYS, key[:-1])) | {
+            "tasks": len(ran), "criterion_met": bool(len(met)) if trained else None,
+            "tasks_to_criterion": int(met.iloc[0]) if len(met) else None,
+            "minutes": (span["phase_end"] - span["phase_start"]) / 60.0 if len(span) == 2 else None,
+            "final_difficulty": ran["difficulty"].iloc[-1] if len(ran) else None})
+    columns = [c.name for c in PROGRESSION]
+    return pd.DataFrame(rows, columns=columns).astype({c.name: c.dtype for c in PROGRESSION})
+
+
+PROGRESSION_KEYS = ("participant", "group", "session", "session_index", "phase")
+
+
+def _criterion_met(store: Store) -> dict[tuple[int, str], int]:
+    """The task (its place in the phase) at which each session's phase met its criterion, by (session id, phase)."""
+    rows = store.db.execute("SELECT session_id, data FROM events WHERE kind = 'criterion_met'")
+    return {(r["session_id"], data["phase"]): data["task_in_phase"] for r in rows for data in [json.loads(r["data"])]}
 
 
 def _measures(store: Store) -> dict[int, dict]:
@@ -184,7 +221,8 @@ def run_hand_frames(store: Store, run_id: int) -> list[HandFrame]:
 def run_list(store: Store) -> list[dict]:
     """Every task run with frames, with what names it: participant, phase, object, run number."""
     rows = store.db.execute("""
-        SELECT r.id AS run_id, r.run, r.status, r.source, s.participant_id AS participant, s.id AS session,
+        SELECT r.id AS run_id, r.run, r.status, r.source, s.participant_id AS participant, s.name AS session,
+               s.id AS session_id,
                s.simulated, s.input, t.task_index, t.phase, t.interaction, t.object
         FROM task_runs r JOIN tasks t ON t.session_id = r.session_id AND t.task_index = r.task_index
         JOIN sessions s ON s.id = r.session_id
@@ -195,7 +233,9 @@ def run_list(store: Store) -> list[dict]:
 FRAME_KEYS = (
     Column("study", "string", "the study's name", source=STUDY),
     Column("participant", "string", "participant id, e.g. P01", source=ENROLMENT),
-    Column("session", "int64", "id of the session in the study's log (as in trials)", minimum=1, source=SESSION_LOG),
+    Column("session", "string", "the session (as in trials)", levels="sessions", source=PROTOCOL),
+    Column("session_id", "int64", "id of the session in the study's log (as in trials)", minimum=1,
+           source=SESSION_LOG),
     Column("run_id", "int64", "id of the task run in the study's log", minimum=1, source=SESSION_LOG),
     Column("task_index", "int64", "index of the task within its session, from 0 (as in trials)", minimum=0,
            source=SESSION_LOG),
@@ -212,7 +252,7 @@ FRAME_KEYS = (
 """The frames table's first columns: which task run a frame belongs to."""
 def table_declarations() -> dict[str, tuple[Column, ...]]:
     """Every table an export may write, by name, with its columns: the codebook describes those written."""
-    return {"trials": trial_declarations(), "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
+    return {"trials": trial_declarations(), "progression": PROGRESSION, "questionnaire": QUESTIONNAIRE, "answers": ANSWERS, "scores": SCORES,
             "frames": FRAME_KEYS + framelog.FRAME_COLUMNS}
 
 
@@ -222,6 +262,7 @@ def frames_columns(store: Store, runs: list[dict] | None = None) -> Iterator[dic
     for run in run_list(store) if runs is None else runs:
         columns = framelog.frame_columns(framelog.read(store.db, run["run_id"]))
         keys = {"study": store.name, "participant": run["participant"], "session": run["session"],
+                "session_id": run["session_id"],
                 "run_id": run["run_id"], "task_index": run["task_index"], "run": run["run"],
                 "run_status": run["status"], "phase": run["phase"], "interaction": run["interaction"],
                 "object": run["object"]}
@@ -371,9 +412,9 @@ def _write_export(store: Store, folder: Path, *, formats: tuple[str, ...], frame
     head = ledger.head_of(store.db)
     left_out = {run_id for run_id, _ in damage}
     folder.mkdir(parents=True)
-    answers = answers_table(store)
-    tables = (("trials", trials_table(store)), ("questionnaire", questionnaire_table(store)), ("answers", answers),
-              ("scores", scores_table(store, answers)))
+    answers, trials = answers_table(store), trials_table(store)
+    tables = (("trials", trials), ("progression", progression_table(store, trials)),
+              ("questionnaire", questionnaire_table(store)), ("answers", answers), ("scores", scores_table(store, answers)))
     for name, table in tables:
         for fmt in formats:
             if fmt == "csv":

@@ -26,11 +26,14 @@ class InputError(ValueError):
 
 
 def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right", participant: str = "", *,
-                     participant_seed: int = 0, first_with_object: bool = True) -> TaskPlan:
-    """The one place that turns a protocol's task into what its player knows of it."""
+                     participant_seed: int = 0, first_with_object: bool = True,
+                     tasks_done: int | None = None) -> TaskPlan:
+    """The one place that turns a protocol's task into what its player knows of it: its phase's
+    rules at the task's difficulty; ``tasks_done`` the session's tasks before it (default: its index)."""
     start, _ = protocol.start_pose(task.object)
-    return TaskPlan(object=protocol.object(task.object).spec, start=start, rules=protocol.rules(task.phase),
-                    gravity=protocol.gravity, hand=hand, tasks_done=task.index, participant=participant,
+    return TaskPlan(object=protocol.object(task.object).spec, start=start,
+                    rules=protocol.rules(task.phase, task.difficulty), gravity=protocol.gravity, hand=hand,
+                    tasks_done=task.index if tasks_done is None else tasks_done, participant=participant,
                     phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object)
 
 

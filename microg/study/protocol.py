@@ -181,7 +181,7 @@ class Staircase:
 class TaskPhase:
     """One of the protocol's ``[[phases]]``: a block of tasks the study compares (the paper's stage 1
     and stage 2), or trains with. Its name is also a phase of the timeline (``Phase``). A phase with
-    a criterion (``until``) repeats its task, the objects in turn, until the criterion is met or
+    a criterion (``until``) repeats its task, its objects in turn, until the criterion is met or
     ``max_tasks`` were done; a staircase adapts one number of its task from task to task."""
 
     name: str
@@ -198,6 +198,8 @@ class TaskPhase:
     max_tasks: int | None = None
     """The most tasks a phase with a criterion runs (its bound)."""
     staircase: Staircase | None = None
+    cycle: tuple[str, ...] = ()
+    """The objects (names) a phase with a criterion gives in turn (empty: the protocol's ``objects``)."""
 
 
 @dataclass(frozen=True)
@@ -957,12 +959,12 @@ def _read_phases(top: _Reader, task: TaskRules, objects: tuple[StudyObject, ...]
         interaction = p.text("interaction", choices=tuple(INTERACTION_MODELS))
         kind = p.text("kind", task.kind, tuple(KINDS))
         _needs_numbers(p, "kind", kind, task)
-        until, max_tasks = _read_until(p, objects)
+        until, max_tasks, cycle = _read_until(p, objects)
         phases.append(TaskPhase(name=p.label("name", "it names files in exports"), interaction=interaction,
                                 label=p.text("label"),
                                 added_latency_ms=p.number("added_latency_ms", 0.0, positive=False, unit=" (ms)",
                                                           maximum=MAX_ADDED_LATENCY_MS),
-                                kind=kind, until=until, max_tasks=max_tasks,
+                                kind=kind, until=until, max_tasks=max_tasks, cycle=cycle,
                                 staircase=_read_staircase(p, task, kind)))
         p.done()
     top.unique("phases", [p.name for p in phases], "phase name")
@@ -982,10 +984,20 @@ def _read_phases(top: _Reader, task: TaskRules, objects: tuple[StudyObject, ...]
     return tuple(phases)
 
 
-def _read_until(p: _Reader, objects: tuple[StudyObject, ...]) -> tuple[Criterion | None, int | None]:
+def _read_until(p: _Reader, objects: tuple[StudyObject, ...]
+                ) -> tuple[Criterion | None, int | None, tuple[str, ...]]:
     """A phase's ``until`` (``time_s``, ``attempts``, ``consecutive``, and ``objects``: an object's code
-    with its own ``time_s`` and ``attempts``) and the ``max_tasks`` that bounds it; both or neither."""
+    with its own ``time_s`` and ``attempts``), the ``max_tasks`` that bounds it (both or neither), and
+    the ``objects`` it gives in turn (names of the protocol's objects; default: all of them)."""
     until = p.table("until", None)
+    names = [o.name for o in objects]
+    cycle = p.strings("objects") if "objects" in p.data else ()
+    for name in cycle:
+        if name not in names:
+            raise p.fail("objects", list(cycle), f"names object {name!r}; the protocol's objects are {names}")
+    if cycle and until is None:
+        raise p.fail("objects", list(cycle), "only a phase trained to a criterion (until) chooses its objects; "
+                     "the other phases give each participant's object order")
     max_tasks = p.integer("max_tasks", None, maximum=MAX_TASKS)
     if until is not None and max_tasks is None:
         raise p.fail("until", p.data["until"], "a criterion needs its bound: add max_tasks = N, the most tasks "
@@ -994,7 +1006,7 @@ def _read_until(p: _Reader, objects: tuple[StudyObject, ...]) -> tuple[Criterion
         raise p.fail("max_tasks", max_tasks, "bounds a phase that repeats its task until a criterion: add until = "
                      "{ time_s = ..., attempts = ..., consecutive = ... }")
     if until is None:
-        return None, None
+        return None, None, ()
     time_s = until.number("time_s", unit=" (seconds)")
     attempts = until.integer("attempts", minimum=0)
     own = []
@@ -1009,7 +1021,7 @@ def _read_until(p: _Reader, objects: tuple[StudyObject, ...]) -> tuple[Criterion
     by_object.done()
     criterion = Criterion(time_s, attempts, until.integer("consecutive", 1, maximum=MAX_TASKS), tuple(own))
     until.done()
-    return criterion, max_tasks
+    return criterion, max_tasks, cycle
 
 
 def _read_staircase(p: _Reader, task: TaskRules, kind: str) -> Staircase | None:

@@ -85,6 +85,10 @@ def resimulate(study_dir: str | Path, participants: list[str], *, interaction: s
 def _resimulate_session(original: Store, store: Store, participant_id: str, *, interaction: str | None,
                         progress: bool, tqdm) -> None:
     record = original.participant(participant_id)
+    if original.protocol.program:
+        raise StoreError(f"{original.dir}: a training program's sessions are not re-simulated yet (participant "
+                         f"{participant_id} has {len(original.sessions_of(participant_id))}); re-simulate a study of "
+                         "one session")
     session = original.session_of(participant_id)
     if session is None:
         raise StoreError(f"participant {participant_id} has no session in {original.dir} to re-simulate")

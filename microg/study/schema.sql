@@ -2,6 +2,9 @@
 -- and that log nothing for a session or task run after its end. Opening a study checks they are all here.
 -- frames: one row per committed batch of logged frames, encoded by microg.study.framelog, with its checksum.
 -- ledger: one entry per fact committed, in a hash chain (microg.study.ledger).
+-- sessions: a participant's sittings (one, or a training program's: name, index, date on the calendar or
+-- simulated, the date it was due from, whether it ran before that ignoring the schedule).
+-- tasks: a session's planned tasks; a phase that trains to a criterion adds its tasks as they run.
 -- stations: the stations made from a central study; a station's study holds its own row (microg.study.stations).
 -- station_give_ups: a participant handed to a station and taken back by the central study (microg study station --give-up).
 CREATE TABLE study (
@@ -39,7 +42,13 @@ CREATE TABLE participants (
 );
 CREATE TABLE sessions (
     id INTEGER PRIMARY KEY,
-    participant_id TEXT NOT NULL UNIQUE REFERENCES participants(id),
+    participant_id TEXT NOT NULL REFERENCES participants(id),
+    name TEXT NOT NULL,
+    session_index INTEGER NOT NULL CHECK (session_index >= 1),
+    date TEXT NOT NULL,
+    date_simulated INTEGER NOT NULL,
+    due TEXT NOT NULL,
+    ignored_schedule INTEGER NOT NULL,
     protocol_id INTEGER NOT NULL REFERENCES protocols(id),
     seed INTEGER NOT NULL,
     input TEXT NOT NULL,
@@ -53,7 +62,9 @@ CREATE TABLE sessions (
     created_at TEXT NOT NULL,
     ended_at TEXT,
     station TEXT,
-    merged_at TEXT
+    merged_at TEXT,
+    UNIQUE (participant_id, name),
+    UNIQUE (participant_id, session_index)
 );
 CREATE TABLE tasks (
     session_id INTEGER NOT NULL REFERENCES sessions(id),
@@ -63,6 +74,8 @@ CREATE TABLE tasks (
     object TEXT NOT NULL,
     object_code TEXT NOT NULL,
     order_position INTEGER NOT NULL,
+    task_in_phase INTEGER NOT NULL,
+    difficulty REAL,
     PRIMARY KEY (session_id, task_index)
 );
 CREATE TABLE task_runs (
@@ -194,7 +207,10 @@ BEGIN SELECT RAISE(ABORT, 'a finished task run is never changed'); END;
 CREATE TRIGGER sessions_once BEFORE UPDATE ON sessions
 WHEN OLD.status != 'running' OR NEW.status = 'running' OR NEW.participant_id IS NOT OLD.participant_id
   OR NEW.seed IS NOT OLD.seed OR NEW.protocol_id IS NOT OLD.protocol_id OR NEW.created_at IS NOT OLD.created_at
-  OR NEW.station IS NOT OLD.station OR NEW.merged_at IS NOT OLD.merged_at
+  OR NEW.station IS NOT OLD.station OR NEW.merged_at IS NOT OLD.merged_at OR NEW.name IS NOT OLD.name
+  OR NEW.session_index IS NOT OLD.session_index OR NEW.date IS NOT OLD.date
+  OR NEW.date_simulated IS NOT OLD.date_simulated OR NEW.due IS NOT OLD.due
+  OR NEW.ignored_schedule IS NOT OLD.ignored_schedule
 BEGIN SELECT RAISE(ABORT, 'a finished session is never changed'); END;
 CREATE TRIGGER participants_withdraw_only BEFORE UPDATE ON participants
 WHEN OLD.status != 'active' OR NEW.status != 'withdrawn' OR NEW.id IS NOT OLD.id OR NEW.number IS NOT OLD.number
@@ -215,6 +231,9 @@ BEGIN SELECT RAISE(ABORT, 'the session has ended: nothing is logged after its en
 CREATE TRIGGER answers_while_running BEFORE INSERT ON answers
 WHEN (SELECT status FROM sessions WHERE id = NEW.session_id) IS NOT 'running'
 BEGIN SELECT RAISE(ABORT, 'the session has ended: nothing is logged after its end'); END;
+CREATE TRIGGER tasks_while_running BEFORE INSERT ON tasks
+WHEN (SELECT status FROM sessions WHERE id = NEW.session_id) IS NOT 'running'
+BEGIN SELECT RAISE(ABORT, 'the session has ended: no tasks are planned after its end'); END;
 CREATE TRIGGER runs_while_running BEFORE INSERT ON task_runs
 WHEN (SELECT status FROM sessions WHERE id = NEW.session_id) IS NOT 'running'
 BEGIN SELECT RAISE(ABORT, 'the session has ended: no task runs after its end'); END;

@@ -46,7 +46,8 @@ from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
 from .questionnaire import Rater, questions
-from .store import Event, PlannedTask, Store, derived_seed
+from .progression import Outcome, next_difficulty, progress
+from .store import Event, PlannedTask, Store, criterion_first_index, criterion_task, derived_seed
 
 
 class Clock(typing.Protocol):
@@ -140,6 +141,9 @@ class Operator(typing.Protocol):
     def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
         """After a task (completed, timeout, aborted or skipped)."""
 
+    def progressed(self, text: str) -> None:
+        """After a task of a phase trained to a criterion: how far the participant is."""
+
 
 class Unattended:
     """No researcher at the keyboard (replayed and simulated sessions): run everything."""
@@ -151,6 +155,9 @@ class Unattended:
         return True
 
     def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
+        pass
+
+    def progressed(self, text: str) -> None:
         pass
 
 
@@ -208,10 +215,10 @@ class EventLog:
 # ---------------------------------------------------------------- one task
 
 
-def task_world(protocol: Protocol, task: PlannedTask) -> World:
+def task_world(protocol: Protocol, task: PlannedTask, rules: TaskRules | None = None) -> World:
     """The task's object alone at its start pose (on the table, if there is one), moving as the
-    phase's task kind starts it, under the phase's interaction model."""
-    return make_world(protocol.scene(task.object, task.interaction, protocol.kind(task.phase)))
+    phase's task kind starts it by ``rules`` (default: the phase's), under the phase's interaction model."""
+    return make_world(protocol.scene(task.object, task.interaction, protocol.kind(task.phase), rules))
 
 
 class RunLog:
@@ -338,23 +345,24 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     store.commit_for(session.simulated)
     log = EventLog(store, session_id, clock, outputs.markers)
     participant = store.participant(session.participant_id)
-    tasks = store.tasks(session_id)
     started_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_start"}
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
-    bar = tqdm(total=len(tasks), initial=len(finished), unit="task", desc=f"{participant.id} ({participant.group})",
+    bar = tqdm(total=len(store.tasks(session_id)), initial=len(finished), unit="task", desc=f"{participant.id} ({participant.group})",
                disable=not outputs.progress, leave=True)
     try:
-        for phase in protocol.phases_for(participant.group):
+        for phase in protocol.phases_for(participant.group, session.name):
             if phase.name in ended_phases:
                 continue
             if phase.name not in started_phases:
                 log.emit("phase_start", {"phase": phase.name})
             if phase.instruments:
                 _questionnaire(store, session_id, rater=rater, clock=clock, protocol=protocol, phase=phase)
+            elif protocol.runs_tasks(phase) and _trained_to_criterion(protocol, phase.name):
+                _train(log, session, participant, phase, inputs, operator=operator, sinks=outputs.sinks, bar=bar)
             elif protocol.runs_tasks(phase):
-                for task, plan, seed in planned_runs(protocol, session, participant=participant, tasks=tasks,
-                                                     phase=phase):
+                for task, plan, seed in planned_runs(protocol, session, participant=participant,
+                                                     tasks=store.tasks(session_id), phase=phase):
                     if task.index not in finished:
                         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator,
                                      sinks=outputs.sinks, bar=bar)
@@ -371,14 +379,76 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
 def planned_runs(protocol: Protocol, session, *, participant, tasks: list[PlannedTask],
                  phase: Phase) -> list[tuple[PlannedTask, TaskPlan, int]]:
     """The tasks of a task ``phase`` of a session, in the order it runs them, each with what its
-    player knows of it (``participant_plan``: the participant's hand and seed, whether no earlier
-    task had the object) and the run's seed."""
-    hand = "left" if participant.participant.handedness == "left" else "right"
-    return [(task, participant_plan(protocol, task, hand, session.participant_id, participant_seed=session.seed,
-                                    first_with_object=all(t.object != task.object for t in tasks
-                                                          if t.index < task.index)),
-             derived_seed(session.seed, task.index))
+    player knows of it and the run's seed (``planned_run``)."""
+    return [planned_run(protocol, session, participant=participant, tasks=tasks, task=task)
             for task in tasks if task.phase == phase.name]
+
+
+def planned_run(protocol: Protocol, session, *, participant, tasks: list[PlannedTask],
+                task: PlannedTask) -> tuple[PlannedTask, TaskPlan, int]:
+    """``task`` with what its player knows of it (``participant_plan``: the participant's hand and
+    own seed, the tasks of the session before it, whether none of them had the object, the rules of
+    its difficulty) and the run's seed."""
+    hand = "left" if participant.participant.handedness == "left" else "right"
+    before = [t for t in tasks if t.index < task.index]
+    plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=participant.seed,
+                            first_with_object=all(t.object != task.object for t in before), tasks_done=len(before))
+    return task, plan, derived_seed(session.seed, task.index)
+
+
+def _trained_to_criterion(protocol: Protocol, phase: str) -> bool:
+    task_phase = protocol.phase(phase)
+    return task_phase is not None and task_phase.until is not None
+
+
+def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *, operator: Operator,
+           sinks: Sequence[FrameSink], bar) -> None:
+    """A phase trained to a criterion: its task again, the protocol's objects in turn (each at the
+    staircase's next value, if it has one), until the criterion is met or ``max_tasks`` ran; after
+    each task the participant hears how far they are (``Operator.progressed``), and the end logs
+    ``criterion_met`` or ``criterion_bound``. A resumed session carries on from its finished tasks."""
+    store, protocol = log.store, log.store.protocol
+    trained = protocol.phase(phase.name)
+    first = criterion_first_index(protocol, participant.group, participant.object_order, session.name, phase.name)
+    harder = KINDS[trained.kind].difficulty[trained.staircase.parameter].harder if trained.staircase else 1
+    while True:
+        tasks = store.tasks(session.id)
+        outcomes = phase_outcomes(store, session.id, phase.name)
+        reached = progress(trained.until, outcomes)
+        if reached.met or reached.tasks >= trained.max_tasks:
+            break
+        number = reached.tasks + 1
+        task = next((t for t in tasks if t.phase == phase.name and t.task_in_phase == number), None)
+        if task is None:  # a task not run before: planned now, at the staircase's value
+            difficulty = None if trained.staircase is None else \
+                next_difficulty(trained.staircase, trained.until, outcomes, harder)
+            task = criterion_task(protocol, phase.name, first, number, difficulty)
+            store.add_task(session.id, task)
+            tasks = tasks + [task]
+            bar.total += 1
+        _, plan, seed = planned_run(protocol, session, participant=participant, tasks=tasks, task=task)
+        _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator, sinks=sinks, bar=bar)
+        bar.update(1)
+        reached = progress(trained.until, phase_outcomes(store, session.id, phase.name))
+        log.emit("criterion_progress", {"phase": phase.name, "task_in_phase": number, "in_a_row": reached.in_a_row,
+                                        "consecutive": reached.needed})
+        operator.progressed(reached.describe())
+    ended = "criterion_met" if reached.met else "criterion_bound"
+    if not any(e.kind == ended and e.data["phase"] == phase.name for e in store.events(session.id)):
+        log.emit(ended, {"phase": phase.name, "tasks": reached.tasks, "task_in_phase": reached.met_at})
+
+
+def phase_outcomes(store: Store, session_id: int, phase: str) -> list[Outcome]:
+    """The finished tasks of ``phase`` in a session, in order, by their last run (as progression reads them)."""
+    rows = store.db.execute("""
+        SELECT t.object_code, t.difficulty, r.status, r.time_s, r.attempts FROM tasks t
+        JOIN task_runs r ON r.session_id = t.session_id AND r.task_index = t.task_index
+        WHERE t.session_id = ? AND t.phase = ? AND r.status IN ('completed', 'timeout', 'aborted', 'skipped')
+          AND r.run = (SELECT MAX(run) FROM task_runs x WHERE x.session_id = t.session_id
+                       AND x.task_index = t.task_index)
+        ORDER BY t.task_index""", (session_id, phase))
+    return [Outcome(r["object_code"], r["status"] == "completed", r["time_s"], r["attempts"], r["difficulty"])
+            for r in rows]
 
 
 def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, plan: TaskPlan, seed: int,
@@ -391,13 +461,13 @@ def _run_planned(log: EventLog, session, task: PlannedTask, inputs: Inputs, *, p
         log.mark(store.end_run(run_id, "skipped", clock.now(), reason="skipped by the operator"))
         operator.finished(task, "skipped", None)
         return TaskResult("skipped", None, None, 0)
-    world = task_world(protocol, task)
+    world = task_world(protocol, task, plan.rules)
     source = inputs.open(plan, seed)
     run_id = store.begin_run(session.id, task=task, source=source.description, seed=seed, t=clock.now())
     log.mark(store.events(session.id, run_id))
     progress = TaskProgress(bar, f"{task.phase} {task.object_code} ({task.interaction})")
     result = run_task(log=log, run_id=run_id, world=world, source=source, protocol=protocol,
-                      rules=protocol.rules(task.phase), sinks=(progress, *sinks))
+                      rules=plan.rules, sinks=(progress, *sinks))
     operator.finished(task, result.status, result.time_s)
     return result
 

@@ -49,6 +49,7 @@ from typing import Sequence
 
 from . import framelog, ledger
 from .assignment import ParticipantError
+from .protocol import ONE_SESSION
 from .store import Store, StoreError, check_integrity, create_study, open_study, utc_now
 
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,31}")
@@ -259,10 +260,12 @@ def session_content(db: sqlite3.Connection, session_id: int) -> str:
         for row in rows:
             digest.update(json.dumps([v.hex() if isinstance(v, bytes) else v for v in row]).encode())
 
-    add(db.execute("""SELECT s.participant_id, p.sha256, s.seed, s.input, s.simulated, s.clock, s.object_order,
+    add(db.execute("""SELECT s.participant_id, s.name, s.session_index, s.date, s.date_simulated, s.due,
+                             s.ignored_schedule, p.sha256, s.seed, s.input, s.simulated, s.clock, s.object_order,
                              s.microg_version, s.python, s.platform, s.status, s.created_at, s.ended_at, s.station
                       FROM sessions s JOIN protocols p ON p.id = s.protocol_id WHERE s.id = ?""", (session_id,)))
-    add(db.execute("SELECT task_index, phase, interaction, object, object_code, order_position FROM tasks "
+    add(db.execute("SELECT task_index, phase, interaction, object, object_code, order_position, task_in_phase, "
+                   "difficulty FROM tasks "
                    "WHERE session_id = ? ORDER BY task_index", (session_id,)))
     add(db.execute("SELECT task_index, run, status, reason, source, seed, started_at, ended_at, time_s, attempts, "
                    "frames, started_wall, ended_wall FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,)))
@@ -353,7 +356,7 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
     conflicts: list[str] = []
     plans: list[_Plan] = []
     made = {s.name: s for s in stations(central.db)}
-    claimed: dict[str, str] = {}
+    claimed: dict[tuple[str, str], str] = {}
     """Participant -> the station of this merge that ran them."""
     for side in sides:
         where = f"station {side.station} ({side.dir})"
@@ -398,30 +401,35 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
             if session.status == "running":
                 plan.outcome.running.append(pid)
                 continue
-            if pid in claimed:
-                conflicts.append(f"participant {pid} was run at {claimed[pid]} and at {where}: a participant is run "
-                                 "once")
+            if (pid, session.name) in claimed:
+                conflicts.append(f"participant {pid}{_named(session)} was run at {claimed[pid, session.name]} and at "
+                                 f"{where}: a session is run once")
                 continue
-            claimed[pid] = where
-            theirs = central.session_of(pid)
+            claimed[pid, session.name] = where
+            theirs = central.session_of(pid, session.name)
             if theirs is None:
                 plan.sessions.append(session.id)
                 plan.outcome.merged.append(pid)
                 continue
             station, merged_at = _session_station(central.db, theirs.id)
             if station is None:
-                conflicts.append(f"participant {pid} has session {theirs.id} ({theirs.status}) in the central study "
-                                 f"itself and another at {where}: a participant is run once")
+                conflicts.append(f"participant {pid} has session {theirs.id}{_named(session)} ({theirs.status}) in "
+                                 f"the central study itself and another at {where}: a session is run once")
             elif station != side.station:
-                conflicts.append(f"participant {pid} was run at station {station} (merged {merged_at}) and at "
-                                 f"{where}: a participant is run once")
+                conflicts.append(f"participant {pid}{_named(session)} was run at station {station} (merged "
+                                 f"{merged_at}) and at {where}: a session is run once")
             elif session_content(central.db, theirs.id) != session_content(side.db, session.id):
-                conflicts.append(f"participant {pid}'s session at {where} differs from the one merged from station "
+                conflicts.append(f"participant {pid}'s session{_named(session)} at {where} differs from the one merged from station "
                                  f"{station} on {merged_at} (central session {theirs.id}): the station's study was "
                                  "changed or made anew since")
             else:
                 plan.outcome.already.append(pid)
     return plans, conflicts
+
+
+def _named(session) -> str:
+    """`` (session NAME)`` for a training program's session; nothing for a protocol of one session."""
+    return "" if session.name == ONE_SESSION else f" (session {session.name!r})"
 
 
 def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id: int, merged_at: str) -> int:
@@ -431,16 +439,19 @@ def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id
     their frames, events and answers, then the runs' results and the session's end."""
     s = source.execute("SELECT * FROM sessions WHERE id = ?", (session_id,)).fetchone()
     protocol_id = db.execute("SELECT protocol_id FROM study").fetchone()[0]
-    new = db.execute("INSERT INTO sessions (participant_id, protocol_id, seed, input, simulated, clock, object_order, "
-                     "microg_version, python, platform, status, created_at, station, merged_at) "
-                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?, ?)",
-                     (s["participant_id"], protocol_id, s["seed"], s["input"], s["simulated"], s["clock"],
+    new = db.execute("INSERT INTO sessions (participant_id, name, session_index, date, date_simulated, due, "
+                     "ignored_schedule, protocol_id, seed, input, simulated, clock, object_order, microg_version, "
+                     "python, platform, status, created_at, station, merged_at) "
+                     "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?, ?)",
+                     (s["participant_id"], s["name"], s["session_index"], s["date"], s["date_simulated"], s["due"],
+                      s["ignored_schedule"], protocol_id, s["seed"], s["input"], s["simulated"], s["clock"],
                       s["object_order"], s["microg_version"], s["python"], s["platform"], s["created_at"],
                       s["station"], merged_at)).lastrowid
     ledger.seal(db, "session", new)
     for t in source.execute("SELECT * FROM tasks WHERE session_id = ? ORDER BY task_index", (session_id,)):
-        db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)", (new, t["task_index"], t["phase"],
-                   t["interaction"], t["object"], t["object_code"], t["order_position"]))
+        db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", (new, t["task_index"], t["phase"],
+                   t["interaction"], t["object"], t["object_code"], t["order_position"], t["task_in_phase"],
+                   t["difficulty"]))
         ledger.seal(db, "task", new, t["task_index"])
     runs = source.execute("SELECT * FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,)).fetchall()
     run_ids = {}

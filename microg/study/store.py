@@ -11,9 +11,10 @@ forward from its open state (running -> finished, active -> withdrawn), never ba
 
 Tables (``schema.sql`` beside this file): ``study`` (one row: name, seed, version), ``protocols`` (the resolved
 protocol with its object files, as JSON, plus the file's own text), ``participants``
-(demographics, group, object order, status), ``sessions`` (one per participant, with provenance:
-protocol, seed, package and Python version, input, clock), ``tasks`` (the session's planned
-tasks), ``task_runs`` (each time a task is run; a run cut off by a crash is marked
+(demographics, group, object order, status), ``sessions`` (a participant's sittings: one, or each
+session of a training program by name, with its date and provenance: protocol, seed, package and
+Python version, input, clock), ``tasks`` (the session's planned tasks; a phase that trains to a
+criterion adds each of its tasks as it runs), ``task_runs`` (each time a task is run; a run cut off by a crash is marked
 ``interrupted`` on resume and the task runs again), ``events``, ``answers`` and ``frames``
 (batches of logged frames, written and read by ``microg.study.framelog`` only), ``stations`` (the
 stations made from the study, ``microg.study.stations``; a session merged from one names it and
@@ -52,15 +53,18 @@ from microg import __version__
 
 from . import framelog, integrity, ledger
 from .assignment import Enrolled, Participant, ParticipantError, assign_group, assign_order, check_participant
-from .protocol import Protocol, canonical_json, protocol_from_resolved
+from .protocol import Protocol, SessionPlan, canonical_json, protocol_from_resolved
+from .schedule import ScheduleError, Sitting, choose_session, due_date
 
 DATABASE = "study.db"
-SCHEMA_VERSION = 8
+SCHEMA_VERSION = 9
 SCHEMA_CHANGES = {
     5: "every committed fact is in the ledger's hash chain",
     6: "sessions keep the station that ran them (microg.study.stations)",
     7: "each answer names its instrument and administration and keeps its response time (issue 22)",
     8: "participants handed to a station can be taken back (station_give_ups, issue 45)",
+    9: "a participant has several sessions (a training program's: name, index, date) and a phase trained to a "
+       "criterion plans its tasks as they run (task_in_phase, difficulty; issue 43)",
 }
 """What each schema version changed, for the message that refuses an older study."""
 FINAL_RUN = ("completed", "timeout", "aborted", "skipped")
@@ -144,6 +148,9 @@ class ParticipantRecord:
     order_row: int | None
     object_order: tuple[str, ...]
     status: str
+    seed: int
+    """The person's own seed (``derived_seed(study seed, number)``), the same in every session: a simulated
+    participant drawn from a population gets their parameters from it; their first session runs with it."""
 
     @property
     def id(self) -> str:
@@ -159,7 +166,12 @@ class PlannedTask:
     object: str
     object_code: str
     order_position: int
-    """1-based position of the object within its phase."""
+    """1-based position of the object within its phase (its object order, or the protocol's objects in
+    turn for a phase trained to a criterion)."""
+    task_in_phase: int = 1
+    """1-based place of the task in its phase."""
+    difficulty: float | None = None
+    """The staircase's value the task ran with (None: its phase has no staircase)."""
 
 
 @dataclass(frozen=True)
@@ -172,6 +184,21 @@ class SessionRecord:
     clock: str
     object_order: tuple[str, ...]
     status: str
+    name: str
+    """The protocol's session it runs (``ONE_SESSION`` for a protocol without ``[[sessions]]``)."""
+    index: int
+    """1-based: the participant's first session, second..."""
+    date: datetime.date
+    """The day it ran (on the simulated calendar for a simulated participant: ``date_simulated``)."""
+    date_simulated: bool
+    due: datetime.date
+    """The earliest day it could run (``microg.study.schedule``)."""
+    ignored_schedule: bool
+    """It ran before its due date (``--ignore-schedule``)."""
+
+    @property
+    def sitting(self) -> Sitting:
+        return Sitting(self.name, self.date, self.status)
 
 
 @dataclass(frozen=True)
@@ -200,21 +227,50 @@ def derived_seed(*parts: int) -> int:
     return int(np.random.SeedSequence(list(parts)).generate_state(2, dtype=np.uint64)[0] >> np.uint64(1))
 
 
-def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...]) -> list[PlannedTask]:
-    """The tasks a participant of ``group`` runs, in order: training (if the group trains), then each
-    phase of the protocol's ``phases`` with the participant's object order."""
-    tasks: list[PlannedTask] = []
-    for phase in protocol.phases_for(group):
+def plan_tasks(protocol: Protocol, group: str, object_order: tuple[str, ...],
+               session: str | None = None) -> list[PlannedTask]:
+    """The tasks planned before a participant of ``group`` starts ``session`` (default: the group's
+    first), in order: training (if the session has it), then each phase of tasks with the
+    participant's object order. A phase trained to a criterion plans none: it keeps ``max_tasks``
+    task indexes for the tasks it adds as they run (``criterion_task``)."""
+    return [task for _, _, fixed in _layout(protocol, group, object_order, session) for task in fixed]
+
+
+def criterion_first_index(protocol: Protocol, group: str, object_order: tuple[str, ...], session: str | None,
+                          phase: str) -> int:
+    """The first task index a phase trained to a criterion keeps for its tasks."""
+    return next(first for name, first, _ in _layout(protocol, group, object_order, session) if name == phase)
+
+
+def criterion_task(protocol: Protocol, phase: str, first: int, task_in_phase: int,
+                   difficulty: float | None) -> PlannedTask:
+    """The ``task_in_phase``-th task (1-based) of a phase trained to a criterion whose tasks start at
+    index ``first``: the phase's objects in turn (its ``cycle``, else the protocol's objects)."""
+    names = protocol.phase(phase).cycle or tuple(o.name for o in protocol.objects)
+    position = (task_in_phase - 1) % len(names)
+    name = names[position]
+    return PlannedTask(first + task_in_phase - 1, phase, protocol.phase(phase).interaction, name,
+                       protocol.object(name).code, position + 1, task_in_phase, difficulty)
+
+
+def _layout(protocol: Protocol, group: str, object_order: tuple[str, ...], session: str | None):
+    """Each phase of tasks of the session: (its name, its first task index, its planned tasks)."""
+    index = 0
+    for phase in protocol.phases_for(group, session):
         if phase.name == "training":
             names, interaction = list(protocol.training.object_names), protocol.training.interaction
-        elif phase.name in [p.name for p in protocol.phases]:
-            names = list(object_order)
-            interaction = next(p.interaction for p in protocol.phases if p.name == phase.name)
+        elif (task_phase := protocol.phase(phase.name)) is not None:
+            if task_phase.until is not None:
+                yield phase.name, index, []
+                index += task_phase.max_tasks
+                continue
+            names, interaction = list(object_order), task_phase.interaction
         else:
             continue
-        for position, name in enumerate(names, start=1):
-            tasks.append(PlannedTask(len(tasks), phase.name, interaction, name, protocol.object(name).code, position))
-    return tasks
+        fixed = [PlannedTask(index + i, phase.name, interaction, name, protocol.object(name).code, i + 1, i + 1)
+                 for i, name in enumerate(names)]
+        yield phase.name, index, fixed
+        index += len(fixed)
 
 
 def writable(path: Path) -> bool:
@@ -448,12 +504,12 @@ class Store:
             if running and not held:
                 self.unlock_session(session.id)
 
-    @staticmethod
-    def _participant(row: sqlite3.Row) -> ParticipantRecord:
+    def _participant(self, row: sqlite3.Row) -> ParticipantRecord:
         return ParticipantRecord(
             Participant(row["id"], row["gender"], row["age"], row["handedness"], bool(row["mr_experience"])),
             number=row["number"], group=row["group_code"], order_row=row["order_row"],
-            object_order=tuple(json.loads(row["object_order"])), status=row["status"])
+            object_order=tuple(json.loads(row["object_order"])), status=row["status"],
+            seed=derived_seed(self.seed, row["number"]))
 
     def participant(self, participant_id: str) -> ParticipantRecord:
         row = self.db.execute("SELECT * FROM participants WHERE id = ?", (participant_id,)).fetchone()
@@ -494,40 +550,90 @@ class Store:
     # ------------------------------------------------------------ sessions
 
     def create_session(self, participant_id: str, *, input_spec: str, simulated: bool, clock: str,
-                       interaction: str | None = None) -> SessionRecord:
-        """A new session for an active participant who has none, with its task plan; ``interaction``: every
-        task runs this interaction model instead of its phase's (a re-simulation)."""
+                       interaction: str | None = None, session: str | None = None, ignore_schedule: bool = False,
+                       today: datetime.date | None = None) -> SessionRecord:
+        """The participant's next session (or ``session``, which must be the next), with its planned tasks;
+        ``interaction``: every task runs this interaction model instead of its phase's (a re-simulation).
+
+        A session runs on ``today`` (default: the local date) and no earlier than its due date
+        (``microg.study.schedule``) unless ``ignore_schedule``, which the session records; a
+        simulated participant's session runs on its due date on the simulated calendar."""
+        record = self.participant(participant_id)
+        plan, date, due = self.next_session(participant_id, simulated=simulated, session=session,
+                                            ignore_schedule=ignore_schedule, today=today)
+        index = len(self.sessions_of(participant_id)) + 1
+        protocol_id = self.db.execute("SELECT protocol_id FROM study").fetchone()[0]
+        seed = record.seed if index == 1 else derived_seed(self.seed, record.number, index)
+        with self.transaction() as db:
+            cursor = db.execute(
+                "INSERT INTO sessions (participant_id, name, session_index, date, date_simulated, due, "
+                "ignored_schedule, protocol_id, seed, input, simulated, clock, object_order, microg_version, python, "
+                "platform, status, created_at, station) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?)",
+                (participant_id, plan.name, index, date.isoformat(), int(simulated), due.isoformat(),
+                 int(date < due), protocol_id, seed, input_spec, int(simulated), clock,
+                 json.dumps(record.object_order), __version__, sys.version.split()[0], platform.platform(), utc_now(),
+                 self.station))
+            session_id = cursor.lastrowid
+            ledger.seal(db, "session", session_id)
+            if date < due:
+                self._insert_events(db, session_id, None, [Event(0.0, "schedule_ignored", {
+                    "session": plan.name, "due": due.isoformat(), "date": date.isoformat()})])
+            for t in plan_tasks(self.protocol, record.group, record.object_order, plan.name):
+                self._insert_task(db, session_id, replace(t, interaction=interaction or t.interaction))
+        return self.session(session_id)
+
+    def next_session(self, participant_id: str, *, simulated: bool, session: str | None = None,
+                     ignore_schedule: bool = False, today: datetime.date | None = None
+                     ) -> tuple[SessionPlan, datetime.date, datetime.date]:
+        """The session ``create_session`` would start for the participant (``session``, or their next),
+        the day it runs and the day it is due; refused (``StoreError``) for a withdrawn participant, one
+        handed to a station, a session out of order or run before, or one not due yet (unless
+        ``ignore_schedule``), naming what to run instead."""
         record = self.participant(participant_id)
         if record.status != "active":
             raise StoreError(f"participant {participant_id} is withdrawn; a withdrawn participant runs no session")
-        existing = self.session_of(participant_id)
-        if existing is not None:
-            raise StoreError(f"participant {participant_id} already has session {existing.id} ({existing.status}); "
-                             + ("continue it with: microg session resume" if existing.status == "running"
-                                else "a session is never run twice"))
+        sittings = [s.sitting for s in self.sessions_of(participant_id)]
+        try:
+            plan = choose_session(self.protocol, participant_id, record.group, sittings, session)
+        except ScheduleError as error:
+            raise StoreError(str(error)) from None
         self.check_runs_here(participant_id)
-        protocol_id = self.db.execute("SELECT protocol_id FROM study").fetchone()[0]
-        seed = derived_seed(self.seed, record.number)
+        first_day = datetime.date.fromisoformat(self.created_at[:10]) if simulated else \
+            (today or datetime.date.today())
+        due = due_date(plan, sittings, first_day)
+        date = due if simulated else (today or datetime.date.today())
+        if date < due and not ignore_schedule:
+            raise StoreError(f"participant {participant_id}'s session {plan.name!r} is due on {due.isoformat()} "
+                             f"({plan.after_days} day(s) after their session {sittings[-1].name!r} on "
+                             f"{sittings[-1].date.isoformat()}); run it then, or now with --ignore-schedule "
+                             "(the session records that it did)")
+        return plan, date, due
+
+    @staticmethod
+    def _insert_task(db: sqlite3.Connection, session_id: int, task: PlannedTask) -> None:
+        db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", (
+            session_id, task.index, task.phase, task.interaction, task.object, task.object_code, task.order_position,
+            task.task_in_phase, task.difficulty))
+        ledger.seal(db, "task", session_id, task.index)
+
+    def add_task(self, session_id: int, task: PlannedTask) -> None:
+        """Plan one more task of a running session (a phase trained to a criterion adds each as it runs)."""
         with self.transaction() as db:
-            cursor = db.execute(
-                "INSERT INTO sessions (participant_id, protocol_id, seed, input, simulated, clock, object_order, "
-                "microg_version, python, platform, status, created_at, station) "
-                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 'running', ?, ?)",
-                (participant_id, protocol_id, seed, input_spec, int(simulated), clock, json.dumps(record.object_order),
-                 __version__, sys.version.split()[0], platform.platform(), utc_now(), self.station))
-            session_id = cursor.lastrowid
-            ledger.seal(db, "session", session_id)
-            for t in plan_tasks(self.protocol, record.group, record.object_order):
-                db.execute("INSERT INTO tasks VALUES (?, ?, ?, ?, ?, ?, ?)", (
-                    session_id, t.index, t.phase, interaction or t.interaction, t.object, t.object_code,
-                    t.order_position))
-                ledger.seal(db, "task", session_id, t.index)
-        return self.session(session_id)
+            self._insert_task(db, session_id, task)
+
+    @functools.cached_property
+    def created_at(self) -> str:
+        """When the study was made (UTC, ISO 8601): day 0 of the simulated calendar."""
+        return self.db.execute("SELECT created_at FROM study").fetchone()[0]
 
     @staticmethod
     def _session(row: sqlite3.Row) -> SessionRecord:
         return SessionRecord(row["id"], row["participant_id"], row["seed"], row["input"], bool(row["simulated"]),
-                             row["clock"], tuple(json.loads(row["object_order"])), row["status"])
+                             row["clock"], tuple(json.loads(row["object_order"])), row["status"], row["name"],
+                             row["session_index"], datetime.date.fromisoformat(row["date"]),
+                             bool(row["date_simulated"]), datetime.date.fromisoformat(row["due"]),
+                             bool(row["ignored_schedule"]))
 
     def session(self, session_id: int) -> SessionRecord:
         row = self.db.execute("SELECT * FROM sessions WHERE id = ?", (session_id,)).fetchone()
@@ -535,14 +641,21 @@ class Store:
             raise StoreError(f"no session {session_id} in study {self.name!r}")
         return self._session(row)
 
-    def session_of(self, participant_id: str) -> SessionRecord | None:
-        row = self.db.execute("SELECT * FROM sessions WHERE participant_id = ?", (participant_id,)).fetchone()
-        return None if row is None else self._session(row)
+    def sessions_of(self, participant_id: str) -> list[SessionRecord]:
+        """The participant's sessions, first to last."""
+        rows = self.db.execute("SELECT * FROM sessions WHERE participant_id = ? ORDER BY session_index",
+                               (participant_id,))
+        return [self._session(r) for r in rows]
+
+    def session_of(self, participant_id: str, name: str | None = None) -> SessionRecord | None:
+        """The participant's session called ``name``, or their latest (None: they have none)."""
+        sessions = [s for s in self.sessions_of(participant_id) if name is None or s.name == name]
+        return sessions[-1] if sessions else None
 
     def tasks(self, session_id: int) -> list[PlannedTask]:
         rows = self.db.execute("SELECT * FROM tasks WHERE session_id = ? ORDER BY task_index", (session_id,))
         return [PlannedTask(r["task_index"], r["phase"], r["interaction"], r["object"], r["object_code"],
-                            r["order_position"]) for r in rows]
+                            r["order_position"], r["task_in_phase"], r["difficulty"]) for r in rows]
 
     def runs(self, session_id: int) -> list[RunRecord]:
         rows = self.db.execute("SELECT * FROM task_runs WHERE session_id = ? ORDER BY id", (session_id,))

@@ -250,6 +250,10 @@ class ParticipantDisplay:
         self.deliver_events()
         self._publish("timeline", {"kind": "done", "task": task.index, "status": status, "time_s": time_s})
 
+    def progressed(self, text: str) -> None:
+        """How far a participant training to a criterion is, under the last task's cue."""
+        self._publish("timeline", {"kind": "progress", "text": text})
+
     def take(self, moments: Moments) -> None:
         """The newest of a task's frames (``microg.task.Moments``): the rendered hand with its
         highlight, the object, the places, the timers; kept as the newest frame (after the phase's
@@ -550,6 +554,10 @@ class DisplayOperator:
     def finished(self, task: PlannedTask, status: str, time_s: float | None) -> None:
         self.display.task_finished(task, status, time_s)
         self.operator.finished(task, status, time_s)
+
+    def progressed(self, text: str) -> None:
+        self.display.progressed(text)
+        self.operator.progressed(text)
 
 
 class DisplayRater:

@@ -9,13 +9,23 @@ import pytest
 
 from microg.skeleton import Hand, HandFrame
 from microg.sim import (INTERACTION_MODELS, Material, ObjectSpec, PlacedObject, Scene, SceneError, TableParameters,
-                        compose_scene, load_object, load_scene, make_world, step)
+                        compose_scene, load_object, load_scene, make_world, stack_frames, step)
 from microg.sim.pipeline import specialise
 from tests.physics import drive, placed, world_of
 
 KERNELS = ("sweep", "detect", "apply_impulses", "spring_onsets", "friction_cone", "penetration_forces",
            "soft_hand_forces", "add_gravity", "table_contacts", "update_velocity", "update_position", "rotate_free", "rotate_constant")
 """Every kernel the step can call (``pipeline.specialise``)."""
+
+
+def step_signature(world) -> tuple:
+    """The types of the arguments the world's step is called with (``pipeline.step_worlds``: the model's
+    parameters, one world's buffers and one frame). Taken from the arguments, not from the step's own
+    compiled signatures: a step called from a batch loop that numba loaded from its disk cache was
+    never compiled on its own."""
+    model, data = world.model, world.data
+    frame = stack_frames((HandFrame(world.time),))[0]
+    return tuple(numba.typeof(a) for a in (model.params, model.ints, data.reals, data.flags, data.counts, frame))
 
 
 def compiled_kernels(world) -> set[str]:
@@ -26,7 +36,7 @@ def compiled_kernels(world) -> set[str]:
     typing, so a kernel appears in the typed code exactly when the machine code calls it."""
     step = world.model.step
     fresh = numba.njit(step.py_func, error_model="numpy")
-    signature = step.signatures[0]
+    signature = step_signature(world)
     fresh.compile(signature)
     typed = io.StringIO()
     fresh.inspect_types(file=typed, signature=signature)
@@ -43,7 +53,7 @@ def linked_code(world) -> str:
     links each called kernel's code into its caller's), compiled afresh as ``compiled_kernels``."""
     step = world.model.step
     fresh = numba.njit(step.py_func, error_model="numpy")
-    signature = step.signatures[0]
+    signature = step_signature(world)
     fresh.compile(signature)
     return fresh.inspect_llvm(signature)
 

@@ -65,7 +65,8 @@ def exported_tables(out) -> set[str]:
 def test_every_column_of_every_exported_table_has_a_codebook_row_and_no_row_names_another(export):
     book = pd.read_csv(export / CODEBOOK, keep_default_na=False)
     assert tuple(book.columns) == HEADER
-    assert set(book.table) == exported_tables(export) == {"trials", "questionnaire", "answers", "scores", "frames"}
+    assert set(book.table) == exported_tables(export) == {"trials", "progression", "questionnaire", "answers", "scores",
+                                                          "frames"}
     for table, rows in book.groupby("table", sort=False):
         csv = pd.read_csv(export / f"{table}.csv", nrows=0).columns.tolist()
         parquet = pq.read_schema(export / f"{table}.parquet").names
@@ -172,7 +173,7 @@ def test_an_export_without_frames_describes_only_what_it_wrote(export, tmp_path)
     out = tmp_path / "export"
     export_study(study, out, formats=("csv",), frames=False, bids=False, progress=False)
     book = pd.read_csv(out / CODEBOOK)
-    assert set(book.table) == exported_tables(out) == {"trials", "questionnaire", "answers", "scores"}
+    assert set(book.table) == exported_tables(out) == {"trials", "progression", "questionnaire", "answers", "scores"}
     about = json.loads((out / DESCRIPTION).read_text())
     assert "right_index_tip_x" not in {v["name"] for v in about["variableMeasured"]}
     assert "bids/" not in about["description"]
@@ -197,7 +198,7 @@ def test_every_declared_column_is_described_with_its_type_and_source():
         book = codebook({table: columns})
         assert len(book) == len(columns) and (book.meaning != "").all() and (book.source != "").all(), table
         for column in columns:
-            assert column.unit in ("", "s", "ms", "m", "m/s", "rad/s", "years"), (table, column.name)
+            assert column.unit in ("", "s", "min", "ms", "m", "m/s", "rad/s", "years"), (table, column.name)
             assert column.minimum is None or column.maximum is None or column.minimum < column.maximum
             assert not column.levels or lists[column.levels], (table, column.name, column.levels)
     assert np.isclose(dict((c.name, c) for c in table_declarations()["frames"])["touching"].maximum, 2.0 ** 40 - 1)

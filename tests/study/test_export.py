@@ -58,8 +58,9 @@ def test_csv_and_parquet_exports_read_back_as_the_same_tables(study, tmp_path):
                                                                                   "questionnaire.parquet")):
         pd.testing.assert_frame_equal(pd.read_parquet(out / parquet), table)
         # a column with no value (station, in a study run in one place; flipped, in one without a stop of a
-        # spin) reads back as its type only when told
-        told = {"station": "string", "flipped": "boolean"} if csv == "trials.csv" else {"station": "string"}
+        # spin; criterion_met, in one without a phase trained to a criterion) reads back as its type only when told
+        told = {"station": "string", "flipped": "boolean", "criterion_met": "boolean"} if csv == "trials.csv" \
+            else {"station": "string"}
         pd.testing.assert_frame_equal(pd.read_csv(out / csv, dtype=told), table, check_dtype=False)
     pd.testing.assert_frame_equal(read_tables(out)[0], from_db[0])
     frames = pd.read_parquet(out / "frames.parquet")

@@ -165,7 +165,8 @@ def test_a_study_of_an_older_schema_is_refused_saying_what_changed(make_study):
         db.execute("UPDATE study SET schema_version = 4")
     with pytest.raises(StoreError) as error:
         open_study(folder)
-    assert "schema version 4, this microg" in str(error.value) and "reads 8" in str(error.value)
+    assert "schema version 4, this microg" in str(error.value) and "reads 9" in str(error.value)
     assert "version 7: each answer names its instrument and administration and keeps its response time" \
         in str(error.value) and "version 5: " in str(error.value) and "version 6: " in str(error.value)
     assert "version 8: participants handed to a station can be taken back" in str(error.value)
+    assert "version 9: a participant has several sessions" in str(error.value)

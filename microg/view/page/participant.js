@@ -130,6 +130,10 @@ function timeline(m) {
     const result = m.status === "completed" ? `Completed in ${m.time_s.toFixed(1)} s` :
                    m.status === "timeout" ? "Time is up for this task" : "This task has ended";
     say(m.status === "completed" ? "Well done" : "Task over", result);
+  } else if (m.kind === "progress") {  // training to a criterion: how far, under the last task's cue
+    hud.hidden = true;
+    const text = document.getElementById("message-text");
+    if (message.hidden) say("Training", m.text); else text.textContent = `${text.textContent}\n${m.text}`;
   }
 }
 
