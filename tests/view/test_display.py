@@ -329,3 +329,26 @@ def test_a_headset_draws_the_best_level_and_leaving_it_the_screen_draws_at_its_o
         picture = wait(driver, "window.microg.dirty = true; const p = window.microg.picture; "
                                "return p.level === window.microg.quality.level && [p.level, p.width, p.height]")
         assert picture == [screen, WINDOW[0] * 0.5, WINDOW[1] * 0.5]
+
+
+@needs_browser
+def test_a_trainee_reads_under_a_tasks_cue_how_far_they_are_from_the_criterion(tmp_path):
+    """A phase trained to a criterion: after the task's cue the page adds what the session says of
+    the criterion (``Operator.progressed``: "One more clean task in a row")."""
+    from microg.paths import protocol_file
+    from microg.study.progression import Outcome, progress
+    from microg.study.store import PlannedTask
+
+    protocol = load_protocol(protocol_file("microgravity-training"))
+    said = progress(protocol.phase("trainpaper").until, [Outcome("C", True, 20.0, 0)]).describe()
+    with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
+        driver.get(display.url)
+        wait(driver, "return document.body.innerText.includes('Waiting for the session')")
+        task = PlannedTask(0, "trainpaper", "impulse_penetration", "cube", "C", 1)
+        display.get_ready(task)
+        display.task_started(task)
+        display.task_finished(task, "completed", 20.0)
+        display.progressed(said)
+        shown = wait(driver, f"const m = document.getElementById('message-text').textContent; "
+                             f"return m.includes({said!r}) && m;", "the criterion's progress under the cue")
+    assert said == "One more clean task in a row" and shown.startswith("Completed in 20.0 s")
