@@ -1,7 +1,7 @@
 """Proficiency-based progression: when a phase trained to a criterion has met it, and how a
 staircase moves its task's difficulty from task to task.
 
-Both read a phase's finished tasks in order, each as an ``Outcome`` (its object, whether it was
+Both read a phase's finished tasks in order, each as a ``FinishedTask`` (its object, whether it was
 completed, its time and attempts, and the difficulty it ran with), so a resumed session finds the
 same state its tasks left.
 
@@ -25,7 +25,7 @@ from .protocol import STAIRCASE_RULES, Criterion, Staircase
 
 
 @dataclass(frozen=True)
-class Outcome:
+class FinishedTask:
     """A finished task of a phase as progression reads it."""
 
     object_code: str
@@ -64,32 +64,32 @@ def _count(n: int) -> str:
     return (words[n] if n < len(words) else str(n)).capitalize()
 
 
-def counts(criterion: Criterion | None, outcome: Outcome) -> bool:
-    """Whether ``outcome`` counts toward ``criterion`` (without one: whether it was completed)."""
+def counts(criterion: Criterion | None, task: FinishedTask) -> bool:
+    """Whether ``task`` counts toward ``criterion`` (without one: whether it was completed)."""
     if criterion is None:
-        return outcome.completed
-    return criterion.counts(outcome.object_code, outcome.completed, outcome.time_s, outcome.attempts)
+        return task.completed
+    return criterion.counts(task.object_code, task.completed, task.time_s, task.attempts)
 
 
-def progress(criterion: Criterion, outcomes: Sequence[Outcome]) -> Progress:
-    """How a phase trained to ``criterion`` stands after ``outcomes`` (its finished tasks, in order)."""
+def progress(criterion: Criterion, finished: Sequence[FinishedTask]) -> Progress:
+    """How a phase trained to ``criterion`` stands after ``finished`` (its finished tasks, in order)."""
     in_a_row, met_at = 0, None
-    for number, outcome in enumerate(outcomes, start=1):
-        in_a_row = in_a_row + 1 if counts(criterion, outcome) else 0
+    for number, task in enumerate(finished, start=1):
+        in_a_row = in_a_row + 1 if counts(criterion, task) else 0
         if met_at is None and in_a_row >= criterion.consecutive:
             met_at = number
-    return Progress(len(outcomes), in_a_row, criterion.consecutive, met_at)
+    return Progress(len(finished), in_a_row, criterion.consecutive, met_at)
 
 
-def next_difficulty(staircase: Staircase, criterion: Criterion | None, outcomes: Sequence[Outcome],
+def next_difficulty(staircase: Staircase, criterion: Criterion | None, finished: Sequence[FinishedTask],
                     harder: int) -> float:
-    """The value the next task runs with: ``staircase.start``, moved by its rule over ``outcomes``
+    """The value the next task runs with: ``staircase.start``, moved by its rule over ``finished``
     (each with the difficulty it ran with). ``harder``: +1 when a larger value is harder, -1 when
     a smaller one is."""
     value, successes = staircase.start, 0
     needed = STAIRCASE_RULES[staircase.rule]
-    for outcome in outcomes:
-        if counts(criterion, outcome):
+    for task in finished:
+        if counts(criterion, task):
             successes += 1
             if successes < needed:
                 continue

@@ -46,7 +46,7 @@ from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
 from .questionnaire import Rater, questions
-from .progression import Outcome, next_difficulty, progress
+from .progression import FinishedTask, next_difficulty, progress
 from .store import Event, PlannedTask, Store, criterion_first_index, criterion_task, derived_seed
 
 
@@ -413,15 +413,15 @@ def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
     harder = KINDS[trained.kind].difficulty[trained.staircase.parameter].harder if trained.staircase else 1
     while True:
         tasks = store.tasks(session.id)
-        outcomes = phase_outcomes(store, session.id, phase.name)
-        reached = progress(trained.until, outcomes)
+        done = finished_tasks_of(store, session.id, phase.name)
+        reached = progress(trained.until, done)
         if reached.met or reached.tasks >= trained.max_tasks:
             break
         number = reached.tasks + 1
         task = next((t for t in tasks if t.phase == phase.name and t.task_in_phase == number), None)
         if task is None:  # a task not run before: planned now, at the staircase's value
             difficulty = None if trained.staircase is None else \
-                next_difficulty(trained.staircase, trained.until, outcomes, harder)
+                next_difficulty(trained.staircase, trained.until, done, harder)
             task = criterion_task(protocol, phase.name, first, number, difficulty)
             store.add_task(session.id, task)
             tasks = tasks + [task]
@@ -429,7 +429,7 @@ def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
         _, plan, seed = planned_run(protocol, session, participant=participant, tasks=tasks, task=task)
         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator, sinks=sinks, bar=bar)
         bar.update(1)
-        reached = progress(trained.until, phase_outcomes(store, session.id, phase.name))
+        reached = progress(trained.until, finished_tasks_of(store, session.id, phase.name))
         log.emit("criterion_progress", {"phase": phase.name, "task_in_phase": number, "in_a_row": reached.in_a_row,
                                         "consecutive": reached.needed})
         operator.progressed(reached.describe())
@@ -438,7 +438,7 @@ def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
         log.emit(ended, {"phase": phase.name, "tasks": reached.tasks, "task_in_phase": reached.met_at})
 
 
-def phase_outcomes(store: Store, session_id: int, phase: str) -> list[Outcome]:
+def finished_tasks_of(store: Store, session_id: int, phase: str) -> list[FinishedTask]:
     """The finished tasks of ``phase`` in a session, in order, by their last run (as progression reads them)."""
     rows = store.db.execute("""
         SELECT t.object_code, t.difficulty, r.status, r.time_s, r.attempts FROM tasks t
@@ -447,7 +447,7 @@ def phase_outcomes(store: Store, session_id: int, phase: str) -> list[Outcome]:
           AND r.run = (SELECT MAX(run) FROM task_runs x WHERE x.session_id = t.session_id
                        AND x.task_index = t.task_index)
         ORDER BY t.task_index""", (session_id, phase))
-    return [Outcome(r["object_code"], r["status"] == "completed", r["time_s"], r["attempts"], r["difficulty"])
+    return [FinishedTask(r["object_code"], r["status"] == "completed", r["time_s"], r["attempts"], r["difficulty"])
             for r in rows]
 
 

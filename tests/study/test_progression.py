@@ -7,12 +7,12 @@ import datetime
 
 import pytest
 
-from microg.study.progression import Outcome, next_difficulty, progress
+from microg.study.progression import FinishedTask, next_difficulty, progress
 from microg.study.protocol import Criterion, SessionPlan, Staircase
 from microg.study.schedule import Sitting, due_date, overdue_from
 
-CLEAN, SLOW, DROPPED, MISSED = (Outcome("C", True, 20.0, 0), Outcome("C", True, 40.0, 0), Outcome("C", True, 20.0, 1),
-                                Outcome("C", False, None, 0))
+CLEAN, SLOW, DROPPED, MISSED = (FinishedTask("C", True, 20.0, 0), FinishedTask("C", True, 40.0, 0), FinishedTask("C", True, 20.0, 1),
+                                FinishedTask("C", False, None, 0))
 TWO_CLEAN = Criterion(time_s=30.0, attempts=0, consecutive=2)
 
 
@@ -37,15 +37,15 @@ def test_what_the_participant_hears_after_each_task():
 
 def test_an_objects_own_thresholds_replace_the_phases_for_its_tasks():
     lenient = Criterion(30.0, 0, 1, objects=(("L", 60.0, 2),))
-    assert progress(lenient, [Outcome("L", True, 50.0, 2)]).met
-    assert not progress(lenient, [Outcome("C", True, 50.0, 0)]).met
+    assert progress(lenient, [FinishedTask("L", True, 50.0, 2)]).met
+    assert not progress(lenient, [FinishedTask("C", True, 50.0, 0)]).met
 
 
 def test_a_two_down_one_up_staircase_steps_by_its_factor_within_its_bounds():
     """Levitt's 2-down-1-up on a number whose larger values are harder: two successes in a row
     multiply it by the factor, one failure divides it; the count starts again after each change."""
     stairs = Staircase("catch.speed", start=0.2, step=None, factor=2.0, rule="2-down-1-up", minimum=0.1, maximum=0.5)
-    values = [next_difficulty(stairs, None, [Outcome("C", ok, 1.0, 0) for ok in done], harder=1)
+    values = [next_difficulty(stairs, None, [FinishedTask("C", ok, 1.0, 0) for ok in done], harder=1)
               for done in ([], [True], [True, True], [True, True, False], [True, True, False, False],
                            [True, True, True, True, True, True])]
     assert values == [0.2, 0.2, 0.4, 0.2, 0.1, 0.5]   # 0.2, 0.4, 0.8 -> 0.5 at its max

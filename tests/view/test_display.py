@@ -336,11 +336,11 @@ def test_a_trainee_reads_under_a_tasks_cue_how_far_they_are_from_the_criterion(t
     """A phase trained to a criterion: after the task's cue the page adds what the session says of
     the criterion (``Operator.progressed``: "One more clean task in a row")."""
     from microg.paths import protocol_file
-    from microg.study.progression import Outcome, progress
+    from microg.study.progression import FinishedTask, progress
     from microg.study.store import PlannedTask
 
     protocol = load_protocol(protocol_file("microgravity-training"))
-    said = progress(protocol.phase("trainpaper").until, [Outcome("C", True, 20.0, 0)]).describe()
+    said = progress(protocol.phase("trainpaper").until, [FinishedTask("C", True, 20.0, 0)]).describe()
     with ParticipantDisplay(protocol) as display, chromium(WINDOW) as driver:
         driver.get(display.url)
         wait(driver, "return document.body.innerText.includes('Waiting for the session')")
