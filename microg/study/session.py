@@ -348,8 +348,8 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     started_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_start"}
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
-    bar = tqdm(total=len(store.tasks(session_id)), initial=len(finished), unit="task", desc=f"{participant.id} ({participant.group})",
-               disable=not outputs.progress, leave=True)
+    bar = tqdm(total=len(store.tasks(session_id)), initial=len(finished), unit="task",
+               desc=f"{participant.id} ({participant.group})", disable=not outputs.progress, leave=True)
     try:
         for phase in protocol.phases_for(participant.group, session.name):
             if phase.name in ended_phases:
