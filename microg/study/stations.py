@@ -190,6 +190,10 @@ def _chosen(central: Store, participants: Sequence[str]) -> list[str]:
         session = central.session_of(pid)
         if session is not None:
             where = "" if _session_station(central.db, session.id)[0] is None else " (merged from a station)"
+            if central.protocol.program:
+                raise ParticipantError(f"participant {pid} ran session {session.name!r} in study {central.name!r}"
+                                       f"{where}: a trainee runs the whole program at one place for now, here or "
+                                       "at a station given them before their first session")
             raise ParticipantError(f"participant {pid} already has session {session.id} ({session.status}) in study "
                                    f"{central.name!r}{where}; a session is never run twice")
         records.append(record)
