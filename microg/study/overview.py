@@ -378,18 +378,21 @@ class Overview:
                            "phase": task["phase"], "object": task["object"], "task": index, "status": run["status"],
                            "time_s": run["time_s"] if run["status"] in MEASURED_TIME else None,
                            "attempts": run["attempts"]})
+        present = {t["phase"] for tasks in self.tasks.values() for t in tasks.values()}
+        phases = [name for name in dict.fromkeys(p.name for p in self.protocol.timeline) if name in present]
         cells: dict[tuple, list[dict]] = defaultdict(list)
         for point in points:
             cells[point["phase"], point["group"], point["object"]].append(point)
+        ranks = [{name: rank for rank, name in enumerate(names)} for names in (
+            phases, [g.code for g in self.protocol.groups], [o.code for o in self.protocol.objects])]
         means = []
-        for (phase, group, obj), members in sorted(cells.items()):
+        for (phase, group, obj), members in sorted(cells.items(), key=lambda cell: [
+                (rank.get(part, len(rank)), part) for rank, part in zip(ranks, cell[0])]):  # the protocol's order
             times = [p["time_s"] for p in members if p["time_s"] is not None]
             attempts = [p["attempts"] for p in members if p["attempts"] is not None]
             means.append({"phase": phase, "group": group, "object": obj, "tasks": len(members),
                           "completed": len(times), "time_s": math.fsum(times) / len(times) if times else None,
                           "attempts": math.fsum(attempts) / len(attempts) if attempts else None})
-        present = {t["phase"] for tasks in self.tasks.values() for t in tasks.values()}
-        phases = [name for name in dict.fromkeys(p.name for p in self.protocol.timeline) if name in present]
         return {"phases": phases, "points": points, "means": means}
 
     def _questionnaires(self) -> list[dict]:

@@ -6,6 +6,7 @@
 const token = new URLSearchParams(location.search).get("token") || "";
 const microg = (window.microg = { overview: null, updates: 0, views: {}, charts: {}, error: null });
 const COLOURS = ["#1d5fbf", "#c2410c", "#15803d", "#7e22ce", "#0e7490", "#a16207"];
+const LOW_RATE = 0.9;  // a session logging fewer frames a second than this share of the tracker's rate is marked
 const GUARD_SHOWN = [["dropped", "dropped"], ["gaps", "gaps"], ["re_anchored", "re-anchored"], ["jumps", "jumps"],
                      ["incomplete", "incomplete hands"]];
 let socket = null;
@@ -91,16 +92,16 @@ function drawIntegrity(o) {
 
 function drawEnrolment(o) {
   const e = o.enrolment;
-  const balance = e.balance === "gender" ? "by gender (the balance)" : "by gender";
+  const filled = (n, of) => `<span class="bar"><span style="width:${Math.min(100, 100 * n / of)}%"></span></span>`;
   const rows = e.groups.map((g) => `<tr data-group="${esc(g.code)}"><td>${esc(g.code)} (${esc(g.name)})</td>`
-    + `<td class="number active">${g.active}</td><td class="number">${g.size}</td>`
-    + `<td><span class="bar"><span style="width:${Math.min(100, 100 * g.active / g.size)}%"></span></span></td>`
+    + `<td class="number"><span class="active">${g.active}</span> / ${g.size}</td><td>${filled(g.active, g.size)}</td>`
     + `<td class="number">${g.withdrawn}</td>`
     + `<td class="by">${Object.entries(g.by).map(([k, n]) => `${esc(k)} ${n}`).join(", ") || "–"}</td></tr>`);
-  document.getElementById("enrolment").innerHTML = `<table><thead><tr><th>group</th><th class="number">active</th>`
-    + `<th class="number">target</th><th></th><th class="number">withdrawn</th><th>${balance}</th></tr></thead>`
-    + `<tbody>${rows.join("")}</tbody><tfoot><tr><td>all</td><td class="number" id="enrolled">${e.active}</td>`
-    + `<td class="number">${e.target}</td><td></td><td class="number">${e.withdrawn}</td><td></td></tr></tfoot></table>`;
+  document.getElementById("enrolment").innerHTML = (e.balance === "gender" ? `<p class="note">The assignment `
+    + `balances gender across the groups.</p>` : "") + `<table><thead><tr><th>group</th><th class="number">active / `
+    + `target</th><th></th><th class="number">withdrawn</th><th>by gender</th></tr></thead><tbody>${rows.join("")}</tbody>`
+    + `<tfoot><tr><td>all</td><td class="number"><span id="enrolled">${e.active}</span> / ${e.target}</td>`
+    + `<td>${filled(e.active, e.target)}</td><td class="number">${e.withdrawn}</td><td></td></tr></tfoot></table>`;
 }
 
 function progress(s) {
@@ -117,12 +118,12 @@ function quality(s) {
   const q = s.quality;
   const parts = [];
   if (q.rate_hz != null) {
-    const low = q.rate_hz < 0.9 * q.tracking_rate;
+    const low = q.rate_hz < LOW_RATE * q.tracking_rate;
     parts.push(`<span class="${low ? "low" : ""}">${fixed(q.rate_hz, 0)} / ${fixed(q.tracking_rate, 0)} Hz</span>`);
   }
   if (q.guard) {
     const shown = GUARD_SHOWN.filter(([name]) => q.guard[name]).map(([name, label]) => `${q.guard[name]} ${label}`);
-    parts.push(shown.length ? `<span class="low">${shown.join(", ")}</span>` : "guard: clean");
+    parts.push(shown.length ? `guard: ${shown.join(", ")}` : "guard: nothing found");
   }
   const statuses = [["timeouts", "timed out"], ["skipped", "skipped"], ["aborted", "aborted"],
                     ["interrupted_runs", "runs cut off"]].filter(([k]) => q[k]).map(([k, label]) => `${q[k]} ${label}`);
@@ -171,8 +172,8 @@ function drawSessions(o) {
     }
   }
   document.getElementById("sessions").innerHTML = rows.length ? `<table><thead><tr><th>participant</th><th>group</th>`
-    + `<th>gender</th><th>session</th><th>where it stands</th><th>data quality (frames / s logged vs tracker; `
-    + `tracking guard; tasks; page)</th><th class="number">answers</th><th>input</th><th></th></tr></thead>`
+    + `<th>gender</th><th>session</th><th>where it stands</th><th>data quality</th><th class="number">answers</th>`
+    + `<th>input</th><th></th></tr></thead>`
     + `<tbody>${rows.join("")}</tbody></table>` : `<p class="empty">No participant yet: microg participant add ${esc(o.study.folder)} …</p>`;
 }
 
@@ -189,7 +190,8 @@ document.addEventListener("click", (event) => {
 });
 
 function chartData(o, phase, measure) {
-  const objects = o.study.objects.filter((code) => o.results.points.some((p) => p.phase === phase && p.object === code));
+  const mine = o.results.points.filter((p) => p.phase === phase).map((p) => p.object);
+  const objects = [...new Set([...o.study.objects, ...mine])].filter((code) => mine.includes(code));
   const groups = o.study.groups;
   const offset = (g) => (groups.indexOf(g) - (groups.length - 1) / 2) * 0.25;
   const datasets = [];
@@ -223,8 +225,8 @@ function chart(id, o, phase, measure, title) {
                title: { display: true, text: title },
                tooltip: { callbacks: { label: (c) => `${c.raw.participant || "mean"}: ${fixed(c.raw.y)}` } } },
     scales: { x: { type: "linear", min: -0.5, max: objects.length - 0.5,
-                   ticks: { stepSize: 1, callback: (v) => (Number.isInteger(v) && objects[v] ? names[objects[v]] || objects[v] : "") },
-                   grid: { display: false } },
+                   afterBuildTicks: (axis) => { axis.ticks = objects.map((_, i) => ({ value: i })); },
+                   ticks: { callback: (v) => names[objects[v]] || objects[v] || "" }, grid: { display: false } },
               y: { beginAtZero: true, title: { display: true, text: measure === "time_s" ? "s" : "drops" } } },
   };
   if (!drawn) {
