@@ -115,7 +115,6 @@ class Overview:
         version = self.db.execute("PRAGMA data_version").fetchone()[0]
         if version == self._version:
             return changed
-        self._version = version
         self.db.execute("BEGIN")  # one snapshot: a session committing meanwhile does not tear the picture
         try:
             self._read_participants()
@@ -129,6 +128,7 @@ class Overview:
             self.ledger_head = self.db.execute("SELECT COALESCE(MAX(seq), 0) FROM ledger").fetchone()[0]
         finally:
             self.db.execute("COMMIT")
+        self._version = version  # only once all was read: a read that failed is tried again
         return True
 
     def _newer(self, mark: str, query: str) -> list:

@@ -18,13 +18,16 @@ from microg.study.export import export_study, trials_table
 from microg.study.overview import GUARD, Overview, study_overview
 from microg.study.protocol import load_protocol
 from microg.study.session import SimulationClock, run_session
-from microg.study.store import create_study, open_study
+from microg.study.store import Event, create_study, open_study
 
 from tests.waiting import joined, wait_until
 
 from .conftest import PROTOCOLS, answers, scripted_inputs
 from .scripted import gated_session
 
+PAGE_LOGGED = {"display_quality": {"render_scale": 0.7, "render_width": 896, "render_height": 560, "antialias": False,
+                                   "refresh_ms": 16.7, "gpu_ms": 9.5},
+               "display_clock": {"offset_ms": -3.1, "rtt_ms": 0.8, "spread_ms": 0.3}}
 PEOPLE = (("P01", "female"), ("P02", "male"), ("P03", "female"), ("P04", "male"), ("P05", "female"),
           ("P06", "male"))
 
@@ -40,6 +43,8 @@ def study(tmp_path_factory):
         scripts = {"P02": {"drop_at_place": 1}, "P04": {"dwell": 16.0}}
         for pid in ("P01", "P02", "P03", "P04", "P05"):
             session = store.create_session(pid, input_spec="scripted", simulated=True, clock="simulation")
+            if pid == "P01":  # what a participant's page logs
+                store.log(session.id, [Event(0.0, kind, data) for kind, data in PAGE_LOGGED.items()])
             run_session(store, session.id, scripted_inputs(**scripts.get(pid, {})), clock=SimulationClock(),
                         rater=answers("7", "6", "3", "4"))
         store.withdraw("P05", "moved away")
@@ -107,6 +112,9 @@ def test_every_session_and_participant_is_there_with_its_tasks_and_quality(study
         for name, status in (("timeouts", "timeout"), ("skipped", "skipped"), ("aborted", "aborted")):
             assert session["quality"][name] == (rows["status"] == status).sum(), (pid, name)
     assert sessions["P04"]["quality"]["timeouts"] and not sessions["P01"]["quality"]["timeouts"]
+    assert sessions["P01"]["quality"]["display"] == {kind.removeprefix("display_"): data
+                                                     for kind, data in PAGE_LOGGED.items()}
+    assert sessions["P02"]["quality"]["display"] is None
     assert all(session["quality"]["rate_hz"] == pytest.approx(110.0) for session in sessions.values())
     total = {name: sum(sum(g[c] for c in parts) for g in guard) for name, parts in GUARD.items()}
     assert {name: sum(s["quality"]["guard"][name] for s in sessions.values()) for name in GUARD} == total

@@ -52,10 +52,10 @@ function receive(message) {
     microg.error = message.message;
     live("off", `cannot read the study: ${message.message}`);
   } else if (message.type === "view") {
-    const opened = microg.views[message.session] || {};
-    microg.views[message.session] = message;
-    if (message.url && opened.window) opened.window.location.href = message.url;
-    else if (opened.window) opened.window.close();
+    const opened = (microg.views[message.session] || {}).window;
+    microg.views[message.session] = { ...message, window: opened };
+    if (message.url && opened) opened.location.href = message.url;
+    else if (opened) opened.close();
     if (microg.overview) drawSessions(microg.overview);
   }
 }
@@ -94,14 +94,14 @@ function drawEnrolment(o) {
   const e = o.enrolment;
   const filled = (n, of) => `<span class="bar"><span style="width:${Math.min(100, 100 * n / of)}%"></span></span>`;
   const rows = e.groups.map((g) => `<tr data-group="${esc(g.code)}"><td>${esc(g.code)} (${esc(g.name)})</td>`
-    + `<td class="number"><span class="active">${g.active}</span> / ${g.size}</td><td>${filled(g.active, g.size)}</td>`
+    + `<td class="number"><span class="active">${g.active}</span> / ${g.size}</td><td class="meter">${filled(g.active, g.size)}</td>`
     + `<td class="number">${g.withdrawn}</td>`
     + `<td class="by">${Object.entries(g.by).map(([k, n]) => `${esc(k)} ${n}`).join(", ") || "–"}</td></tr>`);
   document.getElementById("enrolment").innerHTML = (e.balance === "gender" ? `<p class="note">The assignment `
     + `balances gender across the groups.</p>` : "") + `<table><thead><tr><th>group</th><th class="number">active / `
-    + `target</th><th></th><th class="number">withdrawn</th><th>by gender</th></tr></thead><tbody>${rows.join("")}</tbody>`
+    + `target</th><th class="meter"></th><th class="number">withdrawn</th><th>by gender</th></tr></thead><tbody>${rows.join("")}</tbody>`
     + `<tfoot><tr><td>all</td><td class="number"><span id="enrolled">${e.active}</span> / ${e.target}</td>`
-    + `<td>${filled(e.active, e.target)}</td><td class="number">${e.withdrawn}</td><td></td></tr></tfoot></table>`;
+    + `<td class="meter">${filled(e.active, e.target)}</td><td class="number">${e.withdrawn}</td><td></td></tr></tfoot></table>`;
 }
 
 function progress(s) {
@@ -165,9 +165,9 @@ function drawSessions(o) {
       const where = s.station ? ` · station ${esc(s.station)}${s.merged_at ? ", merged" : ""}` : "";
       const answered = s.answers_expected ? `${s.answers} / ${s.answers_expected}` : `${s.answers}`;
       rows.push(`<tr data-participant="${esc(p.id)}" data-session="${s.id}" data-status="${esc(status)}">${who}`
-        + `<td>${s.id}</td><td class="where"><span class="status ${esc(status)}">${esc(status)}</span> · ${s.done} of ${s.tasks} tasks`
+        + `<td class="session">${s.id}</td><td class="where"><span class="status ${esc(status)}">${esc(status)}</span> · ${s.done} of ${s.tasks} tasks`
         + `${where}<br><span class="progress">${progress(s)}</span></td>`
-        + `<td class="quality">${quality(s)}</td><td class="number">${answered}</td>`
+        + `<td class="quality">${quality(s)}</td><td class="number answers">${answered}</td>`
         + `<td>${esc(s.input)}${s.resumes ? ` · resumed ${s.resumes}×` : ""}</td><td>${viewCell(o, s)}</td></tr>`);
     }
   }
