@@ -54,6 +54,8 @@ SESSION_CLOCK = ("in seconds since the session started on the session's clock (t
                  "carried on across a resume; simulated time, advancing with the frames, otherwise)")
 RATING_RANGE = (0, 10)
 """The paper's kind of item: a rating from 0 to 10."""
+REPORT_FILE = "report.html"
+"""The report ``microg report`` writes into its folder (``microg.analysis.report``), which the dashboard links to."""
 
 
 class KindMeasure(NamedTuple):

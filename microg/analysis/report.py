@@ -31,7 +31,7 @@ from microg.analysis.posthoc import POSTHOC_COLUMNS
 from microg.analysis.questionnaires import ORDINAL_POINTS, QuestionnaireAnalysis, analyse_questionnaires
 from microg.analysis.report_template import TEMPLATE
 from microg.analysis.tables import read_table
-from microg.schema import KindInfo
+from microg.schema import REPORT_FILE, KindInfo
 from microg.analysis.training import (
     POWER_LAW_UPPER_C,
     PRACTICE,
@@ -46,7 +46,6 @@ INTERACTION_DESCRIPTIONS = {
     "soft_hand": "compliant soft-hand coupling, standing in for the paper's comparison interaction model",
     "penetration_only": "penetration phase only, the prior method the paper improves on",
 }
-REPORT_FILE = "report.html"
 MARKDOWN_FILE = "report.md"
 TIDY_TABLES = {"sample": "sample", "cell_means": "cell_means", "corrections": "corrections",
                "simple_effects": "simple_effects", "simple_pairs": "simple_pairs", "assumptions": "assumptions",

@@ -115,7 +115,7 @@ def picture_size(text: str) -> tuple[int, int]:
 
 PAGE_OPTIONS = [
     click.option("--cert", type=click.Path(dir_okay=False, exists=True, path_type=str), default=None,
-                 help="The lab's own certificate (PEM) for the participant's page over HTTPS, e.g. made with mkcert "
+                 help="The lab's own certificate (PEM) for the page over HTTPS, e.g. made with mkcert "
                       "for the --host address; with --key. Default away from 127.0.0.1: a certificate microg makes "
                       "and keeps (a session's in STUDY/tls/, hands record's in the user's cache folder), its "
                       "SHA-256 printed."),
@@ -125,7 +125,7 @@ PAGE_OPTIONS = [
                  help="Also write the page's address (with its token) as a QR code into this PNG file; the terminal "
                       "shows the code in any case."),
 ]
-"""``--cert``, ``--key`` and ``--qr``: how the participant's page is served and announced."""
+"""``--cert``, ``--key`` and ``--qr``: how a page (the participant's, the dashboard) is served and announced."""
 
 
 def page_options(command):
@@ -136,7 +136,7 @@ def page_options(command):
 
 
 def page_certificate(folder: Path, host: str, cert: str | None, key: str | None):
-    """The certificate the participant's page is served with (``microg.view.tls``): the lab's own
+    """The certificate a page is served with (``microg.view.tls``): the lab's own
     (``cert``, ``key``), else away from 127.0.0.1 the one microg keeps in ``folder``; None (plain
     HTTP) on 127.0.0.1 without ``cert``."""
     from microg.view.tls import LOCALHOST, CertificateError, lab_certificate, study_certificate
@@ -156,26 +156,26 @@ def page_certificate(folder: Path, host: str, cert: str | None, key: str | None)
     return certificate
 
 
-def announce_page(display, qr_file: str | None = None) -> None:
-    """Print where the participant's page is (its address with the token, as text and as a QR code
-    to scan), how to check its certificate, and write the code into ``qr_file``."""
+def announce_page(page, qr_file: str | None = None, label: str = "participant view") -> None:
+    """Print where a page is (``label``: its address with the token, as text and as a QR code to
+    scan), how to check its certificate, and write the code into ``qr_file``."""
     from microg.view.qr import terminal_code, write_code
 
-    click.echo(f"participant view: {display.url}")
-    certificate = display.certificate
+    click.echo(f"{label}: {page.url}")
+    certificate = page.certificate
     if certificate is not None:
         if certificate.note:
             click.echo(f"  {certificate.note}")
         click.echo(f"  HTTPS certificate SHA-256 {certificate.fingerprint}")
         click.echo("  (a browser that warns about it shows this fingerprint in the certificate's details: go on only "
                    "if it is this one)")
-    if display.token:
-        click.echo(f"  (one-time token {display.token}: the address above carries it; the page refuses to connect "
+    if page.token:
+        click.echo(f"  (one-time token {page.token}: the address above carries it; the page refuses to connect "
                    "without it)")
-    click.echo(terminal_code(display.url), nl=False)
+    click.echo(terminal_code(page.url), nl=False)
     if qr_file is not None:
         try:
-            write_code(display.url, qr_file)
+            write_code(page.url, qr_file)
         except (OSError, ValueError) as error:
             raise click.ClickException(f"--qr {qr_file}: cannot write the QR code ({error})") from None
         click.echo(f"  QR code of the address: {qr_file}")

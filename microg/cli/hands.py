@@ -222,7 +222,8 @@ def _record_webxr(output: Path, *, protocol_name: str, host: str, port: int, lim
     from microg.paths import protocol_file
     from microg.skeleton.cache import user_cache_dir
     from microg.study.protocol import Phase, ProtocolError, load_protocol
-    from microg.view.display import DisplayError, ParticipantDisplay
+    from microg.view.display import ParticipantDisplay
+    from microg.view.pageserver import PageError
     from microg.view.tls import FOLDER
 
     try:
@@ -250,7 +251,7 @@ def _record_webxr(output: Path, *, protocol_name: str, host: str, port: int, lim
                                        f"protocol {protocol.name} (placed in the headset); timestamps: the page's "
                                        f"read time plus its measured clock offset")
             summary = record(_Announced(source, display), output, info, **limits)
-    except DisplayError as error:
+    except PageError as error:
         raise click.ClickException(str(error)) from None
     finally:
         source.close()

@@ -325,7 +325,8 @@ def _outcome(store: Store, participant_id: str, status: str) -> str:
 @contextlib.contextmanager
 def _display(store: Store, options: SessionOptions, kind: str):
     from microg.study.protocol import Viewpoint
-    from microg.view.display import DisplayError, ParticipantDisplay
+    from microg.view.display import ParticipantDisplay
+    from microg.view.pageserver import PageError
     from microg.view.tls import FOLDER
 
     default = store.protocol.viewpoint
@@ -341,7 +342,7 @@ def _display(store: Store, options: SessionOptions, kind: str):
                                  hands=hands, certificate=certificate)
     try:
         display.start()
-    except DisplayError as error:
+    except PageError as error:
         raise click.ClickException(str(error)) from None
     try:
         yield display

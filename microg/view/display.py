@@ -25,33 +25,25 @@ resolution and antialiasing) goes to ``on_event(kind, data)`` as ``display_clock
 the thread that drives the display (the session's, whose store connection it may use) at its
 next call.
 
-Security: the server listens on 127.0.0.1 unless given another host; then the page must present a
-one-time token (printed with the address), and the page and its WebSocket are served over TLS with
-the ``certificate`` given (``microg.view.tls``): WebXR needs a secure context, which plain HTTP is
-on the machine itself only. The WebSocket refuses any Origin but the page's own (its scheme too)
-and any Host but the served one (each given exactly once), so a web page open elsewhere in the
-browser cannot read the session. It serves the page's own files by name, from a list made at
-start, and nothing else: no request path reaches the file system. What the page reports drawing is
-kept for the last ``DRAWN_KEPT`` frames only, so a long session (or a page that reports faster)
-keeps a bounded memory.
+Security (``microg.view.pageserver``, the one server of every page): 127.0.0.1 unless given another
+host; then a one-time token (printed with the address), and the page and its WebSocket over TLS
+with the ``certificate`` given (``microg.view.tls``): WebXR needs a secure context, which plain HTTP
+is on the machine itself only. The WebSocket refuses any Origin but the page's own (its scheme too)
+and any Host but the served one, so a web page open elsewhere in the browser cannot read the
+session; only the page's own files are served, by name. What the page reports drawing is kept for
+the last ``DRAWN_KEPT`` frames only, so a long session (or a page that reports faster) keeps a
+bounded memory.
 """
 
 from __future__ import annotations
 
 import asyncio
 import collections
-import errno
 import json
-import logging
 import math
-import mimetypes
-import os
 import queue
-import secrets
-import threading
 import time
 from pathlib import Path
-from urllib.parse import parse_qs, urlsplit
 
 import numpy as np
 
@@ -61,6 +53,7 @@ from microg.study.questionnaire import Answer, Question, RatingError, parse_answ
 from microg.study.store import PlannedTask
 from microg.task import KINDS, Moments
 
+from .pageserver import PageServer
 from .scene import PALETTE, default_camera, rendered_bones, task_layout, HandValues
 from .tls import LOCALHOST, Certificate
 
@@ -70,29 +63,6 @@ ANSWER_POLL_S = 0.25
 """While waiting for an answer, the display hands on the page's events this often (s)."""
 DRAWN_KEPT = 3600
 """Drawn-frame reports kept: the last minute at 60 Hz."""
-
-
-class DisplayError(RuntimeError):
-    """The participant's page cannot be served where it was asked to be; the message says why and what to do."""
-
-
-class _QuietHandshakes(logging.Filter):
-    """Drops websockets' records of a connection that ended before it spoke HTTP (a browser's
-    preconnection it never used, a page refusing the certificate, a port scanner, garbage on the
-    port): logged as errors with their tracebacks, they would flood the researcher's terminal, and
-    nothing is wrong with the session. Any other record goes on."""
-
-    def filter(self, record: logging.LogRecord) -> bool:
-        from websockets.exceptions import InvalidHandshake
-
-        error = record.exc_info[1] if record.exc_info else None
-        return not isinstance(error, (InvalidHandshake, EOFError, OSError, TimeoutError))
-
-
-SERVER_LOG = logging.getLogger(__name__)
-"""The page server's log (websockets'), without the records of connections that ended unspoken."""
-HANDSHAKES = _QuietHandshakes()
-SERVER_LOG.addFilter(HANDSHAKES)
 
 
 def now_ms() -> float:
@@ -105,16 +75,10 @@ class ParticipantDisplay:
 
     def __init__(self, protocol: Protocol, *, host: str = LOCALHOST, port: int = 0, viewpoint: Viewpoint | None = None,
                  hands=None, on_event=None, certificate: Certificate | None = None):
-        self.protocol, self.host, self.hands, self.on_event = protocol, host, hands, on_event
+        self.protocol, self.hands, self.on_event = protocol, hands, on_event
         self.viewpoint = protocol.viewpoint if viewpoint is None else viewpoint
-        if host != LOCALHOST and certificate is None:
-            raise ValueError(f"the participant's page on {host} is served over HTTPS (a browser offers WebXR to a "
-                             "secure page only): give it a certificate (microg.view.tls)")
-        self.certificate = certificate
-        self._tls = None if certificate is None else certificate.context()
-        self.scheme = "http" if certificate is None else "https"
-        self.token = None if host == LOCALHOST else secrets.token_urlsafe(12)
-        self._port = port
+        self.server = PageServer("the participant's page", self._connection, host=host, port=port,
+                                 certificate=certificate)
         self._frame: str | None = None
         self._frame_version = 0
         self._added_s = 0.0
@@ -135,18 +99,9 @@ class ParticipantDisplay:
         """The page's clock offset from the session's and its spread (ms), once synced."""
         self.placement: list[float] | None = None
         """The headset's anchor: the 4 x 4 matrix (row-major) from the workspace to its XR space."""
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._changed: asyncio.Condition | None = None
-        self._started = threading.Event()
-        self._failed: OSError | None = None
-        """Why the server could not start (an address or port it cannot have), for ``start`` to say."""
-        self._stop: asyncio.Event | None = None
-        self._thread: threading.Thread | None = None
         self._clients = 0
         self._outboxes: list[asyncio.Queue] = []
         self._fresh: list[asyncio.Event] = []
-        self._files: dict[str, Path] = {}
-        """The page's files by request path: all the server serves."""
 
     # ------------------------------------------------------------ life
 
@@ -158,38 +113,35 @@ class ParticipantDisplay:
         self.close()
 
     def start(self) -> None:
+        """Serve the page; ``microg.view.pageserver.PageError`` when its address or port cannot be had."""
         if not (PAGE / "vendor" / "three.module.js").exists():
             raise FileNotFoundError(f"the participant page's three.js is missing from {PAGE / 'vendor'}: "
                                     "install the front-end packages with `make setup` (npm ci)")
-        self._files = {"/" + file.relative_to(PAGE).as_posix(): file for file in PAGE.rglob("*") if file.is_file()}
-        self._files["/"] = PAGE / "index.html"
-        self._thread = threading.Thread(target=self._serve, name="participant-display", daemon=True)
-        self._thread.start()
-        self._started.wait()
-        if self._failed is not None:
-            error = self._failed
-            hint = {errno.EADDRINUSE: f"another program serves port {self._port} there: give another --port (0: a "
-                                      "free one)",
-                    errno.EADDRNOTAVAIL: f"{self.host} is not an address of this machine: give --host one of its own "
-                                         "(ip address lists them)",
-                    errno.EACCES: f"port {self._port} needs privileges: give a --port above 1023 (0: a free one)"}
-            raise DisplayError(f"cannot serve the participant's page at {self.host}:{self._port} "
-                               f"({os.strerror(error.errno) if error.errno else error}): "
-                               + hint.get(error.errno, "check --host and --port"))
+        files = {"/" + file.relative_to(PAGE).as_posix(): file for file in PAGE.rglob("*") if file.is_file()}
+        self.server.start(files | {"/": PAGE / "index.html"})
 
     def close(self) -> None:
-        if self._loop is not None and self._stop is not None and self._failed is None:
-            self._loop.call_soon_threadsafe(self._stop.set)
-        if self._thread is not None:
-            self._thread.join(timeout=10)
+        self.server.close()
+
+    @property
+    def host(self) -> str:
+        return self.server.host
 
     @property
     def port(self) -> int:
-        return self._port
+        return self.server.port
 
     @property
     def url(self) -> str:
-        return f"{self.scheme}://{self.host}:{self._port}/" + (f"?token={self.token}" if self.token else "")
+        return self.server.url
+
+    @property
+    def token(self) -> str | None:
+        return self.server.token
+
+    @property
+    def certificate(self) -> Certificate | None:
+        return self.server.certificate
 
     @property
     def connected(self) -> int:
@@ -288,9 +240,9 @@ class ParticipantDisplay:
         if self._added_s:
             message["due"] = ready + self._added_s * 1e3
         self._frame_version += 1
-        if self._added_s and self._loop is not None:
-            self._loop.call_soon_threadsafe(self._loop.call_at, held_until, self._show, json.dumps(message),
-                                            self._scene_version)
+        if self._added_s and self.server.loop is not None:
+            self.server.call(self.server.loop.call_at, held_until, self._show, json.dumps(message),
+                             self._scene_version)
         else:
             self._frame = json.dumps(message)
             self._notify()
@@ -360,16 +312,14 @@ class ParticipantDisplay:
 
     def _send_event(self, body: dict) -> None:
         text = json.dumps(body)
-        if self._loop is not None:
-            self._loop.call_soon_threadsafe(self._queue_event, text)
+        self.server.call(self._queue_event, text)
 
     def _queue_event(self, text: str) -> None:
         for outbox in self._outboxes:
             outbox.put_nowait(text)
 
     def _notify(self) -> None:
-        if self._loop is not None:
-            self._loop.call_soon_threadsafe(self._wake)
+        self.server.call(self._wake)
 
     def _wake(self) -> None:
         for flag in self._fresh:
@@ -381,68 +331,6 @@ class ParticipantDisplay:
         if scene == self._scene_version:
             self._frame = frame
             self._wake()
-
-    def _serve(self) -> None:
-        try:
-            asyncio.run(self._main())
-        except OSError as error:
-            if self._started.is_set():
-                raise
-            self._failed = error  # the address or port cannot be had: start says so
-            self._started.set()
-
-    async def _main(self) -> None:
-        from websockets.asyncio.server import serve
-
-        self._stop = asyncio.Event()
-        self._loop = asyncio.get_running_loop()
-        async with serve(self._connection, self.host, self._port, process_request=self._http, ssl=self._tls,
-                         origins=None, compression=None, max_size=2 ** 20, logger=SERVER_LOG) as server:
-            self._port = server.sockets[0].getsockname()[1]
-            self._started.set()
-            await self._stop.wait()
-
-    def _allowed_origins(self) -> set[str]:
-        hosts = {self.host, "localhost"} if self.host == LOCALHOST else {self.host}
-        return {f"{self.scheme}://{h}:{self._port}" for h in hosts}
-
-    def _refusal(self, request) -> str | None:
-        """Why a request must be refused (a foreign Host or Origin, or either given more than once; a
-        missing token), or None."""
-        for name in ("Host", "Origin"):
-            if len(given := request.headers.get_all(name)) > 1:
-                return f"{name} given {len(given)} times"
-        host = request.headers.get("Host", "")
-        if host not in {o.split("://", 1)[1] for o in self._allowed_origins()}:
-            return f"Host {host!r} is not this server"
-        origin = request.headers.get("Origin")
-        if request.path.startswith("/ws") and origin not in self._allowed_origins():
-            return f"Origin {origin!r} is not this page's"
-        if self.token is not None and request.path.startswith("/ws"):
-            token = parse_qs(urlsplit(request.path).query).get("token", [None])[0]
-            if not (token and secrets.compare_digest(token, self.token)):
-                return "the page did not present this session's token"
-        return None
-
-    def _http(self, connection, request):
-        from websockets.datastructures import Headers
-        from websockets.http11 import Response
-
-        refusal = self._refusal(request)
-        if refusal is not None:
-            return connection.respond(403, f"refused: {refusal}\n")
-        path = urlsplit(request.path).path
-        if path == "/ws":
-            return None
-        file = self._files.get(path)
-        if file is None:
-            return connection.respond(404, "not found\n")
-        body = file.read_bytes()
-        kind = mimetypes.guess_type(file.name)[0] or "application/octet-stream"
-        if file.suffix == ".js":
-            kind = "text/javascript"
-        return Response(200, "OK", Headers([("Content-Type", kind), ("Content-Length", str(len(body))),
-                                             ("Cache-Control", "no-store")]), body)
 
     async def _connection(self, websocket) -> None:
         outbox: asyncio.Queue = asyncio.Queue()

@@ -17,7 +17,6 @@ import asyncio
 import collections
 import contextlib
 import io
-import signal
 import threading
 import time
 from dataclasses import dataclass
@@ -29,6 +28,7 @@ from microg.skeleton import SLOTS
 from microg.study.session import handling_stop_signals
 from microg.study.store import SessionRecord, Store, StoreError
 
+from .pageserver import Stopping
 from .scene import HAND_MODES, PALETTE, TRACKED_OPACITY, TRACKED_THINNER, Capsules, FrameScene, TaskLayout, \
     bone_colours, default_camera, hud_lines, ring_mesh, task_layout, z_to_direction
 from .track import RunInfo, Track, find_run, find_session, open_readonly, read_track, session_runs
@@ -427,7 +427,7 @@ class View:
 
 def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, hands: str = "rendered",
           task_index: int | None = None, seconds: float | None = None, announce=print) -> None:
-    """Serve the view of ``study_dir`` until Ctrl-C, SIGTERM or SIGHUP (``_Stopping``); ``announce``
+    """Serve the view of ``study_dir`` until Ctrl-C, SIGTERM or SIGHUP (``pageserver.Stopping``); ``announce``
     gets the address and what is shown."""
     if hands not in HAND_MODES:
         raise ValueError(f"hands = {hands!r}: must be one of {HAND_MODES}")
@@ -438,7 +438,7 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
         session = find_session(store, spec)
         view = View(store, session, spec, port=port, hands=hands)
         try:
-            stopping = _Stopping()
+            stopping = Stopping()
             with handling_stop_signals(stopping.handle):  # before the announcement: a signal then stops it cleanly
                 if task_index is not None or seconds is not None:
                     view.start_at(task_index, seconds)
@@ -453,25 +453,3 @@ def serve(study_dir: str | Path, *, spec: str | None = None, port: int = 8080, h
             view.close()
     finally:
         store.close()
-
-
-class _Stopping:
-    """Ctrl-C (SIGINT), SIGTERM and SIGHUP end the view between two frames: the handler only notes
-    the signal, and the loop sees it after its next sleep (a frame interval at most). Raised wherever
-    it lands, a KeyboardInterrupt can cut a call into the view server in the middle, and once (one
-    fresh-clone test run in many) the process then did not end at all after Ctrl-C. The note is a
-    plain attribute: a lock taken in the handler (an Event's) could be the one the interrupted code
-    holds. A second signal raises at once (the loop is stuck)."""
-
-    def __init__(self) -> None:
-        self.signal: str | None = None
-
-    def wait(self, seconds: float) -> bool:
-        """Sleep ``seconds``; whether a signal came."""
-        time.sleep(seconds)
-        return self.signal is not None
-
-    def handle(self, number, frame) -> None:
-        if self.signal is not None:
-            raise KeyboardInterrupt
-        self.signal = signal.Signals(number).name

@@ -272,7 +272,7 @@ def test_a_page_address_or_port_that_cannot_be_had_is_refused_not_waited_for(tmp
     (before this, the session waited for the server's start for ever)."""
     import socket
 
-    from microg.view.display import DisplayError
+    from microg.view.pageserver import PageError
 
     protocol = load_protocol(PROTOCOLS / "tiny.toml")
     with socket.socket() as taken:
@@ -280,13 +280,13 @@ def test_a_page_address_or_port_that_cannot_be_had_is_refused_not_waited_for(tmp
         taken.listen()
         port = taken.getsockname()[1]
         refused = started_or_refused(ParticipantDisplay(protocol, port=port))
-        assert isinstance(refused, DisplayError)
+        assert isinstance(refused, PageError)
         assert str(refused).startswith(f"cannot serve the participant's page at 127.0.0.1:{port} (Address already "
                                        "in use): another program serves port")
     elsewhere = "192.0.2.7"  # TEST-NET-1: never an address of this machine; nothing is sent anywhere
     refused = started_or_refused(ParticipantDisplay(protocol, host=elsewhere,
                                                     certificate=study_certificate(tmp_path / "tls", elsewhere)))
-    assert isinstance(refused, DisplayError) and f"{elsewhere} is not an address of this machine" in str(refused)
+    assert isinstance(refused, PageError) and f"{elsewhere} is not an address of this machine" in str(refused)
 
 
 def test_connections_that_end_before_speaking_http_leave_no_traceback(tmp_path, capsys, monkeypatch):
@@ -295,11 +295,11 @@ def test_connections_that_end_before_speaking_http_leave_no_traceback(tmp_path, 
     import socket
     import threading
 
-    from microg.view import display as display_module
+    from microg.view import pageserver
     from tests.waiting import wait_until
 
     seen, lock = [], threading.Lock()
-    drop = display_module.HANDSHAKES.filter
+    drop = pageserver.HANDSHAKES.filter
 
     def noting(record):
         kept = drop(record)
@@ -307,7 +307,7 @@ def test_connections_that_end_before_speaking_http_leave_no_traceback(tmp_path, 
             seen.append((record.getMessage(), kept))
         return kept
 
-    monkeypatch.setattr(display_module.HANDSHAKES, "filter", noting)
+    monkeypatch.setattr(pageserver.HANDSHAKES, "filter", noting)
     protocol = load_protocol(PROTOCOLS / "tiny.toml")
     certificate = study_certificate(tmp_path / "tls", LAN)
     context = ssl.create_default_context(cafile=str(certificate.cert))
