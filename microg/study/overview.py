@@ -39,7 +39,7 @@ import math
 import os
 import time
 from collections import Counter, defaultdict
-from datetime import datetime, timezone
+from datetime import date, datetime, timezone
 from pathlib import Path
 
 from microg.schema import REPORT_FILE
@@ -47,6 +47,7 @@ from microg.schema import REPORT_FILE
 from . import integrity, ledger
 from .export import MANIFEST
 from .questionnaire import questions
+from .schedule import Sitting, session_states
 from .stations import given_up, stations
 from .store import FINAL_RUN, Store, archived, DATABASE
 
@@ -154,8 +155,8 @@ class Overview:
     def _read_sessions(self) -> None:
         running = [sid for sid, s in self.sessions.items() if s["status"] == "running"]
         marks = ",".join("?" * len(running))
-        rows = self.db.execute("SELECT id, participant_id, status, input, simulated, station, merged_at, created_at, "
-                               "ended_at FROM sessions WHERE id > ?" + (f" OR id IN ({marks})" if running else ""),
+        rows = self.db.execute("SELECT id, participant_id, name, date, status, input, simulated, station, merged_at, "
+                               "created_at, ended_at FROM sessions WHERE id > ?" + (f" OR id IN ({marks})" if running else ""),
                                (self._marks["session"], *running)).fetchall()
         for row in rows:
             self._marks["session"] = max(self._marks["session"], row["id"])
@@ -294,7 +295,7 @@ class Overview:
                 "station": self.store.station, "archived": archived(self.store.dir / DATABASE),
                 "tracking_rate": protocol.tracking_rate, "balance": protocol.balance,
                 "groups": [g.code for g in protocol.groups], "objects": [o.code for o in protocol.objects],
-                "object_names": {o.code: o.name for o in protocol.objects}}
+                "object_names": {o.code: o.name for o in protocol.objects}, "program": protocol.program}
 
     def _integrity(self) -> dict:
         record = self.record
@@ -314,7 +315,17 @@ class Overview:
                 "active": sum(g["active"] for g in groups), "withdrawn": sum(g["withdrawn"] for g in groups)}
 
     def _participant(self, participant: dict) -> dict:
-        return {key: participant[key] for key in ("id", "group", "gender", "status", "station", "sessions")}
+        """A participant's row; in a training program with what is next: a session due (on a date, or
+        overdue) or later, from the sessions they ran (``microg.study.schedule``)."""
+        row = {key: participant[key] for key in ("id", "group", "gender", "status", "station", "sessions")}
+        if self.protocol.program and participant["status"] == "active":
+            sittings = [Sitting(s["name"], date.fromisoformat(s["date"]), s["status"])
+                        for s in (self.sessions[sid] for sid in participant["sessions"])]
+            upcoming = [state for state in session_states(self.protocol, participant["group"], sittings, date.today())
+                        if state.state in ("due", "overdue")]
+            row["next"] = None if not upcoming else {"session": upcoming[0].name, "state": upcoming[0].state,
+                                                     "due": upcoming[0].due.isoformat()}
+        return row
 
     def _session(self, session: dict) -> dict:
         sid = session["id"]
@@ -327,7 +338,8 @@ class Overview:
         span = sum(r["t_last"] - r["t_first"] for r in runs if r["frames"] > 1)
         guard = session["guard"]
         participant = self.participants[session["participant"]]
-        return {**{key: session[key] for key in ("id", "participant", "status", "input", "simulated", "station",
+        return {**{key: session[key] for key in ("id", "participant", "name", "date", "status", "input", "simulated",
+                                                 "station",
                                                  "merged_at", "created_at", "ended_at", "phase", "resumes")},
                 "group": participant["group"], "tasks": len(planned),
                 "done": sum(run is not None and run["status"] in FINAL_RUN for run in states.values()),
@@ -417,7 +429,8 @@ class Overview:
 
 
 def _new_session(row) -> dict:
-    return {"id": row["id"], "participant": row["participant_id"], "status": row["status"], "input": row["input"],
+    return {"id": row["id"], "participant": row["participant_id"], "name": row["name"], "date": row["date"],
+            "status": row["status"], "input": row["input"],
             "simulated": bool(row["simulated"]), "station": row["station"], "merged_at": row["merged_at"],
             "created_at": row["created_at"], "ended_at": row["ended_at"], "phase": None, "guard": {},
             "display": {}, "resumes": 0, "questionnaire_skipped": False}

@@ -186,3 +186,28 @@ def test_the_newest_export_and_report_in_the_study_folder_and_what_came_since(st
         assert overview.refresh()
         assert overview.summary()["export"]["facts_since"] == 1
         assert overview.summary()["enrolment"]["active"] == 6
+
+
+def test_a_training_programs_sessions_are_named_with_their_dates_and_the_next_one_is_due(tmp_path):
+    """A trainee who ran the pre-test today (the real calendar): their session by name and date, and
+    train1 due tomorrow (``microg.study.schedule``)."""
+    import datetime
+
+    from microg.paths import protocol_file
+    from microg.study import Participant, create_study, open_inputs
+    from microg.study.protocol import load_protocol
+    from microg.study.session import SimulationClock, run_session
+
+    today = datetime.date.today()
+    with create_study(tmp_path / "study", load_protocol(protocol_file("microgravity-training")), 4) as store:
+        store.add_participant(Participant("P01", "female", 24, "right", False))
+        session = store.create_session("P01", input_spec="leap", simulated=False, clock="wall", today=today)
+        run_session(store, session.id, open_inputs("simulated", store.protocol.group(store.participant("P01").group)),
+                    clock=SimulationClock())
+        seen = study_overview(store)
+    assert seen["study"]["program"]
+    [row] = seen["sessions"]
+    assert (row["name"], row["date"], row["status"]) == ("pretest", today.isoformat(), "completed")
+    [person] = seen["participants"]
+    assert person["next"] == {"session": "train1", "state": "due",
+                              "due": (today + datetime.timedelta(days=1)).isoformat()}

@@ -165,10 +165,15 @@ function drawSessions(o) {
       const where = s.station ? ` · station ${esc(s.station)}${s.merged_at ? ", merged" : ""}` : "";
       const answered = s.answers_expected ? `${s.answers} / ${s.answers_expected}` : `${s.answers}`;
       rows.push(`<tr data-participant="${esc(p.id)}" data-session="${s.id}" data-status="${esc(status)}">${who}`
-        + `<td class="session">${s.id}</td><td class="where"><span class="status ${esc(status)}">${esc(status)}</span> · ${s.done} of ${s.tasks} tasks`
+        + `<td class="session">${o.study.program ? `${esc(s.name)}<br>${esc(s.date)}` : s.id}</td><td class="where"><span class="status ${esc(status)}">${esc(status)}</span> · ${s.done} of ${s.tasks} tasks`
         + `${where}<br><span class="progress">${progress(s)}</span></td>`
         + `<td class="quality">${quality(s)}</td><td class="number answers">${answered}</td>`
         + `<td>${esc(s.input)}${s.resumes ? ` · resumed ${s.resumes}×` : ""}</td><td>${viewCell(o, s)}</td></tr>`);
+    }
+    if (p.next) {  // a training program's next session: due on its date, or overdue
+      rows.push(`<tr data-participant="${esc(p.id)}" data-next="${esc(p.next.session)}">${who}`
+        + `<td class="session">${esc(p.next.session)}</td><td class="where"><span class="status ${esc(p.next.state)}">`
+        + `${esc(p.next.state)}</span> · due on ${esc(p.next.due)}</td><td colspan="4"></td></tr>`);
     }
   }
   document.getElementById("sessions").innerHTML = rows.length ? `<table><thead><tr><th>participant</th><th>group</th>`
