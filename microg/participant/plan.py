@@ -13,6 +13,8 @@ from microg.skeleton import SIDES
 from microg.sim import ObjectSpec
 from microg.task import TaskRules
 
+from .population import check_earlier_sessions
+
 Point = tuple[float, float, float]
 
 
@@ -27,7 +29,10 @@ class TaskPlan:
     before this one in the session (its practice). ``participant`` and ``phase`` name the task in
     the study (empty outside one). ``participant_seed`` is the participant's own seed (a session's),
     from which a participant drawn from a population gets its parameters, the same in every task;
-    ``first_with_object``: no earlier task of the session had this object.
+    ``first_with_object``: no earlier task of the session had this object. ``earlier_sessions``:
+    for each earlier session of this participant, oldest first, (days from that session's date to
+    this session's, tasks done in it); their practice carries over as much as it is retained
+    (``population.effective_practice``).
     """
 
     object: ObjectSpec
@@ -42,8 +47,10 @@ class TaskPlan:
     phase: str = ""
     participant_seed: int = 0
     first_with_object: bool = True
+    earlier_sessions: tuple[tuple[float, int], ...] = ()
 
     def __post_init__(self) -> None:
+        check_earlier_sessions(self.earlier_sessions, "TaskPlan.earlier_sessions")
         if self.hand not in SIDES:
             raise ValueError(f"TaskPlan.hand = {self.hand!r}: must be one of {SIDES}")
         if not self.rules.places:

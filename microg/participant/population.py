@@ -23,6 +23,12 @@ A population is a file, ``PROFILE.toml``::
 A parameter the file does not name keeps the default population's values (``default.toml``, shipped
 in ``microg/protocols/populations``). What each parameter means, its unit and where its default
 comes from is in ``PARAMETERS`` (and docs/simulated-participant.md).
+
+Practice and retention: within a session each practised parameter follows the power law of practice
+(``practise``); across sessions the practice of earlier sessions enters it discounted by how much of
+it is retained after the days since (``effective_practice``: a power law of forgetting whose rate is
+lower for practice spread over sessions further apart, the stability of the Predictive Performance
+Equation), so a person's first session is exactly the power law of practice.
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ import hashlib
 import math
 import tomllib
 from dataclasses import dataclass, field
+from numbers import Integral, Real
 from pathlib import Path
 from typing import Mapping
 
@@ -60,6 +67,9 @@ class Parameter:
     error: bool = False
     """A practised chance of an error: practice takes it toward none rather than toward
     ``trained_fraction`` of it (a skill's speed has a floor; a slip of attention need not)."""
+    retention: bool = False
+    """A parameter of retention across sessions (``effective_practice``), drawn from a random stream
+    of its own: adding them changed no other parameter's draw for a given seed."""
 
 
 PARAMETERS: tuple[Parameter, ...] = (
@@ -96,8 +106,15 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("grip_lapse", "probability", "chance that the grip lapses open during a carry, until a drop in the "
               "task has made the participant mind its grip (a bare hand feels no grip loosening)", 0.0, 0.95,
               practised=True, error=True),
+    Parameter("forgetting_rate", "exponent", "retention: practice done t days before a session counts (1 + t)^-rate "
+              "of itself in it, for massed practice (one session's); 0: nothing is forgotten", 0.0, 3.0,
+              retention=True),
+    Parameter("spaced_forgetting", "fraction", "retention: the forgetting rate of practice spread over sessions far "
+              "apart, as a fraction of massed practice's (the rate falls toward it as the gaps between earlier "
+              "sessions grow)", 0.05, 0.999, scale="logit", retention=True),
 )
-"""Every parameter of the motor model, in the order the participant's code reads them."""
+"""Every parameter of the motor model, in the order the participant's code reads them; the retention
+parameters last."""
 NAMES = tuple(p.name for p in PARAMETERS)
 SPEC = {p.name: p for p in PARAMETERS}
 KEYS = ("mean", "sd", "ci_low", "ci_high")
@@ -131,9 +148,14 @@ class Population:
             _check(self.where, name, spread)
 
     def draw(self, seed: int) -> np.ndarray:
-        """One person's values of ``PARAMETERS`` (in that order), from their own seed."""
-        normals = np.random.default_rng(np.random.SeedSequence([int(seed), _PERSON_STREAM])).standard_normal(len(NAMES))
-        return np.array([_value(SPEC[name], self.parameters[name], z) for name, z in zip(NAMES, normals)])
+        """One person's values of ``PARAMETERS`` (in that order), from their own seed: the motor
+        parameters from one random stream, the retention parameters from another."""
+        values = np.empty(len(NAMES))
+        for stream, indices in _DRAWS:
+            normals = np.random.default_rng(np.random.SeedSequence([int(seed), stream])).standard_normal(len(indices))
+            for i, z in zip(indices, normals):
+                values[i] = _value(PARAMETERS[i], self.parameters[NAMES[i]], z)
+        return values
 
     @property
     def sha256(self) -> str:
@@ -156,7 +178,12 @@ class Population:
 
 
 _PERSON_STREAM = 0x5057
-"""Mixed into a participant's seed for their parameters, so that no other draw shares its stream."""
+"""Mixed into a participant's seed for their motor parameters, so that no other draw shares its stream."""
+_RETENTION_STREAM = 0x5245
+"""Mixed into a participant's seed for their retention parameters."""
+_DRAWS = tuple((stream, tuple(i for i, p in enumerate(PARAMETERS) if p.retention == retention))
+               for stream, retention in ((_PERSON_STREAM, False), (_RETENTION_STREAM, True)))
+"""Each random stream and the indices in ``PARAMETERS`` of the parameters drawn from it, in order."""
 
 
 def _value(spec: Parameter, spread: Spread, z: float) -> float:
@@ -267,14 +294,61 @@ def default_population() -> Population:
 _DEFAULT: Population | None = None
 
 
-def practise(person: np.ndarray, tasks_done: int) -> dict[str, float]:
-    """A person's parameters after ``tasks_done`` tasks (power law of practice): each practised
-    parameter moves from the person's drawn, untrained value toward ``trained_fraction`` of it (an
-    error's chance toward none) as (1 + n)^-learning_rate, and no lower than the smallest value a
-    person can have (``low``: a movement faster than that would jump further in a frame than a hand
-    can); the others stay as drawn. ``person`` is ``Population.draw``'s."""
+EarlierSessions = tuple[tuple[float, int], ...]
+"""A participant's earlier sessions, oldest first: (days from that session's date to this session's
+date, tasks done in it)."""
+
+
+def check_earlier_sessions(earlier_sessions: EarlierSessions, where: str = "earlier_sessions") -> None:
+    """Raise ``ValueError`` naming ``where`` and the value unless each earlier session is (days >= 0,
+    tasks >= 0), oldest first (days never growing)."""
+    days_before = math.inf
+    for session in earlier_sessions:
+        if (not isinstance(session, tuple) or len(session) != 2
+                or not isinstance(session[0], Real) or isinstance(session[0], bool) or not 0 <= session[0] < math.inf
+                or not isinstance(session[1], Integral) or isinstance(session[1], bool) or session[1] < 0):
+            raise ValueError(f"{where} = {earlier_sessions!r}: {session!r} must be (days >= 0, tasks done >= 0)")
+        if session[0] > days_before:
+            raise ValueError(f"{where} = {earlier_sessions!r}: sessions must come oldest first (days from each to this "
+                             "session never growing)")
+        days_before = session[0]
+
+
+def effective_practice(values: Mapping[str, float], tasks_done: int, earlier_sessions: EarlierSessions = ()) -> float:
+    """The practice that enters the power law of practice: the tasks done in this session plus each
+    earlier session's, discounted by the days since it (docs/simulated-participant.md, "Learning and
+    forgetting across days")::
+
+        practice = k + sum_i n_i (1 + t_i)^-rate
+        rate = forgetting_rate (1 - (1 - spaced_forgetting) (1 - S))
+        S = mean over the gaps between consecutive earlier sessions of 1 / ln(e + gap)   (1 with one)
+
+    ``k`` is ``tasks_done``, ``t_i`` the days from earlier session ``i`` to this one and ``n_i`` its
+    tasks, from ``earlier_sessions`` (oldest first); ``values`` holds the person's
+    ``forgetting_rate`` and ``spaced_forgetting`` (e.g. ``practise``'s). Nothing decays within a
+    session, so without earlier sessions it is ``tasks_done``.
+
+    >>> effective_practice({"forgetting_rate": 0.5, "spaced_forgetting": 0.5}, 2, ((3.0, 24),))
+    14.0
+    """
+    if not earlier_sessions:
+        return float(tasks_done)
+    check_earlier_sessions(earlier_sessions)
+    gaps = [older[0] - newer[0] for older, newer in zip(earlier_sessions, earlier_sessions[1:])]
+    stability = sum(1.0 / math.log(math.e + gap) for gap in gaps) / len(gaps) if gaps else 1.0
+    rate = values["forgetting_rate"] * (1.0 - (1.0 - values["spaced_forgetting"]) * (1.0 - stability))
+    return tasks_done + sum(tasks * (1.0 + days) ** -rate for days, tasks in earlier_sessions)
+
+
+def practise(person: np.ndarray, tasks_done: int, earlier_sessions: EarlierSessions = ()) -> dict[str, float]:
+    """A person's parameters after ``tasks_done`` tasks of this session and ``earlier_sessions``
+    (power law of practice on ``effective_practice`` n): each practised parameter moves from the
+    person's drawn, untrained value toward ``trained_fraction`` of it (an error's chance toward none)
+    as (1 + n)^-learning_rate, and no lower than the smallest value a person can have (``low``: a
+    movement faster than that would jump further in a frame than a hand can); the others stay as
+    drawn. ``person`` is ``Population.draw``'s."""
     values = dict(zip(NAMES, (float(v) for v in person)))
-    remaining = (1.0 + tasks_done) ** -values["learning_rate"]
+    remaining = (1.0 + effective_practice(values, tasks_done, earlier_sessions)) ** -values["learning_rate"]
     trained = values["trained_fraction"]
     for spec in PARAMETERS:
         if spec.practised:

@@ -3,7 +3,8 @@
 A ``SkillProfile`` holds one person's motor parameters at one moment of practice. A study's
 simulated participants each draw their own from a population (``population``: every parameter's
 mean and spread between people, in a profile file) and practice moves them along the power law of
-practice task by task (``population.practise``); ``person_skill`` makes the profile for one task.
+practice task by task, the practice of earlier sessions discounted by the days since
+(``population.practise``); ``person_skill`` makes the profile for one task.
 The two fixed profiles ``VETERAN`` and ``BEGINNER`` (every participant the same) remain for
 benches and tests. What each parameter means, its unit and where its value comes from is in
 ``population.PARAMETERS`` and docs/simulated-participant.md; nothing here is tuned to make an
@@ -35,7 +36,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 from pathlib import Path
 
-from .population import Population, practise
+from .population import EarlierSessions, Population, practise
 
 
 @dataclass(frozen=True)
@@ -118,9 +119,12 @@ def skill_profile(name: str) -> SkillProfile:
         raise ValueError(f"skill = {name!r}: unknown profile (known: {sorted(PROFILES)})") from None
 
 
-def person_skill(population: Population, participant_seed: int, tasks_done: int) -> SkillProfile:
+def person_skill(population: Population, participant_seed: int, tasks_done: int,
+                 earlier_sessions: EarlierSessions = ()) -> SkillProfile:
     """The skill of the participant whose seed is ``participant_seed``, drawn from ``population``,
-    after ``tasks_done`` tasks of practice."""
-    values = practise(population.draw(participant_seed), tasks_done)
-    return SkillProfile(name=f"{Path(population.where).stem}:{participant_seed}:{tasks_done}",
+    after ``tasks_done`` tasks of practice in this session and the tasks of ``earlier_sessions``
+    ((days before this session, tasks done), oldest first) as much as they are retained."""
+    values = practise(population.draw(participant_seed), tasks_done, earlier_sessions)
+    earlier = "".join(f"+{tasks}@{days:g}d" for days, tasks in earlier_sessions)
+    return SkillProfile(name=f"{Path(population.where).stem}:{participant_seed}:{tasks_done}{earlier}",
                         **{f.name: values[f.name] for f in fields(SkillProfile) if f.name != "name"})
