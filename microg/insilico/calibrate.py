@@ -126,6 +126,10 @@ def parse_fit(text: str) -> tuple[Free, ...]:
         if name not in SPEC or what not in ("", "sd"):
             raise CalibrationError(f"--fit {text!r}: {part!r}: give NAME (its population mean) or NAME:sd (its spread "
                                    f"between people), NAME one of {', '.join(NAMES)}")
+        if SPEC[name].retention:
+            raise CalibrationError(f"--fit {text!r}: {name} is a parameter of retention across sessions; the "
+                                   "calibration's numbers come from one session each and carry nothing about "
+                                   "forgetting, so it is not fitted yet (its value stays the population's)")
         free.append(Free(name, "sd" if what else "mean"))
     if len({f.key for f in free}) != len(free):
         raise CalibrationError(f"--fit {text!r}: names a value twice")

@@ -27,14 +27,16 @@ class InputError(ValueError):
 
 def participant_plan(protocol: Protocol, task: PlannedTask, hand: str = "right", participant: str = "", *,
                      participant_seed: int = 0, first_with_object: bool = True,
-                     tasks_done: int | None = None) -> TaskPlan:
+                     tasks_done: int | None = None, earlier_sessions: tuple[tuple[float, int], ...] = ()) -> TaskPlan:
     """The one place that turns a protocol's task into what its player knows of it: its phase's
-    rules at the task's difficulty; ``tasks_done`` the session's tasks before it (default: its index)."""
+    rules at the task's difficulty; ``tasks_done`` the session's tasks before it (default: its index);
+    ``earlier_sessions`` the participant's sessions before this one (``TaskPlan.earlier_sessions``)."""
     start, _ = protocol.start_pose(task.object)
     return TaskPlan(object=protocol.object(task.object).spec, start=start,
                     rules=protocol.rules(task.phase, task.difficulty), gravity=protocol.gravity, hand=hand,
                     tasks_done=task.index if tasks_done is None else tasks_done, participant=participant,
-                    phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object)
+                    phase=task.phase, participant_seed=participant_seed, first_with_object=first_with_object,
+                    earlier_sessions=earlier_sessions)
 
 
 class Inputs(typing.Protocol):
@@ -84,11 +86,12 @@ class SimulatedInputs:
 
     def skill(self, plan: TaskPlan) -> SkillProfile:
         """The participant's skill in this task: drawn from the population (from the participant's
-        seed) and practised by the tasks done, or the fixed one."""
+        seed) and practised by the tasks done, today and in earlier sessions (part of which is
+        forgotten), or the fixed one."""
         from microg.participant import person_skill
 
         if isinstance(self.player, Population):
-            return person_skill(self.player, plan.participant_seed, plan.tasks_done)
+            return person_skill(self.player, plan.participant_seed, plan.tasks_done, plan.earlier_sessions)
         return self.player
 
     @staticmethod

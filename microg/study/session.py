@@ -348,6 +348,7 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     started_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_start"}
     ended_phases = {e.data["phase"] for e in store.events(session_id) if e.kind == "phase_end"}
     finished = store.finished_tasks(session_id)
+    earlier = earlier_sessions(store, session)
     bar = tqdm(total=len(store.tasks(session_id)), initial=len(finished), unit="task",
                desc=f"{participant.id} ({participant.group})", disable=not outputs.progress, leave=True)
     try:
@@ -359,10 +360,11 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
             if phase.instruments:
                 _questionnaire(store, session_id, rater=rater, clock=clock, protocol=protocol, phase=phase)
             elif protocol.runs_tasks(phase) and _trained_to_criterion(protocol, phase.name):
-                _train(log, session, participant, phase, inputs, operator=operator, sinks=outputs.sinks, bar=bar)
+                _train(log, session, participant, phase, inputs, earlier=earlier, operator=operator,
+                       sinks=outputs.sinks, bar=bar)
             elif protocol.runs_tasks(phase):
                 for task, plan, seed in planned_runs(protocol, session, participant=participant,
-                                                     tasks=store.tasks(session_id), phase=phase):
+                                                     tasks=store.tasks(session_id), phase=phase, earlier=earlier):
                     if task.index not in finished:
                         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator,
                                      sinks=outputs.sinks, bar=bar)
@@ -376,24 +378,36 @@ def run_session(store: Store, session_id: int, inputs: Inputs, *, clock: Clock, 
     return store.finish_session(session_id, clock.now())
 
 
-def planned_runs(protocol: Protocol, session, *, participant, tasks: list[PlannedTask],
-                 phase: Phase) -> list[tuple[PlannedTask, TaskPlan, int]]:
+def planned_runs(protocol: Protocol, session, *, participant, tasks: list[PlannedTask], phase: Phase,
+                 earlier: tuple[tuple[float, int], ...] = ()) -> list[tuple[PlannedTask, TaskPlan, int]]:
     """The tasks of a task ``phase`` of a session, in the order it runs them, each with what its
     player knows of it and the run's seed (``planned_run``)."""
-    return [planned_run(protocol, session, participant=participant, tasks=tasks, task=task)
+    return [planned_run(protocol, session, participant=participant, tasks=tasks, task=task, earlier=earlier)
             for task in tasks if task.phase == phase.name]
 
 
-def planned_run(protocol: Protocol, session, *, participant, tasks: list[PlannedTask],
-                task: PlannedTask) -> tuple[PlannedTask, TaskPlan, int]:
+def planned_run(protocol: Protocol, session, *, participant, tasks: list[PlannedTask], task: PlannedTask,
+                earlier: tuple[tuple[float, int], ...] = ()) -> tuple[PlannedTask, TaskPlan, int]:
     """``task`` with what its player knows of it (``participant_plan``: the participant's hand and
     own seed, the tasks of the session before it, whether none of them had the object, the rules of
-    its difficulty) and the run's seed."""
+    its difficulty, the ``earlier`` sessions' practice) and the run's seed."""
     hand = "left" if participant.participant.handedness == "left" else "right"
     before = [t for t in tasks if t.index < task.index]
     plan = participant_plan(protocol, task, hand, session.participant_id, participant_seed=participant.seed,
-                            first_with_object=all(t.object != task.object for t in before), tasks_done=len(before))
+                            first_with_object=all(t.object != task.object for t in before), tasks_done=len(before),
+                            earlier_sessions=earlier)
     return task, plan, derived_seed(session.seed, task.index)
+
+
+def earlier_sessions(store: Store, session) -> tuple[tuple[float, int], ...]:
+    """The participant's sessions before ``session``, oldest first, as the simulated participant's
+    practice reads them (``TaskPlan.earlier_sessions``): the days from each to this one and the
+    tasks done in it (tasks whose last run measured the participant: completed or timed out)."""
+    done = []
+    for before in store.sessions_of(session.participant_id)[:session.index - 1]:
+        counts = store.task_counts(before.id)
+        done.append((float((session.date - before.date).days), counts["completed"] + counts["timeout"]))
+    return tuple(done)
 
 
 def _trained_to_criterion(protocol: Protocol, phase: str) -> bool:
@@ -401,8 +415,8 @@ def _trained_to_criterion(protocol: Protocol, phase: str) -> bool:
     return task_phase is not None and task_phase.until is not None
 
 
-def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *, operator: Operator,
-           sinks: Sequence[FrameSink], bar) -> None:
+def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
+           earlier: tuple[tuple[float, int], ...], operator: Operator, sinks: Sequence[FrameSink], bar) -> None:
     """A phase trained to a criterion: its task again, the protocol's objects in turn (each at the
     staircase's next value, if it has one), until the criterion is met or ``max_tasks`` ran; after
     each task the participant hears how far they are (``Operator.progressed``), and the end logs
@@ -426,7 +440,8 @@ def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
             store.add_task(session.id, task)
             tasks = tasks + [task]
             bar.total += 1
-        _, plan, seed = planned_run(protocol, session, participant=participant, tasks=tasks, task=task)
+        _, plan, seed = planned_run(protocol, session, participant=participant, tasks=tasks, task=task,
+                                    earlier=earlier)
         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator, sinks=sinks, bar=bar)
         bar.update(1)
         reached = progress(trained.until, finished_tasks_of(store, session.id, phase.name))

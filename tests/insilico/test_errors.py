@@ -156,3 +156,12 @@ def test_a_simulated_group_larger_than_a_study_can_run_is_refused_before_anythin
                        tmp_path / "fit" / "out.toml")
     assert "--participants = 5000: simulated studies have at most 1000" in output
     assert not (tmp_path / "fit").exists()
+
+
+def test_a_retention_parameter_is_not_fitted_from_one_session_numbers(tmp_path):
+    targets = tmp_path / "targets.toml"
+    targets.write_text(TARGET)
+    output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--fit", "movement_slope,forgetting_rate",
+                       "--out", tmp_path / "out.toml")
+    assert "forgetting_rate is a parameter of retention across sessions" in output
+    assert not (tmp_path / "out.toml").exists()

@@ -76,6 +76,20 @@ def test_the_trainee_runs_six_sessions_in_order_on_the_simulated_calendar(progra
     assert result.exit_code == 1 and "has run every session of the program" in result.output
 
 
+def test_the_trainee_carries_practice_from_one_day_to_the_next(program):
+    """Each session's simulated trainee knows the earlier sessions' practice (days ago, tasks done:
+    ``TaskPlan.earlier_sessions``), which the population's forgetting discounts."""
+    from microg.study.session import earlier_sessions
+
+    with open_study(program[0], readonly=True) as store:
+        sessions = store.sessions_of("P01")
+        measured = [sum(store.task_counts(s.id)[k] for k in ("completed", "timeout")) for s in sessions]
+        assert earlier_sessions(store, sessions[0]) == ()
+        assert earlier_sessions(store, sessions[2]) == ((2.0, measured[0]), (1.0, measured[1]))
+        last = earlier_sessions(store, sessions[5])
+        assert [days for days, _ in last] == [11.0, 10.0, 9.0, 8.0, 7.0] and [n for _, n in last] == measured[:5]
+
+
 def test_a_session_killed_midway_resumes_there_and_the_earlier_sessions_are_untouched(program):
     study, before, killed, resumed, _, _ = program
     assert killed == -9 and "session 'train2' of P01: completed" in resumed
