@@ -176,7 +176,7 @@ def test_two_sessions_run_live_on_the_dashboard_then_end_and_its_numbers_are_the
             2 * measured["phase"].nunique()
 
         # the view of a session, from its row
-        session = int(trials.loc[trials["participant"] == "P03", "session"].iloc[0])
+        session = int(trials.loc[trials["participant"] == "P03", "session_id"].iloc[0])
         driver.execute_script("document.querySelector(`button.view[data-session='${arguments[0]}']`).click()", session)
         view = wait(driver, "const v = window.microg.views[arguments[0]]; return v && (v.url || v.why) && v;",
                     "the address of the session's view", session)
