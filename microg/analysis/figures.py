@@ -280,6 +280,43 @@ def plot_learning_curves(tasks: pd.DataFrame, fits: pd.DataFrame, curves: pd.Dat
     return fig
 
 
+def plot_trainee(tasks: pd.DataFrame, band: pd.DataFrame, dv: str = "time_s", practice: str = "practice",
+                 session: str = "session", criterion: float | None = None, ylabel: str | None = None) -> Figure:
+    """One trainee's ``dv`` against practice (dots joined, a shade per session) over the band of their
+    group (:func:`microg.analysis.training.cohort_band`), with the criterion's limit as a line.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.figures import plot_trainee
+    >>> tasks = pd.DataFrame({"practice": [1, 2, 3], "time_s": [60.0, 45.0, 30.0], "session": ["a", "a", "b"]})
+    >>> band = pd.DataFrame({"practice": [1, 2, 3], "low": [40.0, 35.0, 30.0], "median": [50.0, 42.0, 36.0],
+    ...                      "high": [70.0, 60.0, 50.0]})
+    >>> len(plot_trainee(tasks, band, criterion=45.0).axes[0].get_lines())  # median, two sessions, criterion
+    4
+    """
+    fig = Figure(figsize=(6.4, 3.4), layout="constrained")
+    ax = fig.subplots()
+    if len(band):
+        ax.fill_between(band[practice].astype(float), band["low"], band["high"], color="0.85", linewidth=0,
+                        label="group, 10-90 %")
+        ax.plot(band[practice].astype(float), band["median"], color="0.55", linewidth=1.0, label="group median")
+    done = tasks[tasks[dv].notna()]
+    colours = matplotlib.colormaps["tab10"].colors
+    for index, (name, part) in enumerate(done.groupby(session, sort=False)):
+        ax.plot(part[practice].astype(float), part[dv].astype(float), marker="o", markersize=3.5, linewidth=1.2,
+                color=colours[index % len(colours)], label=str(name))
+    ax.set_xlim(0, float(tasks[practice].max()) + 1)
+    if criterion is not None:
+        ax.axhline(criterion, color="black", linestyle="--", linewidth=0.9, label=f"criterion ({criterion:g})")
+    ax.set_xlabel(f"{practice} (tasks done)")
+    ax.set_ylabel(ylabel or dv)
+    ax.set_ylim(bottom=0)
+    ax.spines[["top", "right"]].set_visible(False)
+    ax.legend(frameon=False, fontsize="x-small", loc="upper right", ncols=2)
+    return fig
+
+
 def plot_practice_means(curve: pd.DataFrame, measure: str, group: str = "group", practice: str = "practice",
                         ylabel: str | None = None) -> Figure:
     """Each group's mean of ``measure`` at each amount of practice, with a band of +- SE.

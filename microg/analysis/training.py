@@ -246,6 +246,43 @@ def learning_curve(data: pd.DataFrame, measures: Sequence[str] = ("time_s", "att
     return pd.concat(parts, ignore_index=True)[columns] if parts else pd.DataFrame(columns=columns)
 
 
+def cohort_band(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACTICE, group: str = "group",
+                low: float = 0.1, high: float = 0.9) -> pd.DataFrame:
+    """The cohort's band of ``dv`` at each amount of practice, per group: the ``low`` and ``high``
+    quantiles and the median of the tasks with a value (a trainee's curve against it shows where they
+    stand among their group).
+
+    Parameters
+    ----------
+    data : pandas.DataFrame
+        One row per task with ``practice`` (:func:`add_practice`).
+    dv, practice, group : str
+        The columns.
+    low, high : float
+        The band's quantiles (pandas' linear interpolation, R's type 7).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``group, practice, n, low, median, high``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from microg.analysis.training import cohort_band
+    >>> tasks = pd.DataFrame({"group": "P", "practice": [1, 1, 1, 2], "time_s": [40.0, 50.0, 60.0, 30.0]})
+    >>> cohort_band(tasks)[["practice", "n", "low", "median", "high"]]
+       practice  n   low  median  high
+    0         1  3  42.0    50.0  58.0
+    1         2  1  30.0    30.0  30.0
+    """
+    rows = data[data[dv].notna() & data[practice].notna()]
+    by = rows.groupby([group, practice], observed=True)[dv]
+    table = by.agg(n="count", low=lambda v: v.quantile(low), median="median",
+                   high=lambda v: v.quantile(high)).reset_index()
+    return table[[group, practice, "n", "low", "median", "high"]]
+
+
 def power_law_fits(data: pd.DataFrame, dv: str = "time_s", practice: str = PRACTICE, subject: str = "participant",
                    group: str = "group", upper_c: float = POWER_LAW_UPPER_C) -> pd.DataFrame:
     """Each participant's power law of practice, ``dv`` = a + b practice^-c, by bounded nonlinear least

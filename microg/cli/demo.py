@@ -38,6 +38,8 @@ def demo(*, out: str, participants: int, seed: int, protocol: str, profile: str 
     click.echo(f"study (SQLite log store): {result.study}")
     click.echo(f"tables: {result.tables}")
     click.echo(f"report: {result.report}")
+    if result.trainee is not None:
+        click.echo(f"a trainee's page: {result.trainee}")
 
 
 COMMANDS = [demo]

@@ -24,6 +24,10 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
               help="Another run set of the same tasks (a re-simulation: STUDY/resimulated/LABEL, or its export): "
                    "also writes OUT/comparison.md and its CSVs, the two side by side.")
 @click.option("--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output directory.")
+@click.option("--participant", default=None,
+              help="Instead of the study's report, one trainee's page of a training program (OUT/trainee-ID.html): "
+                   "their learning curve against the criterion and their group's band, their sessions and tasks "
+                   "to criterion, and what is due next. Needs a STUDY folder.")
 @click.option("--interaction", default=None,
               help="Interaction model under test (default: impulse_penetration, else the first listed).")
 @click.option("--baseline", default=None, help="Baseline interaction model (default: soft_hand, else the next listed).")
@@ -63,6 +67,7 @@ FILE = ExistingPath(dir_okay=False, path_type=Path)
 def report(
     *, study: Path | None,
     trials: Path | None,
+    participant: str | None,
     likert: Path | None,
     answers_file: Path | None,
     instrument_files: tuple[Path, ...],
@@ -138,6 +143,11 @@ def report(
             instruments = {i.id: i for i in map(load_instrument, instrument_files)}
     except (FileNotFoundError, StoreError, InstrumentError, AnalysisInputError) as error:
         raise click.ClickException(str(error)) from error
+    if participant is not None:
+        if study is None:
+            raise click.UsageError("--participant writes a trainee's page from a STUDY folder")
+        _trainee_page(study, trials_table, participant, out)
+        return
     try:
         path = write_report(trials_table, questionnaire, out, interaction, baseline, int(ss_type), excluded_phases,
                             drop_duplicates=drop_duplicates, answers=answers, instruments=instruments,
@@ -158,6 +168,30 @@ def report(
         except (FileNotFoundError, StoreError) as error:
             raise click.ClickException(str(error)) from error
         click.echo(f"comparison: {write_comparison(trials_table, other, out, ('original', compare.name))}")
+
+
+def _trainee_page(study: Path, trials_table, participant: str, out: Path) -> None:
+    """One trainee's page; what is next and the criterion's limit come from the study's store."""
+    import datetime
+
+    from microg.analysis import AnalysisInputError
+    from microg.analysis.trainee import write_trainee_page
+    from microg.study.assignment import ParticipantError
+    from microg.study.schedule import trainee_outlook
+    from microg.study.store import DATABASE, open_study
+
+    next_session, criterion_s = "", None
+    if (study / DATABASE).exists():
+        with open_study(study, readonly=True) as store:
+            try:
+                next_session, criterion_s = trainee_outlook(store, participant, datetime.date.today())
+            except ParticipantError as error:
+                raise click.ClickException(f"--participant {participant!r}: {error}") from None
+    try:
+        page = write_trainee_page(trials_table, participant, out, next_session=next_session, criterion_s=criterion_s)
+    except AnalysisInputError as error:
+        raise click.ClickException(f"study {study}: {error}") from error
+    click.echo(f"trainee's page: {page}")
 
 
 COMMANDS = [report]

@@ -14,6 +14,7 @@ same seed gives the same tables whatever the number of workers.
 
 from __future__ import annotations
 
+import datetime
 import os
 import shutil
 import time
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 from multiprocessing.util import Finalize
 from pathlib import Path
 
+import pandas as pd
 from tqdm import tqdm
 
 from microg.paths import protocol_file
@@ -32,7 +34,7 @@ from .inputs import InputError, open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .simulated_rater import SimulatedRater
 from .session import SimulationClock, run_session
-from .schedule import next_session
+from .schedule import next_session, trainee_outlook
 from .store import FINAL_RUN, Store, StoreError, create_study, open_study, plan_tasks
 
 
@@ -44,6 +46,8 @@ class DemoStudy:
     participants: int
     tasks: int
     seconds: float
+    trainee: Path | None = None
+    """A training program's first trainee's page (``microg report --participant``), beside the report."""
 
 
 def _inputs(store, participant_id: str, spec: str = "simulated"):
@@ -163,5 +167,11 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
                           title=f"Simulated study: {participants} participants, protocol {rules.name}, seed {seed}",
                           answers=answers, instruments=instruments, kinds=kind_infos())
     with open_study(study_dir, readonly=True) as done:
-        ran = _tasks_finished(done)
-    return DemoStudy(study_dir, report, tables, participants, ran, time.monotonic() - started)
+        ran, trainee = _tasks_finished(done), None
+        if rules.program:  # the cohort's report, and the first trainee's own page beside it
+            from microg.analysis.trainee import write_trainee_page
+
+            next_session, criterion_s = trainee_outlook(done, ids[0], datetime.date.today())
+            trainee = write_trainee_page(pd.read_csv(tables / "trials.csv"), ids[0], out / "report",
+                                         next_session=next_session, criterion_s=criterion_s)
+    return DemoStudy(study_dir, report, tables, participants, ran, time.monotonic() - started, trainee)

@@ -117,3 +117,26 @@ def session_states(protocol: Protocol, group: str, sittings: list[Sitting], toda
             earliest = None if earliest is None else earliest + datetime.timedelta(days=plan.after_days)
             states.append(SessionState(plan.name, "later", earliest))
     return states
+
+
+def what_is_next(protocol: Protocol, group: str, sittings: list[Sitting], today: datetime.date) -> str:
+    """What a trainee hears is next: their running session, the next one due (or overdue) on its
+    date, or that the program is done."""
+    for state in session_states(protocol, group, sittings, today):
+        if state.state == "running":
+            return f"session {state.name!r}, under way since {state.date.isoformat()}"
+        if state.state in ("due", "overdue"):
+            return f"session {state.name!r}, " + ("overdue: it was " if state.state == "overdue" else "") + \
+                f"due on {state.due.isoformat()}"
+    return "nothing: every session of the program is done"
+
+
+def trainee_outlook(store, participant: str, today: datetime.date) -> tuple[str, float | None]:
+    """What a trainee's page says is next (``what_is_next``) and the time limit of the first
+    criterion their group trains to (None: none)."""
+    protocol, record = store.protocol, store.participant(participant)
+    sittings = [s.sitting for s in store.sessions_of(participant)]
+    trained = [protocol.phase(entry.name) for entry in protocol.timeline
+               if entry.groups is None or record.group in entry.groups]
+    limits = [phase.until.time_s for phase in trained if phase is not None and phase.until is not None]
+    return what_is_next(protocol, record.group, sittings, today), limits[0] if limits else None

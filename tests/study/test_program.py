@@ -237,3 +237,21 @@ def test_a_trainee_who_ran_a_session_here_is_not_handed_to_a_station(program, tm
                                                    "runs the whole program at one place for now"):
             make_station(store, "B", out_dir=tmp_path / "station", participants=["P01"])
     assert not (tmp_path / "station").exists()
+
+
+def test_a_trainees_page_shows_their_sessions_tasks_to_criterion_and_what_is_next(program, tmp_path):
+    study, export = program[0], program[5]
+    out = tmp_path / "page"
+    said = cli("report", study, "--participant", "P01", "--out", out)
+    page = (out / "trainee-P01.html").read_text()
+    assert f"trainee's page: {out / 'trainee-P01.html'}" in said
+    assert "Next: nothing: every session of the program is done" in page and "data:image/png;base64," in page
+    summary = pd.read_csv(out / "trainee-P01.csv")
+    progression = pd.read_csv(export / "progression.csv")
+    assert summary[["session", "phase", "tasks"]].values.tolist() == \
+        progression.sort_values(["session_index", "phase"])[["session", "phase", "tasks"]].values.tolist()
+    met = progression.dropna(subset=["tasks_to_criterion"]).sort_values(["session_index", "phase"])
+    assert summary.dropna(subset=["tasks_to_criterion"])["tasks_to_criterion"].tolist() == \
+        met["tasks_to_criterion"].astype(int).tolist()
+    result = CliRunner().invoke(main, ["report", str(study), "--participant", "P07", "--out", str(tmp_path / "x")])
+    assert result.exit_code == 1 and "--participant 'P07': no participant 'P07'" in result.output
