@@ -29,6 +29,8 @@ from tests.waiting import ended
 
 ROOT = Path(__file__).resolve().parents[2]
 PROGRAM = load_protocol(protocol_file("microgravity-training"))
+pytestmark = pytest.mark.timeout(1800)  # the module's program compiles two kinds under two interaction models
+# on a first run (a cold numba cache) on 2 shared cores; a bound against a hang, not a timing
 
 
 def cli(*args: str) -> str:
