@@ -57,6 +57,9 @@ SERVER_LOG = logging.getLogger(__name__)
 """The page servers' log (websockets'), without the records of connections that ended unspoken."""
 HANDSHAKES = _QuietHandshakes()
 SERVER_LOG.addFilter(HANDSHAKES)
+OPEN_TIMEOUT_S = 60.0
+"""How long a connection may take to open (TLS and the WebSocket handshake) before the server drops it:
+websockets' 10 s default was seen to cut a page's first handshake on a machine busy compiling."""
 
 
 class PageServer:
@@ -138,7 +141,8 @@ class PageServer:
         self._stop = asyncio.Event()
         self.loop = asyncio.get_running_loop()
         async with serve(self._on_connection, self.host, self._port, process_request=self._http, ssl=self._tls,
-                         origins=None, compression=None, max_size=2 ** 20, logger=SERVER_LOG) as server:
+                         origins=None, compression=None, max_size=2 ** 20, open_timeout=OPEN_TIMEOUT_S,
+                         logger=SERVER_LOG) as server:
             self._port = server.sockets[0].getsockname()[1]
             self._started.set()
             await self._stop.wait()
