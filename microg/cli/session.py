@@ -132,7 +132,7 @@ def _run_one(store: Store, participant_id: str, *, input_spec: str | None, optio
         session_record = existing
         store.check_runs_here(participant_id)
     else:  # refused before anything opens: out of order, run before, not due yet
-        planned = store.next_session(participant_id, simulated=kind == "simulated", session=session,
+        planned = store.schedule_session(participant_id, simulated=kind == "simulated", session=session,
                                      ignore_schedule=ignore_schedule)[0].name
     rating = options.questionnaire or QUESTIONNAIRE_DEFAULT.get(kind, "skip")
     problems = store.protocol.simulation_problems() if kind == "simulated" or rating == "model" else []
@@ -308,7 +308,7 @@ def _runnable(store: Store, participant_id: str, *, simulated: bool, ignore_sche
     if store.station_holding(participant_id) is not None:
         return True
     try:
-        store.next_session(participant_id, simulated=simulated, ignore_schedule=ignore_schedule)
+        store.schedule_session(participant_id, simulated=simulated, ignore_schedule=ignore_schedule)
     except StoreError:
         return False
     return True

@@ -23,13 +23,12 @@ from dataclasses import dataclass
 from multiprocessing.util import Finalize
 from pathlib import Path
 
-import pandas as pd
 from tqdm import tqdm
 
 from microg.paths import protocol_file
 
 from .assignment import paper_sample
-from .export import export_study, kind_infos, read_answers
+from .export import export_study, kind_infos, read_answers, read_tables
 from .inputs import InputError, open_inputs
 from .protocol import Protocol, ProtocolError, load_protocol
 from .simulated_rater import SimulatedRater
@@ -172,6 +171,6 @@ def run_demo(out: str | Path, participants: int = 30, seed: int = 1, protocol: s
             from microg.analysis.trainee import write_trainee_page
 
             next_session, criterion_s = trainee_outlook(done, ids[0], datetime.date.today())
-            trainee = write_trainee_page(pd.read_csv(tables / "trials.csv"), ids[0], out / "report",
+            trainee = write_trainee_page(read_tables(tables)[0], ids[0], out / "report",
                                          next_session=next_session, criterion_s=criterion_s)
     return DemoStudy(study_dir, report, tables, participants, ran, time.monotonic() - started, trainee)

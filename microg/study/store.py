@@ -559,7 +559,7 @@ class Store:
         (``microg.study.schedule``) unless ``ignore_schedule``, which the session records; a
         simulated participant's session runs on its due date on the simulated calendar."""
         record = self.participant(participant_id)
-        plan, date, due = self.next_session(participant_id, simulated=simulated, session=session,
+        plan, date, due = self.schedule_session(participant_id, simulated=simulated, session=session,
                                             ignore_schedule=ignore_schedule, today=today)
         index = len(self.sessions_of(participant_id)) + 1
         protocol_id = self.db.execute("SELECT protocol_id FROM study").fetchone()[0]
@@ -583,9 +583,9 @@ class Store:
                 self._insert_task(db, session_id, replace(t, interaction=interaction or t.interaction))
         return self.session(session_id)
 
-    def next_session(self, participant_id: str, *, simulated: bool, session: str | None = None,
-                     ignore_schedule: bool = False, today: datetime.date | None = None
-                     ) -> tuple[SessionPlan, datetime.date, datetime.date]:
+    def schedule_session(self, participant_id: str, *, simulated: bool, session: str | None = None,
+                         ignore_schedule: bool = False, today: datetime.date | None = None
+                         ) -> tuple[SessionPlan, datetime.date, datetime.date]:
         """The session ``create_session`` would start for the participant (``session``, or their next),
         the day it runs and the day it is due; refused (``StoreError``) for a withdrawn participant, one
         handed to a station, a session out of order or run before, or one not due yet (unless

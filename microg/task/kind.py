@@ -472,3 +472,11 @@ def observed(observation, out=None):
     out["touching"] = 0 if o.touching is None else np.asarray(o.touching)
     out["grasped_by"] = (bool(o.grasped), False) if o.grasped_by is None else np.asarray(o.grasped_by)
     return out
+
+
+def before_timeout(table, key: str, value: float, rules, never: str = "") -> None:
+    """Refuse a kind's own duration (``[task.KIND]``'s ``key``) that is not shorter than the task's
+    ``timeout_s``: no such task could end well; ``never`` says what could not happen."""
+    if value >= rules.timeout_s:
+        raise table.fail(key, value, f"must be shorter than task.timeout_s = {rules.timeout_s:g} s"
+                         + (f": {never}" if never else ""))

@@ -22,7 +22,7 @@ from numba import njit
 
 from microg.skeleton import slot
 from microg.task.kind import (COUNT, EPS, FINAL, NUMBER, STAGE, Aims, EventSpec, Kind, Measure, Play, Stage, View, emit,
-                              start_and_time_out)
+                              start_and_time_out, before_timeout)
 
 STAGES = (Stage("reach", "Touch the object with your index fingertip", loose=True),
           Stage("touching", "Keep touching it")) + FINAL
@@ -68,8 +68,7 @@ class TouchRules:
 
 def read(table, task) -> TouchRules:
     touch = TouchRules(hold_s=table.number("hold_s", unit=" (seconds)"))
-    if touch.hold_s >= task.timeout_s:
-        raise table.fail("hold_s", touch.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s")
+    before_timeout(table, "hold_s", touch.hold_s, task)
     table.done()
     return touch
 

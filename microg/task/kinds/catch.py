@@ -27,7 +27,7 @@ from numba import njit
 
 from microg.task.kind import (COUNT, EPS, FINAL, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, Aims, Difficulty, EventSpec,
                               Kind, Measure, Play, Stage, View, emit, grasped, hold_task, inside, start_and_time_out,
-                              touched)
+                              touched, before_timeout)
 
 STAGES = (Stage("approach", "Catch the object as it floats to you", loose=True), Stage("catch", "Hold on to it")) + FINAL
 _APPROACH, _CATCH, _COMPLETED, _TIMEOUT = range(len(STAGES))
@@ -113,9 +113,7 @@ def read(c, task) -> CatchRules:
     catch = CatchRules(launch_speed=speed, direction=tuple(float(d) for d in direction / length),
                        spin=c.vector("spin", default=[0.0, 0.0, 0.0], maximum=MAX_SPIN, unit=" (rad/s, tracker frame)"),
                        hold_s=c.number("hold_s", 1.0, unit=" (seconds)"))
-    if catch.hold_s >= task.timeout_s:
-        raise c.fail("hold_s", catch.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no catch "
-                     "could be completed")
+    before_timeout(c, "hold_s", catch.hold_s, task, "no catch could be completed")
     c.done()
     return catch
 

@@ -31,7 +31,8 @@ from numba import njit
 
 from microg.skeleton import SIDES
 from microg.task.kind import (COUNT, EPS, FINAL, HAND, MAX_DISTANCE, NUMBER, NUMBER_OR_NONE, STAGE, Aims, EventSpec,
-                              Kind, Measure, Play, Stage, View, emit, hold, inside, start_and_time_out)
+                              Kind, Measure, Play, Stage, View, emit, hold, inside, start_and_time_out,
+                              before_timeout)
 
 STAGES = (Stage("take", "Pick up the object with your {first} hand", loose=True),
           Stage("pass", "Pass it to your {other} hand"), Stage("place", "Hold it in the blue rings with your {other} hand")) + FINAL
@@ -123,9 +124,7 @@ def read(h, task) -> HandoverRules:
                              hold_s=h.number("hold_s", 1.0, unit=" (seconds)"))
     if not inside(handover.place, task):
         raise h.fail("place", list(handover.place), "lies outside the workspace (task.workspace_min .. workspace_max)")
-    if handover.hold_s >= task.timeout_s:
-        raise h.fail("hold_s", handover.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no "
-                     "handover could be completed")
+    before_timeout(h, "hold_s", handover.hold_s, task, "no handover could be completed")
     h.done()
     return handover
 

@@ -35,7 +35,7 @@ from numba import njit
 from microg.sim.rotation import quat_to_matrix
 from microg.task.kind import (COUNT, EPS, FINAL, FLAG, MAX_LAUNCH_SPEED, MAX_SPIN, NUMBER, STAGE, VECTOR, Aims,
                               Difficulty, EventSpec, Kind, Measure, Play, Stage, View, emit, grasped, hold_task, length,
-                              start_and_time_out, touched)
+                              start_and_time_out, touched, before_timeout)
 
 FREE_DV = 1e-4
 """m/s: an object whose centre's velocity changed more than this from one frame to the next was
@@ -128,9 +128,7 @@ def read(s, task) -> StopSpinRules:
     if spin.rest_omega >= spin.spin_rate:
         raise s.fail("rest_omega", spin.rest_omega, f"must be below spin_rate = {spin.spin_rate:g} rad/s (else the "
                      "object starts at rest)")
-    if spin.hold_s >= task.timeout_s:
-        raise s.fail("hold_s", spin.hold_s, f"must be shorter than task.timeout_s = {task.timeout_s:g} s: no stop "
-                     "could be completed")
+    before_timeout(s, "hold_s", spin.hold_s, task, "no stop could be completed")
     s.done()
     return spin
 
