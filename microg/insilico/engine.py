@@ -14,6 +14,7 @@ every frame's time, from which the session clock is rebuilt exactly as a session
 from __future__ import annotations
 
 import multiprocessing
+from collections.abc import Generator
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,17 +73,48 @@ def play_tasks(protocol: Protocol, units: list[TaskUnit], progress=None, workers
                 if progress is not None:
                     progress(done)
         return results
-    batches: dict[tuple, list[int]] = {}
-    for i, unit in enumerate(units):
-        batches.setdefault(_batch_key(protocol, unit), []).append(i)
     done = 0
-    for indices in batches.values():
-        for i, result in _play_batch(protocol, [units[i] for i in indices]):
-            results[indices[i]] = result
-            done += 1
-            if progress is not None:
-                progress(done)
+
+    def one(i: int, unit: TaskUnit) -> Stream:
+        nonlocal done
+        results[i] = yield unit
+        done += 1
+        if progress is not None:
+            progress(done)
+
+    play_streams(protocol, [one(i, unit) for i, unit in enumerate(units)])
     return results
+
+
+Stream = Generator[TaskUnit, TaskResult, None]
+"""A participant's tasks one after the other: it yields a task, is sent its result, and yields the
+next (which may depend on the results so far, as a phase trained to a criterion does), until it
+returns."""
+
+
+def play_streams(protocol: Protocol, streams: list[Stream]) -> None:
+    """Play every stream's tasks to its end, side by side: the tasks of one kind and compiled step
+    share a batch of ``BATCH`` lanes; a lane whose task ended takes the next task waiting for that
+    batch, the next task of the stream whose task ended among them."""
+    waiting: dict[tuple, list[tuple[Stream, TaskUnit]]] = {}
+
+    def wait(stream: Stream, unit: TaskUnit | None) -> None:
+        if unit is not None:
+            waiting.setdefault(_batch_key(protocol, unit), []).append((stream, unit))
+
+    for stream in streams:
+        wait(stream, next(stream, None))
+    while any(waiting.values()):
+        key = next(key for key, queue in waiting.items() if queue)
+        _play_batch(protocol, waiting[key], wait)
+
+
+def advance(stream: Stream, result: TaskResult) -> TaskUnit | None:
+    """The stream's next task after ``result`` (None: it has no more)."""
+    try:
+        return stream.send(result)
+    except StopIteration:
+        return None
 
 
 def _batch_key(protocol: Protocol, unit: TaskUnit) -> tuple:
@@ -92,12 +124,14 @@ def _batch_key(protocol: Protocol, unit: TaskUnit) -> tuple:
 
 
 def _world(protocol: Protocol, unit: TaskUnit):
-    """The world a task starts in (made once per protocol, object, interaction model and kind)."""
-    key = (id(protocol), unit.object_name, unit.interaction, unit.plan.rules.kind)
+    """The world a task starts in, as its kind starts it by the task's rules (a staircase's difficulty
+    may move the start): made once per protocol, object, interaction model and rules."""
+    rules = unit.plan.rules
+    key = (id(protocol), unit.object_name, unit.interaction, rules)
     cached = _WORLDS.get(key)
     if cached is None or cached[0] is not protocol:
-        cached = _WORLDS[key] = (protocol, make_world(protocol.scene(unit.object_name, unit.interaction,
-                                                                     unit.plan.rules.kind)))
+        cached = _WORLDS[key] = (protocol, make_world(protocol.scene(unit.object_name, unit.interaction, rules.kind,
+                                                                     rules)))
     return cached[1]
 
 
@@ -107,10 +141,15 @@ _WORLDS: dict[tuple, tuple] = {}
 def _lanes(protocol: Protocol, units: list[TaskUnit], size: int) -> tuple[Lanes, Players]:
     kind = KINDS[units[0].plan.rules.kind]
     worlds = [_world(protocol, u) for u in units]
-    limit = max(int(u.time_limit_s * FRAMES_PER_SECOND) + 2 for u in units)
-    lanes = Lanes(kind, worlds[0], size, guard=protocol.guard, window=protocol.filter_window, capacity=limit,
+    lanes = Lanes(kind, worlds[0], size, guard=protocol.guard, window=protocol.filter_window,
+                  capacity=max(_frames(u) for u in units),
                   record=False, params_size=max(len(w.model.params) for w in worlds))
     return lanes, Players(kind, size)
+
+
+def _frames(unit: TaskUnit) -> int:
+    """The frames a task's record holds at most."""
+    return int(unit.time_limit_s * FRAMES_PER_SECOND) + 2
 
 
 def _load(lanes: Lanes, players: Players, lane: int, protocol: Protocol, unit: TaskUnit) -> None:
@@ -118,27 +157,31 @@ def _load(lanes: Lanes, players: Players, lane: int, protocol: Protocol, unit: T
     players.load(lane, unit.plan, unit.skill, unit.seed, time_limit_s=unit.time_limit_s)
 
 
-def _play_batch(protocol: Protocol, units: list[TaskUnit]):
-    """The tasks of one kind and compiled step, ``BATCH`` at a time; yields (index in ``units``,
-    result) as each ends."""
-    size = min(BATCH, len(units))
-    lanes, players = _lanes(protocol, units, size)
-    queue = list(range(len(units)))
-    playing = [-1] * size  # which unit each lane plays (-1: none)
-    for lane in range(size):
-        playing[lane] = queue.pop(0)
-        _load(lanes, players, lane, protocol, units[playing[lane]])
-    while any(index >= 0 for index in playing):
-        run(lanes, players, lanes.times.shape[1])
+def _play_batch(protocol: Protocol, queue: list[tuple[Stream, TaskUnit]], wait) -> None:
+    """The tasks of ``queue`` (one kind and compiled step), ``BATCH`` at a time, each ended task's
+    result sent to its stream and the stream's next task handed to ``wait`` (which queues it here
+    when it shares the batch); returns when no lane plays and no task in ``queue`` fits the lanes
+    (one with a longer clock waits for the next batch)."""
+    size = min(BATCH, len(queue))
+    lanes, players = _lanes(protocol, [unit for _, unit in queue[:size]], size)
+    capacity = lanes.times.shape[1]
+
+    def take(lane: int) -> Stream | None:
+        fits = next((i for i, (_, unit) in enumerate(queue) if _frames(unit) <= capacity), None)
+        if fits is None:
+            return None
+        stream, unit = queue.pop(fits)
+        _load(lanes, players, lane, protocol, unit)
+        return stream
+
+    playing = [take(lane) for lane in range(size)]  # the stream each lane plays (None: none)
+    while any(stream is not None for stream in playing):
+        run(lanes, players, capacity)
         for lane in np.flatnonzero(players.ended):
             n = int(lanes.n_frames[lane])
-            yield playing[lane], lanes.result(lane, n, lanes.times[lane, :n].copy())
             players.ended[lane] = False
-            if queue:
-                playing[lane] = queue.pop(0)
-                _load(lanes, players, lane, protocol, units[playing[lane]])
-            else:
-                playing[lane] = -1
+            wait(playing[lane], advance(playing[lane], lanes.result(lane, n, lanes.times[lane, :n].copy())))
+            playing[lane] = take(lane)
 
 
 def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:

@@ -21,7 +21,7 @@ from microg.participant import Population
 from microg.study.protocol import Protocol, protocol_from_resolved
 from microg.task.rules import timeout_reason
 
-from .engine import TaskUnit, play_tasks
+from .engine import Stream, TaskUnit, advance, play_streams, play_tasks
 
 
 def sized_protocol(protocol: Protocol, n_per_group: int) -> Protocol:
@@ -79,50 +79,109 @@ def simulate_trials(protocol: Protocol, n_per_group: int, seed: int, *, populati
             inputs = players[record.group]
             store.create_session(record.participant.id, input_spec=inputs.spec, simulated=inputs.simulated,
                                  clock=inputs.clock)
-        play_sessions(store, lambda session: players[store.participant(session.participant_id).group], workers=workers)
+        inputs_of = lambda session: players[store.participant(session.participant_id).group]  # noqa: E731
+        play_sessions(store, inputs_of, workers=workers)
+        while following := _following_sessions(store):  # a training program's next sessions, in turn
+            for record in following:
+                inputs = players[record.group]
+                store.create_session(record.participant.id, input_spec=inputs.spec, simulated=inputs.simulated,
+                                     clock=inputs.clock)
+            play_sessions(store, inputs_of, workers=workers)
         return trials_table(store)
+
+
+def _following_sessions(store) -> list:
+    """The participants with a session of the program still to run (on the simulated calendar, each
+    the day it becomes due)."""
+    from microg.study.schedule import next_session
+
+    return [record for record in store.participants()
+            if next_session(store.protocol, record.group, [s.sitting for s in store.sessions_of(record.participant.id)])
+            is not None]
 
 
 def play_sessions(store, inputs_of, workers: int = 1) -> None:
     """Play every running session of ``store`` (simulated participants, ``inputs_of(session)``
-    their ``SimulatedInputs``) with ``engine.play_tasks`` and write each task's run as the session
-    runner would, in the order it would run them; then end the sessions."""
-    from microg.study.session import SimulationClock, planned_runs
+    their ``SimulatedInputs``) with the engine and write each task's run as the session runner
+    would, in the order it would run them; then end the sessions. A phase trained to a criterion
+    plans each task after the one before ended, as a session does. With ``workers`` > 1 (a study
+    without such phases) the tasks are planned first and shared out to worker processes."""
+    protocol = store.protocol
+    sessions = [(record, session) for record in store.participants()
+                for session in [store.session_of(record.participant.id)]
+                if session is not None and session.status == "running"]
+    streams = [_session_stream(store, record, session, inputs_of(session)) for record, session in sessions]
+    if workers > 1 and not any(phase.until for phase in protocol.phases):
+        units = [unit for record, session in sessions for unit in _fixed_units(store, record, session, inputs_of(session))]
+        results = iter(play_tasks(protocol, units, workers=workers))
+        for stream in streams:  # each session's runs written in its order
+            unit = next(stream, None)
+            while unit is not None:
+                unit = advance(stream, next(results))
+        return
+    play_streams(protocol, streams)
+
+
+def _fixed_units(store, record, session, inputs) -> list[TaskUnit]:
+    """Every task of a session without a phase trained to a criterion, in its order."""
+    return [unit for phase in store.protocol.phases_for(record.group, session.name) if store.protocol.runs_tasks(phase)
+            for unit, _ in _phase_units(store, record, session, inputs, phase)]
+
+
+def _phase_units(store, record, session, inputs, phase):
+    """The planned tasks of a phase of fixed tasks: (its ``TaskUnit``, its task and seed)."""
+    from microg.study.session import earlier_sessions, planned_runs
+
+    protocol, earlier = store.protocol, earlier_sessions(store, session)
+    for task, plan, seed in planned_runs(protocol, session, participant=record, tasks=store.tasks(session.id),
+                                         phase=phase, earlier=earlier):
+        yield _unit(task, plan, seed, inputs), (task, seed)
+
+
+def _unit(task, plan, seed: int, inputs) -> TaskUnit:
+    return TaskUnit(plan, inputs.skill(plan), seed, inputs.time_limit_s(plan), task.interaction, task.object)
+
+
+def _session_stream(store, record, session, inputs) -> Stream:
+    """A session's tasks as the engine plays them, each run written as it ends, as the session
+    runner writes it (its start and end on the session's clock, rebuilt from its frames' times);
+    a phase trained to a criterion plans its next task from the runs so far and logs its end."""
+    from microg.study.session import (SimulationClock, criterion_end, earlier_sessions, next_criterion_task,
+                                      planned_run)
+    from microg.study.store import Event
+
+    protocol, clock = store.protocol, SimulationClock()
+    earlier = earlier_sessions(store, session)
+    for phase in protocol.phases_for(record.group, session.name):
+        if not protocol.runs_tasks(phase):
+            continue
+        if protocol.phase(phase.name) is None or protocol.phase(phase.name).until is None:
+            for unit, (task, seed) in list(_phase_units(store, record, session, inputs, phase)):
+                _write_run(store, session, clock, task, seed, unit, (yield unit))
+            continue
+        while (task := next_criterion_task(store, session, record, phase.name)) is not None:
+            _, plan, seed = planned_run(protocol, session, participant=record, tasks=store.tasks(session.id), task=task,
+                                        earlier=earlier)
+            unit = _unit(task, plan, seed, inputs)
+            _write_run(store, session, clock, task, seed, unit, (yield unit))
+        ended = criterion_end(store, session.id, phase.name)
+        if ended is not None:
+            store.log(session.id, [Event(clock.now(), *ended)])
+    store.finish_session(session.id, clock.now())
+
+
+def _write_run(store, session, clock, task, seed: int, unit: TaskUnit, result) -> None:
+    """A task's run as the session runner writes it."""
     from microg.study.store import Event
 
     protocol = store.protocol
-    trained = [p.name for p in protocol.phases if p.until is not None]
-    if trained:
-        raise ValueError(f"protocol {protocol.name!r}: phase(s) {', '.join(trained)} train to a criterion, which an "
-                         "in-silico study does not play yet; run its simulated participants as logged sessions "
-                         "(microg session run --input simulated, or microg demo)")
-    sessions, units = [], []
-    for record in store.participants():
-        session = store.session_of(record.participant.id)
-        if session is None or session.status != "running":
-            continue
-        inputs, tasks = inputs_of(session), store.tasks(session.id)
-        played = []
-        for task, plan, seed in [run for phase in protocol.phases_for(record.group, session.name)
-                                 if protocol.runs_tasks(phase)
-                                 for run in planned_runs(protocol, session, participant=record, tasks=tasks,
-                                                         phase=phase)]:
-            skill = inputs.skill(plan)
-            units.append(TaskUnit(plan, skill, seed, inputs.time_limit_s(plan), task.interaction, task.object))
-            played.append((task, seed, f"simulated:{skill.name}:seed={seed}"))
-        sessions.append((session, played))
-    results = iter(play_tasks(protocol, units, workers=workers))
-    for session, played in sessions:
-        clock = SimulationClock()
-        for task, seed, source in played:
-            result = next(results)
-            run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
-            times = result.frame_times
-            clock.elapse_each(np.diff(times))
-            reason = {"completed": None, "timeout": timeout_reason(protocol.rules(task.phase)),
-                      "aborted": f"the hand source ({source}) ended before the task did"}[result.status]
-            measured = [Event(clock.now(), "measures", {"kind": task_kind, **result.measures})
-                        for task_kind in [protocol.kind(task.phase)] if result.measures]
-            store.end_run(run_id, result.status, clock.now(), time_s=result.time_s, attempts=result.attempts,
-                          reason=reason, events=measured + [Event(clock.now(), "in_silico", {"frames": len(times)})])
-        store.finish_session(session.id, clock.now())
+    source = f"simulated:{unit.skill.name}:seed={seed}"
+    run_id = store.begin_run(session.id, task=task, source=source, seed=seed, t=clock.now())
+    times = result.frame_times
+    clock.elapse_each(np.diff(times))
+    reason = {"completed": None, "timeout": timeout_reason(protocol.rules(task.phase)),
+              "aborted": f"the hand source ({source}) ended before the task did"}[result.status]
+    measured = [Event(clock.now(), "measures", {"kind": kind, **result.measures})
+                for kind in [protocol.kind(task.phase)] if result.measures]
+    store.end_run(run_id, result.status, clock.now(), time_s=result.time_s, attempts=result.attempts,
+                  reason=reason, events=measured + [Event(clock.now(), "in_silico", {"frames": len(times)})])

@@ -46,7 +46,7 @@ from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
 from .questionnaire import Rater, questions
-from .progression import FinishedTask, next_difficulty, progress
+from .progression import FinishedTask, Progress, next_difficulty, progress
 from .store import Event, PlannedTask, Store, criterion_first_index, criterion_task, derived_seed
 
 
@@ -421,36 +421,59 @@ def _train(log: EventLog, session, participant, phase: Phase, inputs: Inputs, *,
     staircase's next value, if it has one), until the criterion is met or ``max_tasks`` ran; after
     each task the participant hears how far they are (``Operator.progressed``), and the end logs
     ``criterion_met`` or ``criterion_bound``. A resumed session carries on from its finished tasks."""
-    store, protocol = log.store, log.store.protocol
-    trained = protocol.phase(phase.name)
-    first = criterion_first_index(protocol, participant.group, participant.object_order, session.name, phase.name)
-    harder = KINDS[trained.kind].difficulty[trained.staircase.parameter].harder if trained.staircase else 1
-    while True:
+    store = log.store
+    while (task := next_criterion_task(store, session, participant, phase.name)) is not None:
         tasks = store.tasks(session.id)
-        done = finished_tasks_of(store, session.id, phase.name)
-        reached = progress(trained.until, done)
-        if reached.met or reached.tasks >= trained.max_tasks:
-            break
-        number = reached.tasks + 1
-        task = next((t for t in tasks if t.phase == phase.name and t.task_in_phase == number), None)
-        if task is None:  # a task not run before: planned now, at the staircase's value
-            difficulty = None if trained.staircase is None else \
-                next_difficulty(trained.staircase, trained.until, done, harder)
-            task = criterion_task(protocol, phase.name, first, number, difficulty)
-            store.add_task(session.id, task)
-            tasks = tasks + [task]
-            bar.total += 1
-        _, plan, seed = planned_run(protocol, session, participant=participant, tasks=tasks, task=task,
+        bar.total = max(bar.total, len(tasks))  # a task planned now
+        _, plan, seed = planned_run(store.protocol, session, participant=participant, tasks=tasks, task=task,
                                     earlier=earlier)
         _run_planned(log, session, task, inputs, plan=plan, seed=seed, operator=operator, sinks=sinks, bar=bar)
         bar.update(1)
-        reached = progress(trained.until, finished_tasks_of(store, session.id, phase.name))
-        log.emit("criterion_progress", {"phase": phase.name, "task_in_phase": number, "in_a_row": reached.in_a_row,
-                                        "consecutive": reached.needed})
+        reached = criterion_progress(store, session.id, phase.name)
+        log.emit("criterion_progress", {"phase": phase.name, "task_in_phase": reached.tasks,
+                                        "in_a_row": reached.in_a_row, "consecutive": reached.needed})
         operator.progressed(reached.describe())
+    ended = criterion_end(store, session.id, phase.name)
+    if ended is not None:
+        log.emit(*ended)
+
+
+def next_criterion_task(store: Store, session, participant, phase: str) -> PlannedTask | None:
+    """The next task of a phase trained to a criterion (None: the criterion is met or the bound ran):
+    one planned before and not yet finished (a resumed session), or one planned now at the
+    staircase's next value and added to the session. Logged sessions and in-silico studies both
+    take their criterion phases' tasks from here."""
+    protocol = store.protocol
+    trained = protocol.phase(phase)
+    done = finished_tasks_of(store, session.id, phase)
+    reached = progress(trained.until, done)
+    if reached.met or reached.tasks >= trained.max_tasks:
+        return None
+    number = reached.tasks + 1
+    task = next((t for t in store.tasks(session.id) if t.phase == phase and t.task_in_phase == number), None)
+    if task is None:
+        harder = KINDS[trained.kind].difficulty[trained.staircase.parameter].harder if trained.staircase else 1
+        difficulty = None if trained.staircase is None else \
+            next_difficulty(trained.staircase, trained.until, done, harder)
+        first = criterion_first_index(protocol, participant.group, participant.object_order, session.name, phase)
+        task = criterion_task(protocol, phase, first, number, difficulty)
+        store.add_task(session.id, task)
+    return task
+
+
+def criterion_progress(store: Store, session_id: int, phase: str) -> Progress:
+    """Where a phase trained to a criterion stands after the session's finished tasks of it."""
+    return progress(store.protocol.phase(phase).until, finished_tasks_of(store, session_id, phase))
+
+
+def criterion_end(store: Store, session_id: int, phase: str) -> tuple[str, dict] | None:
+    """The event that ends a phase trained to a criterion (``criterion_met`` or ``criterion_bound``,
+    with its data), or None when the session logged it already (a resumed session)."""
+    reached = criterion_progress(store, session_id, phase)
     ended = "criterion_met" if reached.met else "criterion_bound"
-    if not any(e.kind == ended and e.data["phase"] == phase.name for e in store.events(session.id)):
-        log.emit(ended, {"phase": phase.name, "tasks": reached.tasks, "task_in_phase": reached.met_at})
+    if any(e.kind == ended and e.data["phase"] == phase for e in store.events(session_id)):
+        return None
+    return ended, {"phase": phase, "tasks": reached.tasks, "task_in_phase": reached.met_at}
 
 
 def finished_tasks_of(store: Store, session_id: int, phase: str) -> list[FinishedTask]:

@@ -26,24 +26,27 @@ def study_trials(folder: Path, protocol, seed: int, batched: bool) -> pd.DataFra
                                               int(rng.integers(18, 31)), ("right", "left")[number % 3 == 2], True))
         inputs = {record.participant.id: open_inputs("simulated", protocol.group(record.group))
                   for record in store.participants()}
-        for pid, source in inputs.items():
-            store.create_session(pid, input_spec=source.spec, simulated=source.simulated, clock=source.clock)
-        if batched:
-            play_sessions(store, lambda session: inputs[session.participant_id])
-        else:
+        for _ in protocol.sessions:  # a training program's sessions in turn, on the simulated calendar
             for pid, source in inputs.items():
-                run_session(store, store.session_of(pid).id, source, clock=SimulationClock())
+                store.create_session(pid, input_spec=source.spec, simulated=source.simulated, clock=source.clock)
+            if batched:
+                play_sessions(store, lambda session: inputs[session.participant_id])
+            else:
+                for pid, source in inputs.items():
+                    run_session(store, store.session_of(pid).id, source, clock=SimulationClock())
         return trials_table(store).drop(columns=["study"])
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("protocol", [PROTOCOLS / "tiny.toml", protocol_file("paper"), PROTOCOLS / "kinds-simulated.toml",
-                                      PROTOCOLS / "send.toml", PROTOCOLS / "handover.toml"],
-                         ids=["tiny", "paper", "kinds", "send", "handover"])
+                                      PROTOCOLS / "send.toml", PROTOCOLS / "handover.toml", PROTOCOLS / "program-toy.toml"],
+                         ids=["tiny", "paper", "kinds", "send", "handover", "program"])
 def test_a_batched_in_silico_study_gives_the_trials_table_of_the_logged_sessions(tmp_path, protocol):
     """One frame path run two ways: the same seeds, the same table. Every task's status, completion
     time, attempts, its kind's measures, and its start and end on the session's clock, to the last
-    bit (a left-handed participant among them), for every kind of task."""
+    bit (a left-handed participant among them), for every kind of task; and a training program's
+    sessions, whose phases trained to a criterion plan each task from the runs before it (the task's
+    place in the phase, its staircase difficulty, when the criterion was met)."""
     sized = sized_protocol(load_protocol(protocol), 2)
     logged = study_trials(tmp_path / "logged", sized, 7, batched=False)
     batched = study_trials(tmp_path / "batched", sized, 7, batched=True)
