@@ -225,7 +225,7 @@ def plot_learning_curves(tasks: pd.DataFrame, fits: pd.DataFrame, curves: pd.Dat
                          practice: str = "practice", subject: str = "participant", group: str = "group",
                          ylabel: str | None = None) -> Figure:
     """One panel per group: every task's ``dv`` against practice (dots), each participant's power law
-    a + b practice^-c (thin lines) and the group's curve exp(intercept) practice^slope from the mixed
+    a + b practice^-c over the practice of their own finished tasks (thin lines) and the group's curve exp(intercept) practice^slope from the mixed
     model (thick).
 
     Parameters
@@ -266,7 +266,9 @@ def plot_learning_curves(tasks: pd.DataFrame, fits: pd.DataFrame, curves: pd.Dat
         rows = tasks[(tasks[group] == name) & tasks[dv].notna()]
         ax.scatter(rows[practice].astype(float), rows[dv].astype(float), s=5, color=colour, alpha=0.35, linewidth=0)
         for fit in fits[(fits[group] == name) & fits["a"].notna()].itertuples(index=False):
-            ax.plot(span, fit.a + fit.b * span**-fit.c, color=colour, linewidth=0.8, alpha=0.8)
+            seen = rows.loc[rows[subject] == getattr(fit, subject), practice].astype(float)
+            own_span = span[(span >= seen.min()) & (span <= seen.max())] if len(seen) else span  # no extrapolation
+            ax.plot(own_span, fit.a + fit.b * own_span**-fit.c, color=colour, linewidth=0.8, alpha=0.8)
         own = curves[curves[group] == name].set_index("parameter")["estimate"] if len(curves) else pd.Series()
         if {"intercept", "slope"} <= set(own.index):
             ax.plot(span, np.exp(own["intercept"]) * span ** own["slope"], color="black", linewidth=2.2,
@@ -362,6 +364,10 @@ def plot_practice_means(curve: pd.DataFrame, measure: str, group: str = "group",
     return fig
 
 
+CRITERION_COLUMNS = 4
+"""Panels per row of :func:`plot_criterion` (one per session and phase with a criterion)."""
+
+
 def plot_criterion(km: pd.DataFrame, reached: pd.DataFrame, keys: Sequence[str] = ("session", "phase"),
                    group: str = "group", time: str = "at_tasks", event: str = "criterion_met") -> Figure:
     """One panel per session and phase: the share of each group that has met the criterion against the
@@ -393,8 +399,12 @@ def plot_criterion(km: pd.DataFrame, reached: pd.DataFrame, keys: Sequence[str] 
     """
     panels = list(dict.fromkeys(reached[list(keys)].itertuples(index=False, name=None)))
     groups = sorted(reached[group].unique())
-    fig = Figure(figsize=(3.2 * len(panels) + 0.6, 3.2), layout="constrained")
-    axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True, squeeze=False).ravel())
+    columns = min(len(panels), CRITERION_COLUMNS)
+    rows = -(-len(panels) // columns)
+    fig = Figure(figsize=(3.2 * columns + 0.6, 3.0 * rows), layout="constrained")
+    axes = np.atleast_1d(fig.subplots(rows, columns, sharey=True, squeeze=False).ravel())
+    for ax in axes[len(panels):]:
+        ax.set_visible(False)
     for ax, panel in zip(axes, panels):
         here = np.logical_and.reduce([km[k] == v for k, v in zip(keys, panel)]) if len(km) else []
         people = reached[np.logical_and.reduce([reached[k] == v for k, v in zip(keys, panel)])]
@@ -410,6 +420,8 @@ def plot_criterion(km: pd.DataFrame, reached: pd.DataFrame, keys: Sequence[str] 
             high = 1 - np.concatenate([[1.0], steps["ci_low"].to_numpy(float), steps["ci_low"].to_numpy(float)[-1:]
                                        if len(steps) else [1.0]])  # fmt: skip
             mine = people[people[group] == name]
+            if mine.empty:  # the group does not run this phase
+                continue
             ax.step(x, share, where="post", color=colour, linewidth=1.5, label=f"{name} (n = {len(mine)})")
             ax.fill_between(x, np.nan_to_num(low), np.nan_to_num(high, nan=1.0), step="post", color=colour,
                             alpha=0.15, linewidth=0)  # fmt: skip
@@ -421,8 +433,10 @@ def plot_criterion(km: pd.DataFrame, reached: pd.DataFrame, keys: Sequence[str] 
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylim(0, 1.02)
         ax.spines[["top", "right"]].set_visible(False)
-    axes[0].set_ylabel("share that met the criterion")
-    axes[-1].legend(title=group, frameon=False, fontsize="small", loc="lower right")
+    for ax in axes[::columns]:
+        ax.set_ylabel("share that met the criterion")
+    for ax in axes[:len(panels)]:
+        ax.legend(title=group, frameon=False, fontsize="small", loc="lower right")
     return fig
 
 

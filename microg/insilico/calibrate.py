@@ -126,10 +126,6 @@ def parse_fit(text: str) -> tuple[Free, ...]:
         if name not in SPEC or what not in ("", "sd"):
             raise CalibrationError(f"--fit {text!r}: {part!r}: give NAME (its population mean) or NAME:sd (its spread "
                                    f"between people), NAME one of {', '.join(NAMES)}")
-        if SPEC[name].retention:
-            raise CalibrationError(f"--fit {text!r}: {name} is a parameter of retention across sessions; the "
-                                   "calibration's numbers come from one session each and carry nothing about "
-                                   "forgetting, so it is not fitted yet (its value stays the population's)")
         free.append(Free(name, "sd" if what else "mean"))
     if len({f.key for f in free}) != len(free):
         raise CalibrationError(f"--fit {text!r}: names a value twice")
@@ -185,6 +181,11 @@ class CalibrationRequest:
             raise CalibrationError("--fit: free at least one value")
         if not any(not t.held_out for t in self.targets):
             raise CalibrationError(f"{self.source}: every number is held out: nothing is left to fit")
+        retained = [f.name for f in self.free if SPEC[f.name].retention]
+        if retained and not self.protocol.program:
+            raise CalibrationError(f"--fit: {', '.join(retained)}: a parameter of retention across sessions, which "
+                                   f"protocol {self.protocol.name!r} (one session, no [[sessions]]) carries nothing "
+                                   "about; fit it to a training program's pilot")
         base = self.population.parameters
         object.__setattr__(self, "free", tuple(f.with_prior(base[f.name]) for f in self.free))  # priors from the base
 

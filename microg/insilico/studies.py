@@ -34,10 +34,13 @@ def sized_protocol(protocol: Protocol, n_per_group: int) -> Protocol:
 
 def protocol_through(protocol: Protocol, statistics) -> Protocol:
     """The protocol cut after the last of its ``[[phases]]`` (in the timeline's order) whose tasks one
-    of ``statistics`` (``summaries.Statistic``) can select: a simulated participant does not know what comes later,
+    of ``statistics`` (``summaries.Statistic``) can select (a training program is played whole): a simulated
+    participant does not know what comes later,
     so the phases before are played exactly as in the whole protocol, and a study that is only
     asked about the paper's model need not play the baseline's phase. Questionnaires are dropped
     (an in-silico study asks none)."""
+    if protocol.program:  # a trainee's later sessions follow from the earlier ones: all are played
+        return protocol
     selections = [s.where for s in statistics] + [s.versus for s in statistics if s.versus]
     needed = {phase.name for phase in protocol.phases
               if any(all((column != "phase" or value == phase.name)

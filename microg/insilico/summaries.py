@@ -25,7 +25,7 @@ import pandas as pd
 
 MEASURES = ("time_s", "attempts", "completed")
 STATISTICS = ("mean", "sd", "ratio", "slope")
-WHERE = ("group", "phase", "interaction", "object")
+WHERE = ("group", "session", "phase", "interaction", "object")
 """The columns a selection may name, in the order keys show them."""
 RESOLUTION = {"time_s": 0.5, "attempts": 0.05, "completed": 0.02, "slope": 0.02, "ratio": 0.02}
 """The smallest standard error a fitted number is given (its unit; ratios on the log scale): a
@@ -58,8 +58,8 @@ def _selection(where: tuple[tuple[str, str], ...]) -> str:
 
 def participant_cells(trials: pd.DataFrame) -> pd.DataFrame:
     """Each participant's tasks as they count: one row per task that ran, with the participant's
-    group, the task's phase, interaction model, object, ``tasks_done`` (tasks before it in the
-    session) and its ``time_s`` (NaN unless completed), ``attempts`` and ``completed`` (0 or 1).
+    group, the task's session (a training program's; ``main`` otherwise), phase, interaction model,
+    object, ``tasks_done`` (tasks before it in the session) and its ``time_s`` (NaN unless completed), ``attempts`` and ``completed`` (0 or 1).
 
     Examples
     --------
@@ -80,6 +80,7 @@ def participant_cells(trials: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({
         "participant": ran["participant"].astype(str),
         "group": ran["group"].astype(str),
+        "session": ran["session"].astype(str) if "session" in ran else "main",
         "phase": ran["phase"].astype(str),
         "interaction": ran["interaction"].astype(str),
         "object": ran["object"].astype(str),
@@ -199,18 +200,25 @@ def summarise(trials: pd.DataFrame, statistics) -> pd.DataFrame:
 def study_statistics(trials: pd.DataFrame) -> list[Statistic]:
     """The statistics a pilot's trials show: per group x phase x object the mean and SD of time and
     attempts, per group x phase the completion rate, and per group the practice slope (only where
-    at least two participants have a value, so that every SD is defined)."""
+    at least two participants have a value, so that every SD is defined). A training program's
+    cells are per group x session x phase instead (over its objects): each session's level is what
+    carries practice kept and lost across days."""
     cells = participant_cells(trials)
+    program = cells["session"].nunique() > 1
     wanted = []
-    for (group, phase, obj), rows in cells.groupby(["group", "phase", "object"], sort=True):
-        where = (("group", group), ("phase", phase), ("interaction", rows["interaction"].iloc[0]), ("object", obj))
+    fine = ["group", "session", "phase"] if program else ["group", "phase", "object"]
+    for key, rows in cells.groupby(fine, sort=True):
+        named = dict(zip(fine, key))
+        where = tuple((column, named[column] if column != "interaction" else rows["interaction"].iloc[0])
+                      for column in WHERE if column in named or column == "interaction")
         for measure in ("time_s", "attempts"):
             if rows.dropna(subset=[measure])["participant"].nunique() >= 2:
                 wanted += [Statistic(measure, "mean", where), Statistic(measure, "sd", where)]
-    for (group, phase), rows in cells.groupby(["group", "phase"], sort=True):
-        if rows["participant"].nunique() >= 2:
-            where = (("group", group), ("phase", phase), ("interaction", rows["interaction"].iloc[0]))
-            wanted.append(Statistic("completed", "mean", where))
+    if not program:
+        for (group, phase), rows in cells.groupby(["group", "phase"], sort=True):
+            if rows["participant"].nunique() >= 2:
+                where = (("group", group), ("phase", phase), ("interaction", rows["interaction"].iloc[0]))
+                wanted.append(Statistic("completed", "mean", where))
     for group, rows in cells.groupby("group", sort=True):
         if _slopes(rows).notna().sum() >= 2:
             wanted.append(Statistic("time_s", "slope", (("group", group),)))

@@ -181,6 +181,7 @@ def _known_values(protocol: Protocol) -> dict[str, dict[str, str]]:
     interactions = [p.interaction for p in protocol.phases] + ([protocol.training.interaction] if protocol.training else [])
     return {
         "group": groups,
+        "session": {plan.name: plan.name for plan in protocol.sessions},
         "phase": {p: p for p in phases},
         "interaction": {i: i for i in interactions},
         "object": {o.code: o.code for o in objects} | {o.name: o.code for o in objects},
@@ -369,7 +370,7 @@ def trials_source(path: str | Path, protocol: Protocol, seed: int) -> Source:
 
 def _trials_source(trials: pd.DataFrame, protocol: Protocol, source: str, digest: str, seed: int) -> Source:
     known = _known_values(protocol)
-    for column in WHERE:
+    for column in (c for c in WHERE if c in trials or c != "session"):  # a table of one session may lack it
         values = set(trials[column].dropna().astype(str))
         strange = sorted(values - set(known[column].values()))
         if strange:

@@ -272,28 +272,34 @@ def _first_reaching(shares: np.ndarray, target: float) -> float:
 
 
 def plot_plan(table: pd.DataFrame, request: ProgramRequest, path: Path) -> None:
-    """Share proficient against session, one line per program and group with its 90 % band."""
+    """Share proficient against session, a panel per group, a line per program (the compared one
+    dashed) with its 90 % band over cohorts, the target dotted."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.2), layout="constrained")
-    for (name, group), part in table.groupby(["program", "group"], sort=False):
-        program = request.programs[name]
-        x = part["session_index"].to_numpy()
-        line, = ax.plot(x, part["proficient"], marker="o", linestyle="-" if name == "plan" else "--",
-                        label=f"{program.name}: {group} ({program.group(group).name})")
-        ax.fill_between(x, part["proficient_low"], part["proficient_high"], color=line.get_color(), alpha=0.15)
-    ax.axhline(request.target, color="0.4", linewidth=0.8, linestyle=":")
+    groups = list(dict.fromkeys(table["group"]))
+    fig, axes = plt.subplots(1, len(groups), figsize=(4.6 * len(groups), 4.2), sharey=True, layout="constrained",
+                             squeeze=False)
     sessions = request.protocol.sessions
-    ax.set_xticks(range(1, len(sessions) + 1), [s.name for s in sessions])
-    ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel("session")
-    ax.set_ylabel("share of trainees proficient")
-    ax.set_title(f"{request.protocol.name}: {request.sims} cohorts of {request.n_per_group} per group "
-                 f"(bands: 90 % of cohorts)", fontsize=10)
-    ax.legend(fontsize=8, loc="best")
+    for ax, group in zip(axes[0], groups):
+        for name, program in request.programs.items():
+            part = table[(table["program"] == name) & (table["group"] == group)]
+            x = part["session_index"].to_numpy()
+            days = ", ".join(f"{day:.0f}" for day in part["day"])
+            line, = ax.plot(x, part["proficient"], marker="o", linestyle="-" if name == "plan" else "--",
+                            label=f"{program.name} (days {days})")
+            ax.fill_between(x, part["proficient_low"], part["proficient_high"], color=line.get_color(), alpha=0.12)
+        ax.axhline(request.target, color="0.4", linewidth=0.8, linestyle=":")
+        ax.set_xticks(range(1, len(sessions) + 1), [plan.name for plan in sessions], rotation=30)
+        ax.set_title(f"group {group} ({request.protocol.group(group).name})", fontsize=10)
+        ax.set_xlabel("session")
+        ax.legend(fontsize=7, loc="lower center")
+    axes[0][0].set_ylim(-0.02, 1.02)
+    axes[0][0].set_ylabel("share of trainees proficient")
+    fig.suptitle(f"{request.sims} cohorts of {request.n_per_group} trainees per group (bands: 90 % of cohorts)",
+                 fontsize=10)
     fig.savefig(path, dpi=120)
     plt.close(fig)
 

@@ -159,9 +159,11 @@ def test_a_simulated_group_larger_than_a_study_can_run_is_refused_before_anythin
 
 
 def test_a_retention_parameter_is_not_fitted_from_one_session_numbers(tmp_path):
+    """A study of one session says nothing about forgetting across days: refused, nothing written."""
     targets = tmp_path / "targets.toml"
     targets.write_text(TARGET)
     output = calibrate("--targets", targets, "--protocol", PROTOCOL, "--fit", "movement_slope,forgetting_rate",
                        "--out", tmp_path / "out.toml")
-    assert "forgetting_rate is a parameter of retention across sessions" in output
+    assert "--fit: forgetting_rate: a parameter of retention across sessions" in output
+    assert "fit it to a training program's pilot" in output
     assert not (tmp_path / "out.toml").exists()

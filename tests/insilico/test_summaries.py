@@ -120,3 +120,23 @@ def test_a_ratio_compares_the_same_selection_with_the_keys_of_versus_changed():
                                                     "selection with itself")):
         targets_from_dict({"n_per_group": 15, "targets": [dict(entry, versus={"group": "B"})]},
                           load_protocol(protocol_file("paper")), "t.toml")
+
+
+def test_a_pilot_program_shows_each_session_level():
+    """A training program's pilot: its cells are per group x session x phase (over the objects), the
+    level of each session being what practice kept and lost across days shows; a session's mean is
+    the mean over its participants of their means in it."""
+    rows = []
+    for person, (train, retention) in {"P1": ((20.0, 16.0), (19.0, 21.0)), "P2": ((30.0, 22.0), (25.0, 27.0))}.items():
+        for index, (session, phase, times) in enumerate([("train1", "train", train), ("retention", "test", retention)]):
+            for k, (obj, time) in enumerate(zip("CF", times)):
+                rows.append([person, "B", phase, "m", obj, True, time, 0, k, "completed", False, session])
+    trials = pd.DataFrame(rows, columns=["participant", "group", "phase", "interaction", "object", "completed",
+                                         "time_s", "attempts", "task_index", "status", "withdrawn", "session"])
+    statistics = study_statistics(trials)
+    keys = [s.key for s in statistics]
+    assert "time_s.mean[group=B,session=retention,phase=test,interaction=m]" in keys
+    assert "time_s.sd[group=B,session=train1,phase=train,interaction=m]" in keys
+    assert not any("object=" in key for key in keys)
+    values = dict(zip(keys, summarise(trials, statistics)["value"]))
+    assert values["time_s.mean[group=B,session=retention,phase=test,interaction=m]"] == (20.0 + 26.0) / 2
