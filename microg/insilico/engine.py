@@ -203,4 +203,4 @@ def _load_compiled(protocol: Protocol, units: list[TaskUnit]) -> None:
 def _signature(lane_arrays: tuple, player_arrays: tuple) -> tuple:
     from numba import typeof
 
-    return typeof(lane_arrays), typeof(player_arrays), typeof(1), typeof(False)
+    return typeof(lane_arrays), typeof(player_arrays), typeof(1)

@@ -3,13 +3,12 @@ session and for an in-silico study.
 
 Each lane of ``microg.task.Lanes`` gets a simulated participant (one hand, or two for a kind played
 with both: ``Play.then`` ``hand_over``): ``Players`` holds their records. ``run(lanes, players,
-until, stop_on_events)`` plays every active lane frame after frame: the participant perceives what
+until)`` plays every active lane frame after frame: the participant perceives what
 its lane's world showed and what the task displays (``participant.perceive``), moves its hand
 (``step_participant`` or ``step_hands``), and the frame goes the one frame path
 (``microg.task.play.frame_path``: the tracking guard, the window filter, the physics, the kind's
 rules, respawn). It returns to Python when a lane's task ended (finished, or its participant gave no
-more frames: ``players.ended``), when a lane kept ``until`` frames (a session's batch to log), or,
-with ``stop_on_events``, when a frame made events (a session commits each as it happens).
+more frames: ``players.ended``) or when a lane kept ``until`` frames (a session's batch to log).
 """
 
 from __future__ import annotations
@@ -104,9 +103,9 @@ def _pose(frame, side, track, joints, palm, orientation, widths):
 
 
 _RUN = """
-def {name}(lanes, players, until, stop_on_events):
+def {name}(lanes, players, until):
     (pl, st, seens, streams, grasps, hands, sides, frames, active, ended, over, loose, release, widths) = players
-    tasks, seen, moments, n_frames = lanes[11], lanes[16], lanes[17], lanes[20]
+    tasks, seen, n_frames = lanes[11], lanes[16], lanes[20]
     joints, palm, orientation = np.empty((2, 5, 5, 3)), np.empty((2, 3)), np.empty((2, 4))
     while True:
         stop = False
@@ -127,7 +126,6 @@ def {name}(lanes, players, until, stop_on_events):
                 t = step_participant(pl[b, 0], st[b, 0], seens[b, 0], streams[2 * b], grasps[b, 0], joints[0],
                                      palm[0], orientation[0])
             frame = frames[b]
-            before = n_frames[b]
             if math.isnan(t):
                 {take}(lanes, b, frame, True)
                 active[b], ended[b], stop = False, True, True
@@ -145,10 +143,6 @@ def {name}(lanes, players, until, stop_on_events):
                 active[b], ended[b], stop = False, True, True
             if n_frames[b] >= until:
                 stop = True
-            if stop_on_events:
-                for i in range(before, n_frames[b]):
-                    if moments[b, i].n_events > 0:
-                        stop = True
         if stop:
             return
 """
@@ -156,7 +150,7 @@ def {name}(lanes, players, until, stop_on_events):
 
 @lru_cache(maxsize=None)
 def runner(kind: Kind, effects: frozenset[str], meshes: bool):
-    """The compiled ``run(lanes, players, until, stop_on_events)`` for lanes of a kind's tasks on worlds
+    """The compiled ``run(lanes, players, until)`` for lanes of a kind's tasks on worlds
     of ``effects`` (module docstring)."""
     take = frame_path(kind, effects, meshes)
     name = "run_" + take.py_func.__name__[len("take_"):]
@@ -164,10 +158,9 @@ def runner(kind: Kind, effects: frozenset[str], meshes: bool):
                        globals())
 
 
-def run(lanes: Lanes, players: Players, until: int, stop_on_events: bool = False) -> None:
-    """Play ``lanes`` with ``players`` until a lane ends, a lane keeps ``until`` frames, or (with
-    ``stop_on_events``) a frame made events."""
-    args = (lanes.arrays(), players.arrays(), until, stop_on_events)
+def run(lanes: Lanes, players: Players, until: int) -> None:
+    """Play ``lanes`` with ``players`` until a lane ends or a lane keeps ``until`` frames."""
+    args = (lanes.arrays(), players.arrays(), until)
     if players.run is None:
         players.run = entry_point(runner(lanes.kind, lanes.effects, lanes.meshes), args)
     players.run(*args)

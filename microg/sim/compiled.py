@@ -223,8 +223,30 @@ def entry_point(function, args: tuple) -> Callable:
     """The compiled code of ``function`` for arguments of the types of ``args``, to be called
     directly with such arguments: numba's dispatcher types every argument at every call, and a
     record array's type costs tens of microseconds to make, a millisecond for the frame path's
-    arguments; a loop that calls the same code again and again need not pay it each time."""
-    return function.compile(tuple(typeof(a) for a in args))
+    arguments (ten for a simulated participant's); a loop that calls the same code again and
+    again need not pay it each time, nor a session that plays task after task (kept per function
+    and the arrays' layout)."""
+    key = (function, _layout(args))
+    found = _ENTRY_POINTS.get(key)
+    if found is None:
+        found = _ENTRY_POINTS[key] = function.compile(tuple(typeof(a) for a in args))
+    return found
+
+
+_ENTRY_POINTS: dict = {}
+
+
+def _layout(value):
+    """What decides an argument's numba type, cheaply: an array's dtype, dimensions, order and
+    flags, a tuple's items', a scalar's Python type."""
+    if isinstance(value, np.ndarray):
+        flags = value.flags
+        return value.dtype, value.ndim, flags.c_contiguous, flags.f_contiguous, flags.writeable, flags.aligned
+    if isinstance(value, tuple):
+        return tuple(_layout(item) for item in value)
+    if isinstance(value, np.generic):  # a record's type is its dtype's
+        return type(value), value.dtype
+    return type(value)
 
 
 def specialised(template: str, name: str, calls: dict[str, Callable], where: str, namespace: dict):

@@ -151,11 +151,36 @@ def verify_frames(db: sqlite3.Connection, since: int | None) -> FrameCheck:
             batches = rows.execute(f"SELECT {framelog.ROW} FROM frames")
         else:
             pages = []
-            batches = rows.execute(
-                "SELECT f.run_id, f.first, f.count, f.t_first, f.t_last, f.checksum, f.data FROM ledger l "
-                "JOIN frames f ON f.run_id = json_extract(l.key, '$[0]') AND f.first = json_extract(l.key, '$[1]') "
-                "WHERE l.fact = 'frames' AND l.seq > ? ORDER BY l.seq", (since,))
-        damaged = [framelog.damage(db, row) for row in batches if not framelog.sound(row)]  # rows as framelog.ROW
+            batches = rows.execute(  # read in the file's order: a gigabyte in 0.2 s, 1.7 s in the ledger's
+                "SELECT f.run_id, f.first, f.count, f.t_first, f.t_last, f.checksum, f.data FROM frames f "
+                "WHERE f.rowid IN (SELECT n.rowid FROM ledger l JOIN frames n ON n.run_id = json_extract(l.key, '$[0]') "
+                "AND n.first = json_extract(l.key, '$[1]') WHERE l.fact = 'frames' AND l.seq > ?) ORDER BY f.rowid",
+                (since,))
+        damaged = [framelog.damage(db, row) for row in _unsound(batches)]  # rows as framelog.ROW
     finally:
         db.execute("COMMIT")
     return FrameCheck(damaged, pages, head, since is None)
+
+
+VERIFY_ROWS = 64
+"""Frame batches read at a time while the ones before are checked."""
+
+
+def _unsound(batches: sqlite3.Cursor) -> list:
+    """The rows of ``batches`` that do not match their checksums. One thread checks a chunk of rows
+    while this one reads the next (SQLite and SHA-256 both let go of the interpreter's lock, so the
+    two overlap: 0.7 s for the demo's 1 GB of frames, 1.0 s one after the other)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def check(rows: list) -> list:
+        return [row for row in rows if not framelog.sound(row)]
+
+    unsound, pending = [], None
+    with ThreadPoolExecutor(1) as pool:
+        while rows := batches.fetchmany(VERIFY_ROWS):
+            if pending is not None:
+                unsound += pending.result()
+            pending = pool.submit(check, rows)
+        if pending is not None:
+            unsound += pending.result()
+    return unsound

@@ -15,7 +15,7 @@ on a table (the physics' ``table`` effect) and falls back onto it when dropped. 
 one way (``run_task``), as in the paper's Fig. 2: the task's hand source, the tracking guard and
 the window filter (``microg.hands.tracking``), the physics (``microg.sim.step``), the task's rules
 and respawn (``microg.task.play``), then what the frame feeds, each a ``FrameSink``: the run's log
-(events committed as they happen, frames every ``frame_batch``), the participant's page, LSL's
+(events committed as their frames arrive, frames every ``frame_batch``), the participant's page, LSL's
 MoCap stream, the progress bar. Every event the session logs goes through one call
 (``EventLog``): committed, then sent as an LSL marker stamped with its own time.
 
@@ -46,6 +46,7 @@ from . import framelog
 from .inputs import Inputs, participant_plan
 from .protocol import Phase, Protocol
 from .questionnaire import Rater, questions
+from .simulated_rater import HANDLING, HANDLING_KEYS, handling
 from .progression import FinishedTask, Progress, next_difficulty, progress
 from .store import Event, PlannedTask, Store, criterion_first_index, criterion_task, derived_seed
 
@@ -223,22 +224,24 @@ def task_world(protocol: Protocol, task: PlannedTask, rules: TaskRules | None = 
 
 class RunLog:
     """A ``FrameSink``: what a run logs of its frames. The session's clock moves on by each frame's
-    interval, the task's events are committed as they happen, and the frames every ``batch``
-    (``framelog``), so a crash loses at most one batch of frames and never an event."""
+    interval, the task's events are committed as their frames arrive (a live source's as they
+    happen, a compiled simulated participant's a batch at once), and the frames every ``batch``
+    (``framelog``), so a crash loses at most one batch of frames and no event of a frame stored."""
 
     def __init__(self, log: EventLog, run_id: int, batch: int):
         self.log, self.run_id, self.batch = log, run_id, batch
         self.logged, self.pending, self.last_t = 0, [], None
         self.frames, self.kind = 0, None
+        self.handled, self.last_frame = np.zeros(len(HANDLING_KEYS)), None
 
     def take(self, moments: Moments) -> None:
         times = moments.records["hands"]["t"]
         previous = times[0] if self.last_t is None else self.last_t
         now = self.log.clock.elapse_each(np.diff(np.concatenate(([previous], times))))
         self.last_t = float(times[-1])
-        for i in np.flatnonzero(moments.records["n_events"]):
-            self.log.commit([Event(float(now[i]), e.kind, dict(e.data, frame_t=e.t))
-                             for e in moments.task_events(int(i))], self.run_id)
+        self.log.commit([Event(float(now[i]), e.kind, dict(e.data, frame_t=e.t))
+                         for i in np.flatnonzero(moments.records["n_events"]) for e in moments.task_events(int(i))],
+                        self.run_id)
         self.kind = moments.kind
         self.pending.append(moments.records)
         self.frames += len(moments)
@@ -251,8 +254,12 @@ class RunLog:
             self.pending = [waiting[whole:]]
 
     def _frames(self, records: np.ndarray) -> np.ndarray:
-        """``records`` (``MOMENT``) as the frame log keeps them."""
-        return framelog.frames_of(Moments(self.kind, records, None))
+        """``records`` (``MOMENT``) as the frame log keeps them, added to the run's ``handling``."""
+        frames = framelog.frames_of(Moments(self.kind, records, None))
+        if len(frames):
+            self.handled += handling(frames, self.last_frame)
+            self.last_frame = frames[-1:]
+        return frames
 
     def end(self, status: str, *, time_s: float | None, attempts: int | None, reason: str | None,
             events: list[Event] = ()) -> None:
@@ -262,6 +269,8 @@ class RunLog:
         stored = framelog.count(self.log.store.db, self.run_id)
         waiting = np.concatenate(self.pending) if self.pending else np.zeros(0, MOMENT)
         rest = self._frames(waiting[stored - self.logged:]) if self.kind else np.zeros(0, framelog.FRAME)
+        if stored == self.logged:  # every frame went through _frames: the run's handling is whole
+            events = [*events, Event(self.log.clock.now(), HANDLING, dict(zip(HANDLING_KEYS, self.handled.tolist())))]
         self.log.mark(self.log.store.end_run(self.run_id, status, self.log.clock.now(), time_s=time_s,
                                              attempts=attempts, reason=reason, events=list(events),
                                              frames=(stored, rest)))
@@ -281,12 +290,20 @@ class TaskProgress:
             self.bar.set_postfix_str(f"{self.label}: {self.frames} frames, {rate:.0f} fps")
 
 
+COMPILED_BATCH = 1024
+"""Frames a simulated participant playing in compiled code (unwatched: a watched one is paced,
+frame by frame) plays between two looks from Python, and its run logs in one batch: a crash
+loses at most this many frames of a run the participant's seed plays again exactly, and each
+batch's fixed costs (the checksum, the commit, the codec's setup) are paid sixteen times less
+often than at the default ``logging.frame_batch``."""
+
+
 def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Protocol,
              rules: TaskRules | None = None, sinks: Sequence[FrameSink] = ()) -> TaskResult:
     """Play one task from ``source`` until it completes, times out or the source ends; log every
     frame and event, and feed every frame to ``sinks``. ``rules``: the protocol's task unless given
     (a phase's: ``Protocol.rules``). A simulated participant that can play in compiled code
-    (``load_into``) plays there, its frames taken a batch at a time. A finished task of a kind with
+    (``load_into``) plays there, its frames taken ``COMPILED_BATCH`` at a time. A finished task of a kind with
     measures of its own logs them as its run's last event but the guard's (``measures``: the kind
     and each measure).
 
@@ -294,10 +311,12 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
     """
     rules = rules or protocol.task
     kind = KINDS[rules.kind]
-    lanes = Lanes(kind, world, 1, guard=protocol.guard, window=protocol.filter_window, capacity=protocol.frame_batch)
+    compiled = hasattr(source, "load_into")
+    batch = max(protocol.frame_batch, COMPILED_BATCH) if compiled else protocol.frame_batch
+    lanes = Lanes(kind, world, 1, guard=protocol.guard, window=protocol.filter_window, capacity=batch)
     lanes.load(0, world, rules)
-    run_log = RunLog(log, run_id, protocol.frame_batch)
-    frames = _played(lanes, source, protocol.frame_batch) if hasattr(source, "load_into") else play(lanes, source)
+    run_log = RunLog(log, run_id, batch)
+    frames = _played(lanes, source, batch) if compiled else play(lanes, source)
     try:
         for moments in frames:              # hands: guard, Eq. 1; sim: step (Eqs. 2-20); task: the rules, respawn
             run_log.take(moments)           # study: the run's events and frames
@@ -319,13 +338,12 @@ def run_task(*, log: EventLog, run_id: int, world: World, source, protocol: Prot
 
 
 def _played(lanes: Lanes, source, batch: int):
-    """The frames of a simulated participant playing lane 0 in compiled code (``microg.participant.runner``):
-    a batch at a time, and at once after a frame that made events (the session commits them as they
-    happen)."""
+    """The frames of a simulated participant playing lane 0 in compiled code (``microg.participant.runner``),
+    a batch at a time (the session commits the batch's events together, then its frames)."""
     players = Players(lanes.kind, 1)
     source.load_into(players, 0)
     while not players.ended[0]:
-        run(lanes, players, batch, stop_on_events=True)
+        run(lanes, players, batch)
         if lanes.n_frames[0]:
             yield lanes.taken(0)
 

@@ -4,6 +4,8 @@ participant's rating model (``microg.participant.ratings``). The answers are sto
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from microg.participant.ratings import EXPOSURE_ONLY, Experience, InstrumentModel, RatingModel
@@ -14,23 +16,48 @@ from .questionnaire import Answer, Question
 from .store import FINAL_RUN, Store
 
 
-def _run_measures(store: Store, run_id: int) -> tuple[list[float], list[float]]:
-    """Penetration samples (mm) and relative object speeds while held (mm/s) of one task run."""
-    frames = framelog.read(store.db, run_id)
-    penetration, shake = [], []
+HANDLING = "handling"
+"""The event that ends a run's log with what the rating model reads of its frames (``handling``)."""
+HANDLING_KEYS = ("penetration_mm_sum", "penetration_samples", "shake_mm_s_squares", "shake_samples")
+
+
+def handling(frames: np.ndarray, before: np.ndarray | None = None) -> np.ndarray:
+    """What a participant lived through in ``frames`` (``FRAME`` records, in order), as sums the
+    rating model averages over a session (``HANDLING_KEYS``): the penetration (mm) of every touching,
+    tracked phalanx and the squared speed of a held object relative to the palm (mm/s) between
+    frames; ``before`` (the frame just before, one record) joins the first frame's step."""
+    if before is not None:
+        frames = np.concatenate([before, frames])
+    sums = np.zeros(len(HANDLING_KEYS))
+    touching_any = framelog.touching_slots(frames["touching"])
     for side in range(len(SIDES)):
         tracked = frames["tracked"][:, side]
-        centres = 0.5 * (frames["joints"][:, side, :, 1:] + frames["joints"][:, side, :, :-1]).reshape(len(frames), -1, 3)
-        sunk = np.linalg.norm(frames["rendered"][:, side] - centres, axis=-1)
-        touching = framelog.touching_slots(frames["touching"])[:, side_slots(side)]
-        penetration += (1e3 * sunk[touching & tracked[:, None]]).astype(np.float64).tolist()
+        touching = touching_any[:, side_slots(side)] & tracked[:, None]
+        if before is not None:
+            touching[0] = False  # counted with the batch before
+        rows = np.flatnonzero(touching.any(axis=1))  # the phalanges' sinking, where one touches
+        joints = frames["joints"][rows, side]
+        centres = 0.5 * (joints[:, :, 1:] + joints[:, :, :-1]).reshape(len(rows), frames["rendered"].shape[2], 3)
+        sunk = np.linalg.norm(frames["rendered"][rows, side] - centres, axis=-1)
+        penetration = (1e3 * sunk[touching[rows]]).astype(np.float64)
         palm = frames["palm_position"][:, side].astype(np.float64)
         t = frames["t"]
         steps = np.flatnonzero(tracked[1:] & tracked[:-1] & frames["held"][1:] & (t[1:] > t[:-1])) + 1
         palm_velocity = (palm[steps] - palm[steps - 1]) / (t[steps] - t[steps - 1])[:, None]
         relative = frames["velocity"][steps].astype(np.float64) - palm_velocity
-        shake += (1e3 * np.linalg.norm(relative, axis=1)).tolist()
-    return penetration, shake
+        sums += (penetration.sum(), penetration.size, np.square(1e3 * np.linalg.norm(relative, axis=1)).sum(),
+                 len(steps))
+    return sums
+
+
+def _run_handling(store: Store, run_id: int) -> np.ndarray:
+    """A run's ``handling``: from its end (``HANDLING``), else (a run logged before runs ended with
+    it) from its frames."""
+    row = store.db.execute("SELECT data FROM events WHERE run_id = ? AND kind = ?", (run_id, HANDLING)).fetchone()
+    if row is not None:
+        data = json.loads(row[0])
+        return np.array([data[key] for key in HANDLING_KEYS], dtype=float)
+    return handling(framelog.read(store.db, run_id))
 
 
 def experience(store: Store, session_id: int, interaction: str) -> Experience:
@@ -46,19 +73,15 @@ def experience(store: Store, session_id: int, interaction: str) -> Experience:
     rows = [r for r in rows if r["status"] != "skipped"]
     if not rows:
         return Experience(0, 0.0, 1.0, float("nan"), float("nan"), float("nan"))
-    penetration, shake = [], []
-    for row in rows:
-        p, s = _run_measures(store, row["id"])
-        penetration += p
-        shake += s
+    penetration, samples, shake, steps = sum(_run_handling(store, row["id"]) for row in rows)
     times = [r["time_s"] for r in rows if r["status"] == "completed"]
     return Experience(
         tasks=len(rows),
         attempts_per_task=float(np.mean([r["attempts"] or 0 for r in rows])),
         not_completed=1.0 - len(times) / len(rows),
         time_s=float(np.mean(times)) if times else float("nan"),
-        penetration_mm=float(np.mean(penetration)) if penetration else 0.0,
-        shake_mm_s=float(np.sqrt(np.mean(np.square(shake)))) if shake else 0.0,
+        penetration_mm=float(penetration / samples) if samples else 0.0,
+        shake_mm_s=float(np.sqrt(shake / steps)) if steps else 0.0,
     )
 
 

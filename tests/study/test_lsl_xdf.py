@@ -80,7 +80,7 @@ def test_an_xdf_of_the_session_lines_up_with_its_log(recorded):
     store, session_id, path = recorded
     lineup, = line_up(store, path)
     events = store.events(session_id)
-    sent_kinds = {"phase_start", "phase_end", "task_start", "task_end", "tracking_guard"}
+    sent_kinds = {"phase_start", "phase_end", "task_start", "task_end", "tracking_guard", "handling"}
     stage = {e.kind for e in events if "frame_t" in e.data}
     logged = [(e.kind, e.t) for e in events if e.kind in sent_kinds | stage]
     markers = lineup.markers

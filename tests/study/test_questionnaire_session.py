@@ -5,6 +5,7 @@ rating model; the export writes the answers and their scores."""
 
 from __future__ import annotations
 
+import json
 import sqlite3
 
 import numpy as np
@@ -15,7 +16,8 @@ from microg.analysis.scoring import score_answers
 from microg.instruments import load_instrument
 from microg.participant.ratings import Experience, InstrumentModel, unanswered
 from microg.study.export import export_study, read_answers
-from microg.study.simulated_rater import SimulatedRater
+from microg.study import framelog, open_inputs
+from microg.study.simulated_rater import HANDLING, HANDLING_KEYS, SimulatedRater, handling
 from microg.study.questionnaire import TerminalRater, questions
 from microg.study.session import SimulationClock, resume_session, run_session
 from microg.study.store import StoreError, open_study
@@ -113,6 +115,26 @@ def test_simulated_participants_answer_every_instrument_through_the_rating_model
     assert len(likert) == 4 and set(likert["item"]) == {"naturalness", "efficiency"}
     answers_back, instruments = read_answers(out)
     assert len(answers_back) == len(answers) and sorted(instruments) == ["ipq", "paper", "ssq", "sus", "tlx"]
+
+
+@pytest.mark.parametrize("source", ["scripted", "simulated"])
+def test_a_run_ends_with_what_the_rating_model_reads_of_its_frames(make_study, source):
+    """The ``handling`` event that ends each run (summed batch by batch as the frames are logged:
+    a scripted hand frame by frame, a simulated participant's compiled batches) equals what the
+    run's logged frames read back give: the rating model reads it instead of every frame."""
+    store, record = make_study("tiny")
+    session = store.create_session("P01", input_spec=source, simulated=True, clock="simulation")
+    inputs = scripted_inputs() if source == "scripted" else open_inputs("simulated", store.protocol.group(record.group))
+    run_session(store, session.id, inputs, clock=SimulationClock())
+    ends = store.db.execute("SELECT run_id, data FROM events WHERE kind = ?", (HANDLING,)).fetchall()
+    assert len(ends) == len(store.runs(session.id)) >= 2
+    for run_id, data in ends:
+        logged = framelog.read(store.db, run_id)
+        summed = json.loads(data)
+        again = handling(logged)
+        assert [summed[k] for k in ("penetration_samples", "shake_samples")] == [again[1], again[3]]
+        assert np.allclose([summed[k] for k in HANDLING_KEYS], again, rtol=1e-12, atol=0)
+        assert again[1] > 0 or source == "scripted"  # a simulated hand touches its object
 
 
 def lived(attempts: float = 0.0, time_s: float = 20.0, missed: float = 0.0, penetration: float = 3.0) -> Experience:
