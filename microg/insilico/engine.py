@@ -161,13 +161,15 @@ def _play_batch(protocol: Protocol, queue: list[tuple[Stream, TaskUnit]], wait) 
     """The tasks of ``queue`` (one kind and compiled step), ``BATCH`` at a time, each ended task's
     result sent to its stream and the stream's next task handed to ``wait`` (which queues it here
     when it shares the batch); returns when no lane plays and no task in ``queue`` fits the lanes
-    (one with a longer clock waits for the next batch)."""
+    (one with a longer clock or more parameters than the lanes were made for waits for the next batch)."""
     size = min(BATCH, len(queue))
     lanes, players = _lanes(protocol, [unit for _, unit in queue[:size]], size)
     capacity = lanes.times.shape[1]
 
     def take(lane: int) -> Stream | None:
-        fits = next((i for i, (_, unit) in enumerate(queue) if _frames(unit) <= capacity), None)
+        fits = next((i for i, (_, unit) in enumerate(queue)
+                     if _frames(unit) <= capacity and len(_world(protocol, unit).model.params) <= lanes.params.shape[1]),
+                    None)
         if fits is None:
             return None
         stream, unit = queue.pop(fits)
