@@ -17,12 +17,15 @@ outcome. What it cannot answer: a person adapts to the model they feel (they squ
 object slips, slow down when it bounces); a replay keeps the motion made for the original model,
 so it shows the model's effect on that motion, not what the person would have done with it. With
 the same model and settings the replay reproduces the original runs exactly (the physics is
-deterministic).
+deterministic). A training program's sessions are replayed in order, each phase trained to a
+criterion as its tasks ran: a replay cannot add the tasks a trainee would have needed, nor leave out
+those they did.
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 from pathlib import Path
 
 from microg import __version__
@@ -32,7 +35,7 @@ from microg.sim import INTERACTION_MODELS
 from . import framelog
 from .assignment import Participant
 from .protocol import SCENE_OPTIONS, ProtocolError, protocol_from_resolved
-from .session import EventLog, SimulationClock, run_task, task_world
+from .session import EventLog, SimulationClock, criterion_end, run_task, task_world
 from .store import Event, Store, StoreError, create_study, derived_seed, open_study
 
 FOLDER = "resimulated"
@@ -84,13 +87,12 @@ def resimulate(study_dir: str | Path, participants: list[str], *, interaction: s
 
 def _resimulate_session(original: Store, store: Store, participant_id: str, *, interaction: str | None,
                         progress: bool, tqdm) -> None:
+    """Every session of the participant, in order: each task replayed as it ran (a phase trained to
+    a criterion its tasks as the original ran them, each at its difficulty), the criterion's end
+    logged as the replayed runs reached it."""
     record = original.participant(participant_id)
-    if original.protocol.program:
-        raise StoreError(f"{original.dir}: a training program's sessions are not re-simulated yet (participant "
-                         f"{participant_id} has {len(original.sessions_of(participant_id))}); re-simulate a study of "
-                         "one session")
-    session = original.session_of(participant_id)
-    if session is None:
+    sessions = original.sessions_of(participant_id)
+    if not sessions:
         raise StoreError(f"participant {participant_id} has no session in {original.dir} to re-simulate")
     if store.session_of(participant_id) is not None:
         raise StoreError(f"{store.dir} already holds {participant_id}'s re-simulated session; a session is "
@@ -98,15 +100,27 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, *, i
     person = record.participant
     store.add_participant(Participant(person.id, person.gender, person.age, person.handedness,
                                       person.mr_experience), like=record)
+    for session in sessions:
+        _replay(original, store, participant_id, session, interaction=interaction, progress=progress, tqdm=tqdm)
+
+
+def _replay(original: Store, store: Store, participant_id: str, session, *, interaction: str | None,
+            progress: bool, tqdm) -> None:
     spec = f"{INPUT}:{original.dir.resolve()}#session={session.id}"
     new = store.create_session(participant_id, input_spec=spec, simulated=session.simulated, clock="simulation",
-                               interaction=interaction)
+                               interaction=interaction, session=session.name, ignore_schedule=session.ignored_schedule,
+                               today=session.date)
+    planned = {t.index for t in store.tasks(new.id)}
+    for task in original.tasks(session.id):  # a phase trained to a criterion: the tasks it ran
+        if task.index not in planned:
+            store.add_task(new.id, dataclasses.replace(task, interaction=interaction or task.interaction))
     store.lock_session(new.id)
     clock = SimulationClock()
     store.log(new.id, [Event(0.0, "session_start", {"input": spec, "microg_version": __version__,
                                                    "resimulated_from": session.id})])
     runs = {r.task_index: r for r in original.runs(session.id) if framelog.count(original.db, r.id)}
     tasks = store.tasks(new.id)
+    protocol = store.protocol
     for task in tqdm(tasks, unit="task", desc=f"{participant_id} re-simulated", disable=not progress):
         if task.index not in runs:
             run_id = store.begin_run(new.id, task=task, source="nothing logged to replay",
@@ -117,6 +131,12 @@ def _resimulate_session(original: Store, store: Store, participant_id: str, *, i
         source = ReplaySource(frames, f"{INPUT}:run {runs[task.index].id}")
         run_id = store.begin_run(new.id, task=task, source=source.description, seed=derived_seed(new.seed, task.index),
                                  t=clock.now())
-        run_task(log=EventLog(store, new.id, clock), run_id=run_id, world=task_world(store.protocol, task),
-                 source=source, protocol=store.protocol, rules=store.protocol.rules(task.phase))
+        rules = protocol.rules(task.phase, task.difficulty)
+        run_task(log=EventLog(store, new.id, clock), run_id=run_id, world=task_world(protocol, task, rules),
+                 source=source, protocol=protocol, rules=rules)
+    for phase in dict.fromkeys(t.phase for t in tasks):
+        if protocol.phase(phase) is not None and protocol.phase(phase).until is not None:
+            ended = criterion_end(store, new.id, phase)
+            if ended is not None:
+                store.log(new.id, [Event(clock.now(), *ended)])
     store.finish_session(new.id, clock.now())

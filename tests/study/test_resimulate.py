@@ -50,3 +50,21 @@ def test_the_same_model_reproduces_the_trials_and_another_gives_a_separate_marke
     assert "original and soft_hand, side by side" in text and "How the tasks ended" in text
     outcomes = compare_run_sets(read_tables(study)[0], moved, ("original", "soft_hand"))["outcomes"]
     assert outcomes.groupby("run_set").sum(numeric_only=True).sum(axis=1).tolist() == [len(original)] * 2
+
+
+def test_a_training_programs_sessions_are_replayed_in_order_with_their_criterion_tasks(tmp_path):
+    """Each session of a trainee's program replayed: the criterion phases' tasks as they ran, each at
+    its staircase difficulty; the same model gives the same tasks, outcomes and criterion."""
+    study = tmp_path / "study"
+    run("study", "init", study, "--protocol", PROTOCOLS / "program-toy.toml", "--seed", "3")
+    run("participant", "add", study, "--id", "P01", "--gender", "female", "--age", "22", "--handedness", "right",
+        "--mr-experience", "no")
+    for _ in range(2):  # train1, then the retention test on the simulated calendar
+        run("session", "run", study, "--participant", "P01", "--input", "simulated", "--quiet")
+    columns = COLUMNS + ["session", "session_index", "task_in_phase", "difficulty", "criterion_met"]
+    original = read_tables(study)[0][columns]
+    assert set(original.session) == {"train1", "retention"} and original.difficulty.notna().any()
+
+    run("session", "resimulate", study, "--participant", "P01", "--label", "same", "--quiet")
+    again = read_tables(study / "resimulated" / "same")[0][columns]
+    assert again.equals(original)
