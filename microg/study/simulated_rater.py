@@ -50,10 +50,11 @@ def handling(frames: np.ndarray, before: np.ndarray | None = None) -> np.ndarray
     return sums
 
 
-def _run_handling(store: Store, run_id: int) -> np.ndarray:
+def _run_handling(store: Store, session_id: int, run_id: int) -> np.ndarray:
     """A run's ``handling``: from its end (``HANDLING``), else (a run logged before runs ended with
     it) from its frames."""
-    row = store.db.execute("SELECT data FROM events WHERE run_id = ? AND kind = ?", (run_id, HANDLING)).fetchone()
+    row = store.db.execute("SELECT data FROM events WHERE session_id = ? AND run_id = ? AND kind = ?",
+                           (session_id, run_id, HANDLING)).fetchone()
     if row is not None:
         data = json.loads(row[0])
         return np.array([data[key] for key in HANDLING_KEYS], dtype=float)
@@ -73,7 +74,7 @@ def experience(store: Store, session_id: int, interaction: str) -> Experience:
     rows = [r for r in rows if r["status"] != "skipped"]
     if not rows:
         return Experience(0, 0.0, 1.0, float("nan"), float("nan"), float("nan"))
-    penetration, samples, shake, steps = sum(_run_handling(store, row["id"]) for row in rows)
+    penetration, samples, shake, steps = sum(_run_handling(store, session_id, row["id"]) for row in rows)
     times = [r["time_s"] for r in rows if r["status"] == "completed"]
     return Experience(
         tasks=len(rows),
