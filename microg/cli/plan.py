@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from microg.cli.common import SEED, ExistingPath, clear_errors
-from microg.cli.power import _power_errors
+from microg.cli.power import power_errors, profile_population
 
 
 @click.group("plan")
@@ -37,7 +37,7 @@ def plan() -> None:
 @click.option("--resume", is_flag=True, help="Continue the run in --out where it stopped (same settings).")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @clear_errors
-@_power_errors
+@power_errors
 def training(*, protocol: str, n_per_group: int, sims: int, out: Path, compare: str | None, profile: Path | None,
              target: float, scheduler: str | None, workers: int | None, seed: int, resume: bool, quiet: bool) -> None:
     """How many sessions of a training program until --target of its trainees are proficient, and
@@ -53,14 +53,7 @@ def training(*, protocol: str, n_per_group: int, sims: int, out: Path, compare: 
     from microg.power.program import ProgramRequest, plan_training
     from microg.study.protocol import load_protocol
 
-    population = None
-    if profile is not None:
-        from microg.participant import PopulationError, read_population
-
-        try:
-            population = read_population(profile)
-        except PopulationError as error:
-            raise click.BadParameter(str(error), param_hint="--profile") from None
+    population = profile_population(profile)
     programs = [load_protocol(protocol_file(name)) for name in [protocol] + ([compare] if compare else [])]
     problems = [p for program in programs for p in program.player_problems()] if population is None else []
     if problems:

@@ -11,7 +11,7 @@ import click
 from microg.cli.common import SEED, ExistingPath, clear_errors, renamed
 
 
-def _power_errors(command):
+def power_errors(command):
     """The power room's own errors as ``Error: <message>`` (exit status 1), without a traceback."""
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
@@ -22,6 +22,18 @@ def _power_errors(command):
         except PowerInputError as error:
             raise click.ClickException(str(error)) from None
     return wrapper
+
+
+def profile_population(profile: Path | None):
+    """The population of ``--profile`` (None without one), its errors as the option's."""
+    if profile is None:
+        return None
+    from microg.participant import PopulationError, read_population
+
+    try:
+        return read_population(profile)
+    except PopulationError as error:
+        raise click.BadParameter(str(error), param_hint="--profile") from None
 
 
 def _sizes(text: str) -> tuple:
@@ -116,7 +128,7 @@ def _effect_sizes(texts: tuple[str, ...], terms: tuple[str, ...]) -> tuple:
               "(with --within object) [default: the first phase's].")  # fmt: skip
 @renamed("--system", "--interaction")
 @clear_errors
-@_power_errors
+@power_errors
 def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path | None, simulated: bool,
           profile: Path | None, effect_sizes: tuple[str, ...], method: str | None, sensitivity: bool, correction: str | None, sims: int,
           sizes: str, out: Path, target: float, alpha: float, scheduler: str | None, workers: int | None, seed: int,
@@ -149,14 +161,7 @@ def power(*, protocol: str, within: str, effects_file: Path | None, pilot: Path 
     elif len(given) != 1:
         raise click.UsageError("give exactly one of --effects FILE, --pilot STUDY|TABLE, --effect-size, --simulated"
                                + (f" (not {' and '.join(given)})" if given else ""))
-    population = None
-    if profile is not None:
-        from microg.participant import PopulationError, read_population
-
-        try:
-            population = read_population(profile)
-        except PopulationError as error:
-            raise click.BadParameter(str(error), param_hint="--profile") from None
+    population = profile_population(profile)
     rules = load_protocol(protocol_file(protocol))
     if simulated:
         problems = rules.player_problems() if population is None else []

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import io
-import json
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,14 +35,14 @@ from tqdm import tqdm
 
 from microg.power.design import PowerInputError
 from microg.power.montecarlo import simulation_seed
-from microg.power.run import P_FORMAT, dask_client
+from microg.power.run import P_FORMAT, claim_run, dask_client
 from microg.study.progression import FinishedTask, progress
 from microg.study.protocol import Criterion, Protocol
 
 if TYPE_CHECKING:
     from microg.participant import Population
 
-RECORD, COHORTS, PLAN, PICTURE = "run.json", "cohorts.csv", "plan.csv", "plan.png"
+COHORTS, PLAN, PICTURE = "cohorts.csv", "plan.csv", "plan.png"
 COHORT_COLUMNS = ("program", "cohort", "group", "session", "session_index", "day", "criterion_phase", "trainees",
                   "proficient", "tasks_to_criterion", "time_s")
 """``cohorts.csv``: per cohort, group and session, the share of its trainees proficient, the mean
@@ -120,7 +119,7 @@ def plan_training(request: ProgramRequest, out: str | Path, scheduler: str | Non
     into ``out`` and return the plan. ``resume`` continues the run in ``out``, playing only the
     cohorts it lacks; the result does not depend on the workers or on where the run stopped."""
     out = Path(out)
-    _claim(out, request.record(), resume)
+    claim_run(out, request.record(), resume, "a plan", (COHORTS, PLAN, PICTURE))
     cohorts = out / COHORTS
     rows = {name: sum(len(program.sessions_for(g.code)) for g in program.groups)
             for name, program in request.programs.items()}
@@ -323,26 +322,6 @@ def _compute(request: ProgramRequest, missing: list[tuple[str, int]], cohorts: P
             future.release()
             bar.set_postfix_str(f"workers {len(client.scheduler_info()['workers'])}")
             bar.update(1)
-
-
-def _claim(out: Path, record: dict, resume: bool) -> None:
-    """Make ``out`` this run's folder: new, or the same run when resuming."""
-    path = out / RECORD
-    if path.exists():
-        if not resume:
-            raise PowerInputError(f"--out {out}: holds a plan already ({RECORD}); continue it with --resume or "
-                                  "choose another --out")
-        before = json.loads(path.read_text())
-        for key, value in record.items():
-            if before.get(key) != value:
-                raise PowerInputError(f"--resume: {path}: {key} differs from this run's; a run resumes only with "
-                                      "the same settings")
-        return
-    out.mkdir(parents=True, exist_ok=True)
-    for name in (COHORTS, PLAN, PICTURE):
-        if (out / name).exists():
-            raise PowerInputError(f"--out {out}: holds {name} from another run; choose another --out")
-    path.write_text(json.dumps(record, indent=2) + "\n")
 
 
 def _finished(cohorts: Path, rows: dict[str, int]) -> set[tuple[str, int]]:

@@ -205,7 +205,7 @@ def run_power(request: PowerRequest, out: str | Path, scheduler: str | None = No
     started = time.monotonic()
     out = Path(out)
     record = request.record()
-    _claim(out, record, resume)
+    claim_run(out, record, resume)
     d = request.design
     if request.sensitivity:
         from microg.power.exact import sensitivity
@@ -342,12 +342,15 @@ def _submit(client, request: PowerRequest, n: int, indices: list[int]):
                          request.measure, interaction, request.read, request.population, pure=False)  # fmt: skip
 
 
-def _claim(out: Path, record: dict, resume: bool) -> None:
-    """Make ``out`` this run's folder: new, or the same run when resuming."""
+def claim_run(out: Path, record: dict, resume: bool, what: str = "a power run",
+              outputs: tuple[str, ...] = (SIMULATIONS, POWER, SUMMARY, CURVE, SENSITIVITY)) -> None:
+    """Make ``out`` this run's folder (``what`` it holds, e.g. a power run): new, or the same run
+    when resuming (``record``, kept in ``run.json``, must match); a folder holding one of another
+    run's ``outputs`` is refused."""
     path = out / RECORD
     if path.exists():
         if not resume:
-            raise PowerInputError(f"--out {out}: holds a power run already ({RECORD}); continue it with --resume "
+            raise PowerInputError(f"--out {out}: holds {what} already ({RECORD}); continue it with --resume "
                                   "or choose another --out")
         before = json.loads(path.read_text())
         for key, value in record.items():
@@ -356,7 +359,7 @@ def _claim(out: Path, record: dict, resume: bool) -> None:
                                       f"asks for {json.dumps(value)[:200]}; a run resumes only with the same settings")
         return
     out.mkdir(parents=True, exist_ok=True)
-    for name in (SIMULATIONS, POWER, SUMMARY, CURVE, SENSITIVITY):
+    for name in outputs:
         if (out / name).exists():
             raise PowerInputError(f"--out {out}: holds {name} from another run; choose another --out")
     path.write_text(json.dumps(record, indent=2) + "\n")
