@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from microg.skeleton import Hand, HandFrame
+from microg.skeleton import Hand, HandFrame, at_tracker_precision
 from microg.sim.rotation import quat_from_euler_deg, quat_multiply, quat_to_matrix
 
 FOUND = ("start", "grasp")
@@ -41,10 +41,12 @@ class Alignment:
     """``given``, ``start`` or ``grasp``: for the log."""
 
     def hand(self, hand: Hand) -> Hand:
+        """The hand placed, at the tracker's precision (``microg.skeleton.TRACKER_FLOAT``) as it came."""
         turn = quat_to_matrix(np.asarray(self.rotation))
         offset = np.asarray(self.offset)
-        return Hand(hand.side, hand.joints @ turn.T + offset, hand.widths, turn @ hand.palm_position + offset,
-                    quat_multiply(np.asarray(self.rotation), hand.palm_orientation), hand.track_id)
+        placed = (hand.joints @ turn.T + offset, hand.widths, turn @ hand.palm_position + offset,
+                  quat_multiply(np.asarray(self.rotation), hand.palm_orientation))
+        return Hand(hand.side, *map(at_tracker_precision, placed), hand.track_id)
 
     def frame(self, frame: HandFrame) -> HandFrame:
         return HandFrame(frame.timestamp, tuple(self.hand(h) for h in frame.hands))

@@ -9,15 +9,16 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from microg.skeleton import at_tracker_precision
+
 MILLIMETRES_PER_METRE = 1000.0
 MICROSECONDS_PER_SECOND = 1e6
 
 
 def metres(millimetres) -> np.ndarray:
-    """Leap lengths (mm) in metres; anything missing or non-finite becomes NaN (unknown).
-
-    Dividing by an exact 1000 rounds correctly, so a length converts to the nearest double."""
-    values = np.asarray(millimetres, dtype=np.float64) / MILLIMETRES_PER_METRE
+    """Leap lengths (mm) in metres at the tracker's precision (``microg.skeleton.TRACKER_FLOAT``);
+    anything missing or non-finite becomes NaN (unknown)."""
+    values = at_tracker_precision(np.asarray(millimetres, dtype=np.float64) / MILLIMETRES_PER_METRE)
     return np.where(np.isfinite(values), values, np.nan)
 
 

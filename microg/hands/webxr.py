@@ -55,7 +55,7 @@ from collections import deque
 
 import numpy as np
 
-from microg.skeleton import N_BONES, SIDES, Hand, HandFrame
+from microg.skeleton import N_BONES, SIDES, Hand, HandFrame, at_tracker_precision
 
 from .units import palm_quaternion
 
@@ -95,7 +95,7 @@ def hand_from_webxr(side: str, joints, radii, track_id: int = 0) -> Hand:
     normal *= 1.0 if side == "right" else -1.0
     with np.errstate(invalid="ignore", divide="ignore"):
         orientation = palm_quaternion(normal / np.linalg.norm(normal), direction / np.linalg.norm(direction))
-    return Hand(side, skeleton, widths, palm, orientation, int(track_id))
+    return Hand(side, *map(at_tracker_precision, (skeleton, widths, palm, orientation)), int(track_id))
 
 
 class WebXRSource:

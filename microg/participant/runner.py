@@ -22,7 +22,7 @@ from numba import njit
 from numba.typed import List
 
 from microg.sim.compiled import entry_point, specialised
-from microg.skeleton import HANDS, SIDES
+from microg.skeleton import HANDS, SIDES, TRACKER_FLOAT
 from microg.task import COMPLETED, TIMEOUT, Kind, Lanes, frame_path
 
 from .actions import ALONE, GIVING, PLAYER, SEEN, STATE, TAKING_OVER
@@ -94,12 +94,13 @@ def _sense(players, seens, b, h, side, seen, task, over, loose, release):
 
 @njit(cache=True)
 def _pose(frame, side, track, joints, palm, orientation, widths):
-    """A hand of the participant's frame: its palm and joints, widths and palm orientation."""
+    """A hand of the participant's frame: its palm and joints, widths and palm orientation, at a
+    tracker's precision (``microg.skeleton.TRACKER_FLOAT``)."""
     frame.present[side], frame.track_id[side] = 1, track
-    frame.points[side, 0] = palm
-    frame.points[side, 1:] = joints.reshape((-1, 3))
-    frame.widths[side] = widths
-    frame.orientation[side] = orientation
+    frame.points[side, 0] = palm.astype(TRACKER_FLOAT)
+    frame.points[side, 1:] = joints.reshape((-1, 3)).astype(TRACKER_FLOAT)
+    frame.widths[side] = widths.astype(TRACKER_FLOAT)
+    frame.orientation[side] = orientation.astype(TRACKER_FLOAT)
 
 
 _RUN = """

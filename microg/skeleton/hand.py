@@ -36,6 +36,19 @@ MIN_PHALANX_LENGTH = 1e-4
 """Bones shorter than this (m) are not phalanges: the thumb's metacarpal is one."""
 POINTS = 1 + N_DIGITS * (N_BONES + 1)
 """A hand's palm and its 25 joints: the points a jump is measured on (``Hand.points``)."""
+TRACKER_FLOAT = np.float32
+"""The precision a hand has where it enters the frame path: a tracker's. LeapC's vectors and
+quaternions and WebXR's joint poses (a Float32Array) are 32-bit floats; what a source derives from
+them (a length in metres, a palm from joints) and the simulated participant's hands are rounded to
+it too (``at_tracker_precision``), so the frame log keeps every bit the physics received of a hand
+in 4 bytes a number (``microg.study.framelog``)."""
+
+
+def at_tracker_precision(values) -> np.ndarray:
+    """``values`` rounded to ``TRACKER_FLOAT``, held as float64 (NaN stays NaN)."""
+    return np.asarray(values, dtype=TRACKER_FLOAT).astype(np.float64)
+
+
 JUMP_DISTANCE = 0.10
 """m: how far a hand may move between two frames before it jumped (``is_jump``): 11 m/s at the Leap
 Motion's 110 Hz, faster than a hand moves. The tracking guard's and the physics' default; a protocol

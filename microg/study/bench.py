@@ -265,7 +265,8 @@ def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batche
     for codec in framelog.CODECS:
         note(f"frames stored with {codec}", stored[codec], "frames")
         note(f"{codec}: bytes per frame, every batch of the study", size[codec] / frames, "bytes")
-    note(f"{framelog.CODEC} against zstd: bytes", size[framelog.CODEC] / size["zstd"], "ratio")
+    for older in (codec for codec in framelog.CODECS if codec != framelog.CODEC):
+        note(f"{framelog.CODEC} against {older}: bytes", size[framelog.CODEC] / size[older], "ratio")
 
     runs = [run_id for (run_id,) in db.execute("SELECT DISTINCT run_id FROM frames ORDER BY run_id")]
     total = db.execute("SELECT COUNT(*) FROM frames").fetchone()[0]
@@ -304,10 +305,11 @@ def codecs(db: sqlite3.Connection, folder: Path, note, rounds: int, timed_batche
         note(f"{codec}: encode, CPU per frame", 1e6 * encode[codec] / timed, "us")
         note(f"{codec}: decode, CPU per frame", 1e6 * decode[codec] / timed, "us")
         note(f"{codec}: read a run (fetch, verify, decode), CPU per frame", 1e6 * read[codec] / timed, "us")
-    old, new = "zstd", framelog.CODEC
-    note(f"{new} against {old}: encode", encode[new] / encode[old], "ratio")
-    note(f"{new} against {old}: decode", decode[new] / decode[old], "ratio")
-    note(f"{new} against {old}: read a run", read[new] / read[old], "ratio")
+    new = framelog.CODEC
+    for old in (codec for codec in framelog.CODECS if codec != new):
+        note(f"{new} against {old}: encode", encode[new] / encode[old], "ratio")
+        note(f"{new} against {old}: decode", decode[new] / decode[old], "ratio")
+        note(f"{new} against {old}: read a run", read[new] / read[old], "ratio")
     where = batches[:400]  # where the bytes go: each field as logged, the rest as in an empty record
     counted = sum(len(b) for b in where)
     for codec in framelog.CODECS:

@@ -9,18 +9,22 @@ measure it (the rating model, exports) and to simulate it again (``hand_frames``
 
 Storage: the store commits frames a batch at a time (the protocol's ``logging.frame_batch``), so
 a batch is one row. Its blob begins with the tag of the codec that wrote it (``CODECS``), so
-batches of either codec read side by side in one study. New batches use ``blosc``: each field's
+batches of any codec read side by side in one study. New batches use ``blosc32``: each field's
 values one channel after another (a joint's x over the batch side by side, where a smooth signal
 changes little), as 4-byte words (an 8-byte number's low words apart from its high ones, a
 1-byte field a word a value), an untracked hand's fields left out (they are NaN: reading writes
-them back), then byte-shuffled and compressed with LZ4HC by Blosc (numcodecs). Batches written
-before it keep ``zstd``: the columns side by side, compressed with zstd. Both are lossless. The
-hands are kept exactly as the physics received them (float64, so a run simulates again bit for
-bit; a bone's width, constant over a track, costs next to nothing compressed); what the physics
-computed (the object's state, the rendered phalanges, timers) is kept as float32, 0.1 micrometre
-at arm's length. The joints are most of a frame's bytes: a simulated or tracked hand's float64
-carries noise to its last bits, which no lossless codec takes away (``microg bench store``
-measures where the bytes go). Each batch carries its checksum (``checksum``: SHA-256 of its place
+them back), then byte-shuffled and compressed with LZ4HC by Blosc (numcodecs); a hand field whose
+every number in the batch is a float32 number is kept as 4-byte floats (a bit per side and field
+says so). Hands enter the frame path at a tracker's precision, 32-bit floats
+(``microg.skeleton.TRACKER_FLOAT``: the Leap's and WebXR's own), so that is every hand field but
+where the tracking guard bridged a glitch (its straight line is float64). ``blosc``, the same
+without that, wrote the batches before it, ``zstd`` (the columns side by side, compressed with
+zstd) the ones before those. All are lossless: the hands are kept exactly as the physics received
+them (float64 numbers, so a run simulates again bit for bit; a bone's width, constant over a
+track, costs next to nothing compressed); what the physics computed (the object's state, the
+rendered phalanges, timers) is kept as float32, 0.1 micrometre at arm's length. The joints are
+most of a frame's bytes: a hand's noise reaches its last bits, which no lossless codec takes away
+(``microg bench store`` measures where the bytes go). Each batch carries its checksum (``checksum``: SHA-256 of its place
 in the run, its times and its blob, the codec's tag with it), written with it and verified by
 every ``read``, so a damaged batch is never decoded as if it were sound; the ledger
 (``microg.study.ledger``) chains the checksums with the rest of the log.
@@ -61,10 +65,10 @@ FRAME = np.dtype([
 """One logged frame; per-side fields are indexed left (0), right (1). Untracked: NaN, ``tracked`` False."""
 HAND_FIELDS = ("joints", "widths", "palm_position", "palm_orientation", "rendered")
 """The per-side fields that are NaN where a hand was not tracked."""
-CODECS = {"zstd": b"\x28\xb5\x2f\xfd", "blosc": b"MGF2"}
+CODECS = {"zstd": b"\x28\xb5\x2f\xfd", "blosc": b"MGF2", "blosc32": b"MGF3"}
 """Each codec's tag, the first bytes of its blobs (``zstd``'s is the zstd frame's own magic number:
 its blobs were written before codecs had tags)."""
-CODEC = "blosc"
+CODEC = "blosc32"
 """The codec ``encode`` writes new batches with."""
 
 
@@ -107,8 +111,12 @@ def _untracked() -> np.ndarray:
 UNTRACKED = _untracked()
 """A record's bytes with every hand field NaN, as ``frames_of`` writes an untracked hand."""
 TRACKED = FRAME.fields["tracked"][1]
-PREFIX = struct.Struct("<4s?")
-"""``blosc``'s prefix: its tag and whether the untracked hands are left out (they were ``UNTRACKED``'s)."""
+BLOSC_PREFIX = {"blosc": struct.Struct("<4s?"), "blosc32": struct.Struct("<4s?B")}
+"""Each Blosc codec's prefix: its tag, whether the untracked hands are left out (they were
+``UNTRACKED``'s), and for ``blosc32`` the bits of the hand spans kept as 4-byte floats (``NARROWABLE``)."""
+NARROWABLE = tuple(span for spans in HAND_SPANS for span in spans if span.size == 8)
+"""The hands' 8-byte spans (each side's joints, widths, palm position and orientation), in the
+order of ``blosc32``'s bits."""
 BLOSC = Blosc(cname="lz4hc", clevel=2, shuffle=Blosc.SHUFFLE)
 """Byte-shuffled 4-byte words, then LZ4HC (Blosc's level 2). zstd in its place saved 3 % of the
 bytes and took a third longer to decode, longer than the old codec (measured with ``microg bench
@@ -120,21 +128,54 @@ def encode(frames: np.ndarray, codec: str = CODEC) -> bytes:
     if codec == "zstd":
         columns = b"".join(np.ascontiguousarray(frames[name]).tobytes() for name in FRAME.names)
         return pa.compress(columns, codec="zstd", asbytes=True)
-    if codec != "blosc":
+    if codec not in BLOSC_PREFIX:
         raise ValueError(f"codec = {codec!r}: microg writes frame batches with one of {', '.join(CODECS)}")
     records = np.ascontiguousarray(frames).view(np.uint8).reshape(len(frames), FRAME.itemsize)
     tracked = records[:, TRACKED:TRACKED + len(SIDES)] != 0
     left_out = _untracked_as_written(records, tracked)
     parts = _parts(_kept(tracked) if left_out else [slice(None)] * len(SIDES), len(records))
-    words = np.empty(sum(_words(spans, count) for _, spans, count in parts), "<i4")
+    narrowed = _narrowable(records, parts) if codec == "blosc32" else 0
+    words = np.empty(sum(_words(spans, count, narrowed) for _, spans, count in parts), "<i4")
     at = 0
     for rows, spans, count in parts:
         held = records if isinstance(rows, slice) else records[rows]
         for span in spans:
-            view = _view(held, span)
-            words[at:at + view.size].reshape(view.shape)[...] = view
+            if _narrow(span, narrowed):
+                view = words[at:at + span.width // 8 * len(held)].view("<f4").reshape(-1, len(held))
+                view[...] = _values(held, span)
+            else:
+                view = _view(held, span)
+                words[at:at + view.size].reshape(view.shape)[...] = view
             at += view.size
-    return PREFIX.pack(CODECS["blosc"], left_out) + (BLOSC.encode(words) if len(words) else b"")
+    prefix = BLOSC_PREFIX[codec]
+    head = prefix.pack(CODECS[codec], left_out, *((narrowed,) if codec == "blosc32" else ()))
+    return head + (BLOSC.encode(words) if len(words) else b"")
+
+
+def _values(records: np.ndarray, span: Span) -> np.ndarray:
+    """A span of 8-byte floats in ``FRAME`` records' bytes as (channels, frames) float64, a view."""
+    return np.ndarray((span.width // 8, len(records)), "<f8", records, span.offset, (8, FRAME.itemsize))
+
+
+def _narrow(span: Span, narrowed: int) -> bool:
+    """Whether ``blosc32`` stores the hand span as 4-byte floats (its bit in ``narrowed``)."""
+    return span in NARROWABLE and bool(narrowed >> NARROWABLE.index(span) & 1)
+
+
+def _narrowable(records: np.ndarray, parts) -> int:
+    """The bits (``NARROWABLE``'s order) of the hand spans whose every stored value is a float32
+    number, so that ``blosc32`` keeps all of its bits in 4 bytes (NaN's bits included)."""
+    bits = 0
+    for rows, spans, _ in parts:
+        held = records if isinstance(rows, slice) else records[rows]
+        for span in spans:
+            if span in NARROWABLE and len(held):
+                values = _values(held, span)
+                with np.errstate(over="ignore"):  # a number beyond float32's range is not one
+                    narrow = values.astype("<f4").astype("<f8")
+                if np.array_equal(narrow.view("<i8"), values.view("<i8")):
+                    bits |= 1 << NARROWABLE.index(span)
+    return bits
 
 
 def _untracked_as_written(records: np.ndarray, tracked: np.ndarray) -> bool:
@@ -163,10 +204,10 @@ def _parts(kept: Sequence, count: int) -> list[tuple[slice | np.ndarray, tuple[S
     return [part for part in parts if part[2]]
 
 
-def _words(spans: Sequence[Span], count: int) -> int:
+def _words(spans: Sequence[Span], count: int, narrowed: int = 0) -> int:
     """How many 4-byte words ``blosc`` stores for the spans over ``count`` frames (a 1-byte
-    element takes a word of its own)."""
-    return count * sum(span.width // min(span.size, 4) for span in spans)
+    element takes a word of its own, an 8-byte float ``narrowed`` one)."""
+    return count * sum(span.width // (8 if _narrow(span, narrowed) else min(span.size, 4)) for span in spans)
 
 
 def _view(records: np.ndarray, span: Span) -> np.ndarray:
@@ -204,11 +245,12 @@ def decode(blob: bytes, count: int) -> np.ndarray:
                                          offset=offset).reshape((count,) + field.shape)
             offset += size
         return frames
-    if len(blob) < PREFIX.size:
-        raise ValueError(f"blosc: {len(blob)} bytes, fewer than its prefix's {PREFIX.size}")
-    left_out = PREFIX.unpack_from(blob)[1]
+    prefix = BLOSC_PREFIX[codec_of(blob)]
+    if len(blob) < prefix.size:
+        raise ValueError(f"blosc: {len(blob)} bytes, fewer than its prefix's {prefix.size}")
+    left_out, narrowed = (prefix.unpack_from(blob)[1:] + (0,))[:2]
     try:
-        words = np.frombuffer(BLOSC.decode(memoryview(blob)[PREFIX.size:]) if len(blob) > PREFIX.size else b"",
+        words = np.frombuffer(BLOSC.decode(memoryview(blob)[prefix.size:]) if len(blob) > prefix.size else b"",
                               "<i4")
     except RuntimeError as error:  # what numcodecs raises for a buffer Blosc cannot read
         raise ValueError(f"blosc: does not decompress ({error})") from None
@@ -219,12 +261,16 @@ def decode(blob: bytes, count: int) -> np.ndarray:
     parts = _parts([slice(None)] * len(SIDES), count)[:1]  # the whole frame's fields say where the hands are
     while parts:
         rows, spans, length = parts.pop(0)
-        if at + _words(spans, length) > len(words):
+        if at + _words(spans, length, narrowed) > len(words):
             raise ValueError(f"blosc: {len(words)} words, too few for {count} frames")
         held = records if isinstance(rows, slice) else records[rows]
         for span in spans:
-            view = _view(held, span)
-            view[...] = words[at:at + view.size].reshape(view.shape)
+            if _narrow(span, narrowed):
+                view = _values(held, span)
+                view[...] = words[at:at + view.size].view("<f4").reshape(view.shape)
+            else:
+                view = _view(held, span)
+                view[...] = words[at:at + view.size].reshape(view.shape)
             at += view.size
         if not isinstance(rows, slice):
             records[rows] = held

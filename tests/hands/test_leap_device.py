@@ -135,10 +135,13 @@ def test_a_tracking_event_becomes_a_frame_with_its_values_in_si_units():
     frame = frame_from_event(event(12_439_534_551, [right, left]))
     assert frame.timestamp == 12_439.534551
     assert [h.side for h in frame.hands] == ["left", "right"]  # frames keep hands left first
+    def metres(millimetres):  # at the tracker's precision, 32-bit floats
+        return (millimetres / 1000).astype(np.float32).astype(np.float64)
+
     for hand, values in ((frame.hand("right"), r), (frame.hand("left"), lv)):
-        assert np.array_equal(hand.joints, values["joints"] / 1000)
-        assert np.array_equal(hand.widths, values["widths"] / 1000)
-        assert np.array_equal(hand.palm_position, values["palm"] / 1000)
+        assert np.array_equal(hand.joints, metres(values["joints"]))
+        assert np.array_equal(hand.widths, metres(values["widths"]))
+        assert np.array_equal(hand.palm_position, metres(values["palm"]))
         x, y, z, w = values["quaternion_xyzw"]
         assert hand.palm_orientation == pytest.approx([w, x, y, z])
     assert frame.hand("right").track_id == 41 and frame.hand("left").track_id == 42

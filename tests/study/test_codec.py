@@ -70,8 +70,9 @@ def test_a_real_recording_replayed_through_a_session_reads_back_bit_for_bit(tmp_
     handed = logging_batches(monkeypatch)
     run("session", "run", study, "--participant", "P01", "--input", f"replay:{manifest}", "--quiet")
     frames = assert_read_back(study, handed)
-    assert stored_codecs(study) == {"blosc"}
+    assert stored_codecs(study) == {framelog.CODEC}
     assert frames["tracked"].any() and not frames["tracked"].all(), "a hand tracked, and one the codec leaves out"
+    assert_hands_in_four_bytes(study)
 
 
 def test_a_simulated_run_reads_back_bit_for_bit(tmp_path, monkeypatch):
@@ -83,7 +84,21 @@ def test_a_simulated_run_reads_back_bit_for_bit(tmp_path, monkeypatch):
     run("session", "run", study, "--participant", "P01", "--input", "simulated:veteran", "--questionnaire", "skip",
         "--quiet")
     frames = assert_read_back(study, handed)
-    assert stored_codecs(study) == {"blosc"} and frames["tracked"].any() and frames["grasped"].any()
+    assert stored_codecs(study) == {framelog.CODEC} and frames["tracked"].any() and frames["grasped"].any()
+    assert_hands_in_four_bytes(study)
+
+
+def assert_hands_in_four_bytes(study: Path) -> None:
+    """Every stored batch keeps its tracked hands' 8-byte numbers in 4 bytes: they entered at the
+    tracker's precision (``microg.skeleton.TRACKER_FLOAT``)."""
+    with sqlite3.connect(study / "study.db") as db:
+        for count, blob in db.execute("SELECT count, data FROM frames"):
+            frames = framelog.decode(blob, count)
+            narrowed = framelog.BLOSC_PREFIX[framelog.CODEC].unpack_from(blob)[2]
+            sides = [s for s in range(len(framelog.SIDES)) if frames["tracked"][:, s].any()]
+            expected = sum(1 << i for i, span in enumerate(framelog.NARROWABLE) for s in sides
+                           if span in framelog.HAND_SPANS[s])
+            assert narrowed == expected, (count, narrowed, expected)
 
 
 def some_frames(n: int = 40) -> np.ndarray:
@@ -99,9 +114,19 @@ def some_frames(n: int = 40) -> np.ndarray:
 
 
 @pytest.mark.parametrize("change", ["as written", "untracked zero", "untracked other NaN", "all tracked",
-                                    "none tracked", "one frame", "no frames"])
+                                    "none tracked", "one frame", "no frames", "tracker precision",
+                                    "one number beyond it"])
 def test_every_bit_of_a_batch_comes_back(change):
     frames = some_frames()
+    if change in ("tracker precision", "one number beyond it"):
+        for field in ("joints", "widths", "palm_position", "palm_orientation"):
+            with np.errstate(over="ignore"):
+                frames[field] = frames[field].astype(np.float32)
+        if change == "one number beyond it":
+            frames["joints"][3, 0, 2, 1, 0] = 0.1  # not a float32 number: the left joints stay 8 bytes
+        narrowed = framelog.BLOSC_PREFIX[framelog.CODEC].unpack_from(framelog.encode(frames))[2]
+        kept_whole = {0} if change == "one number beyond it" else set()
+        assert {i for i in range(len(framelog.NARROWABLE)) if not narrowed >> i & 1} == kept_whole
     if change == "untracked zero":  # an untracked hand that is not what frames_of writes is kept as it is
         frames["joints"][~frames["tracked"]] = 0.0
     elif change == "untracked other NaN":
@@ -117,7 +142,7 @@ def test_every_bit_of_a_batch_comes_back(change):
     elif change == "no frames":
         frames = frames[:0]
     blob = framelog.encode(frames)
-    assert framelog.codec_of(blob) == "blosc"
+    assert framelog.codec_of(blob) == framelog.CODEC
     assert framelog.decode(blob, len(frames)).tobytes() == frames.tobytes()
     shuffled = frames[::-1]  # not contiguous in memory
     assert framelog.decode(framelog.encode(shuffled), len(frames)).tobytes() == shuffled.tobytes()
@@ -131,28 +156,30 @@ def test_a_blob_that_is_not_whole_is_an_error_that_says_so():
     with pytest.raises(ValueError, match=r"blosc: \d+ words, (too few for|not the \d+ of) 41 frames"):
         framelog.decode(blob, len(frames) + 1)
     with pytest.raises(ValueError, match=r"starts with b'\\x00mgf', the tag of no codec this microg reads \(zstd, "
-                                         r"blosc\): written by a newer microg, or damaged"):
+                                         r"blosc, blosc32\): written by a newer microg, or damaged"):
         framelog.decode(b"\x00mgf" + blob[4:], len(frames))
 
 
-def test_a_study_with_old_codec_batches_opens_checks_exports_and_resimulates_as_before(tmp_path, monkeypatch):
+@pytest.mark.parametrize("old_codec", ["zstd", "blosc"])
+def test_a_study_with_old_codec_batches_opens_checks_exports_and_resimulates_as_before(tmp_path, monkeypatch,
+                                                                                       old_codec):
     study = tmp_path / "study"
     run("study", "init", study, "--protocol", PROTOCOLS / "tiny.toml", "--seed", "5")
     for participant in ("P01", "P02"):
         run("participant", "add", study, "--id", participant, "--gender", "male", "--age", "22", "--handedness",
             "right", "--mr-experience", "no")
     handed = logging_batches(monkeypatch)
-    with monkeypatch.context() as old:  # P01's session as the microg before the codec tags wrote it
-        old.setattr(framelog, "encode", functools.partial(framelog.encode, codec="zstd"))
+    with monkeypatch.context() as old:  # P01's session as an earlier microg wrote it
+        old.setattr(framelog, "encode", functools.partial(framelog.encode, codec=old_codec))
         run("session", "run", study, "--participant", "P01", "--input", "simulated:veteran", "--questionnaire",
             "skip", "--quiet")
-    assert stored_codecs(study) == {"zstd"}
+    assert stored_codecs(study) == {old_codec}
     with sqlite3.connect(study / "study.db") as db:
         blob = db.execute("SELECT data FROM frames LIMIT 1").fetchone()[0]
-    assert blob[:4] == b"\x28\xb5\x2f\xfd", "the old batches are plain zstd frames, as before"
+    assert old_codec != "zstd" or blob[:4] == b"\x28\xb5\x2f\xfd", "the oldest batches are plain zstd frames"
     run("session", "run", study, "--participant", "P02", "--input", "simulated:veteran", "--questionnaire", "skip",
         "--quiet")
-    assert stored_codecs(study) == {"zstd", "blosc"}
+    assert stored_codecs(study) == {old_codec, framelog.CODEC}
     assert_read_back(study, handed)
     assert "sound" in run("study", "check", study)
 
@@ -179,7 +206,7 @@ def test_study_check_finds_a_damaged_new_batch(tmp_path):
     with sqlite3.connect(study / "study.db", isolation_level=None) as db:
         run_id, first, count, t_first, t_last, blob = db.execute(
             "SELECT run_id, first, count, t_first, t_last, data FROM frames ORDER BY run_id, first LIMIT 1").fetchone()
-        assert framelog.codec_of(blob) == "blosc"
+        assert framelog.codec_of(blob) == framelog.CODEC
         flipped = bytearray(blob)
         flipped[len(blob) // 2] ^= 0x10
         cut = blob[:len(blob) - 9]  # sound by a checksum made for it: found when it is decoded
