@@ -24,10 +24,10 @@ them (float64 numbers, so a run simulates again bit for bit; a bone's width, con
 track, costs next to nothing compressed); what the physics computed (the object's state, the
 rendered phalanges, timers) is kept as float32, 0.1 micrometre at arm's length. The joints are
 most of a frame's bytes: a hand's noise reaches its last bits, which no lossless codec takes away
-(``microg bench store`` measures where the bytes go). Each batch carries its checksum (``checksum``: SHA-256 of its place
-in the run, its times and its blob, the codec's tag with it), written with it and verified by
-every ``read``, so a damaged batch is never decoded as if it were sound; the ledger
-(``microg.study.ledger``) chains the checksums with the rest of the log.
+(``microg bench store`` measures where the bytes go). Each batch carries its checksum
+(``checksum``: SHA-256 of its place in the run, its times and its blob, the codec's tag with it),
+written with it and verified by every ``read``, so a damaged batch is never decoded as if it were
+sound; the ledger (``microg.study.ledger``) chains the checksums with the rest of the log.
 """
 
 from __future__ import annotations
