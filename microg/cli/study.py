@@ -181,8 +181,9 @@ def check(study_dir: str, heads: tuple[str, ...]) -> None:
               help="A new folder for the station's study (copy it to the station's machine); to make a station.")
 @click.option("--participant", "participants", multiple=True,
               help="A participant the station may run (repeat); default: every active participant with no session "
-                   "here and given to no station yet. With --give-up: a participant to take back (default: every "
-                   "one of the station's whose session was not merged).")
+                   "here and given to no station yet (a trainee who ran sessions is named: they go with them). With "
+                   "--give-up: a participant to take back (default: every one of the station's with a session left "
+                   "to run).")
 @click.option("--give-up", "give", is_flag=True,
               help="Instead, give up the station NAME made before: take its participants back (or those named with "
                    "--participant) so that they can run here or at another station; a merge of the station leaves "
@@ -202,7 +203,7 @@ def station(study_dir: str, name: str, out_dir: str | None, participants: tuple[
             back = give_up(central, name, participants, reason)
         click.echo(f"took {', '.join(back)} back from station {name}: run them here (microg session run "
                    f"{study_dir} --participant {back[0]} ...) or make another station for them")
-        click.echo(f"  a merge of station {name} leaves its sessions of {', '.join(back)} out (they stay in its folder)")
+        click.echo(f"  a merge of station {name} leaves its new sessions of {', '.join(back)} out (they stay in its folder)")
         return
     if out_dir is None:
         raise click.UsageError("give --out FOLDER for the station's study (or --give-up to give a station up)")
@@ -212,7 +213,11 @@ def station(study_dir: str, name: str, out_dir: str | None, participants: tuple[
         with make_station(central, name, out_dir=out_dir, participants=participants,
                           say=lambda text: click.echo(text, err=True)) as made:
             people = [p.id for p in made.participants()]
+            carried = {pid: [s.name for s in made.sessions_of(pid)] for pid in people}
     click.echo(f"made station {name} in {out_dir}: it may run {', '.join(people)}")
+    for pid, names in carried.items():
+        if names:
+            click.echo(f"  {pid}'s sessions run so far went with them: {', '.join(names)}")
     click.echo(f"next, on the station: microg session run {out_dir} --participant {people[0]} --input ...; then "
                f"here: microg study merge {study_dir} {out_dir}")
 
@@ -225,8 +230,9 @@ def merge(study_dir: str, station_dirs: tuple[str, ...]) -> None:
     """Bring the ended sessions of the stations' studies STATION_DIRS into the central study
     STUDY_DIR: append-only, in one transaction, idempotent (a session merged before adds nothing),
     each session keeping its station and when it was merged; withdrawals at a station carry over.
-    Both sides' integrity is checked; any conflict (another protocol, a participant run at two
-    stations, a session that differs from the one merged before) is listed and nothing is merged."""
+    A trainee's sessions carried to a station with them are recognised as this study's own. Both
+    sides' integrity is checked; any conflict (another protocol, one session run at two stations, a
+    session that differs from the one merged before) is listed and nothing is merged."""
     with open_study(study_dir) as central:
         outcomes = merge_stations(central, station_dirs)
         head = ledger.head_of(central.db)
@@ -235,6 +241,9 @@ def merge(study_dir: str, station_dirs: tuple[str, ...]) -> None:
                                                                else "")]
         if outcome.already:
             parts.append(f"{len(outcome.already)} merged before, unchanged ({', '.join(outcome.already)})")
+        if outcome.carried:
+            parts.append(f"{len(outcome.carried)} given to the station from here, unchanged "
+                         f"({', '.join(outcome.carried)})")
         if outcome.withdrawn:
             parts.append(f"withdrew {', '.join(outcome.withdrawn)} as at the station")
         click.echo(f"station {outcome.station} ({outcome.folder}): " + "; ".join(parts))

@@ -12,17 +12,26 @@ centrally; groups and orders are decided centrally, so the balance holds across 
 station enrols nobody. The central study records the station in ``stations`` (its name, its
 participants, when it was made) and the station's study holds the same row.
 
+A trainee of a training program who ran sessions already (in the central study, or at a station
+and merged back) may be handed to a station for their next ones: their earlier sessions are
+carried to the station's study whole (``_carry``: rows, runs, events, answers, frames, as the
+central study holds them, station and merge time included), so the station knows their schedule
+(the next session is due ``after_days`` after the last one), their session number (which makes
+the session's seed) and their practice (the simulated participant's).
+
 Merging (``merge_stations``) brings every ended session of each station into the central store:
 the session, its planned tasks, its task runs, events, answers and frame batches, each row as the
 station wrote it (new ids; a frame batch's blob as it is, its checksum computed again for its new
 run), with the station's name and the merge's time on the session (``sessions.station``,
 ``sessions.merged_at``). A participant withdrawn at the station is withdrawn centrally too, with the
 station's time and reason. It is append-only and idempotent: a session merged before is compared
-with the station's, whole (``session_content``), and adds nothing when it is the same. It refuses,
-naming every conflict and merging nothing: a study that is not a station of this one, another
-protocol, an enrolment that differs from the central one, a participant run at two stations (or
-centrally and at a station), a session that differs from the one merged before from its station.
-Sessions still running at a station are left for a later merge and said so.
+with the station's, whole (``session_content``), and adds nothing when it is the same; so is a
+session carried to the station, which must be the central study's. It refuses, naming every
+conflict and merging nothing: a study that is not a station of this one, another protocol, an
+enrolment that differs from the central one, one session of a participant run at two stations (or
+centrally and at a station), a session that differs from the one merged before from its station,
+a carried session that differs from the central study's. Sessions still running at a station are
+left for a later merge and said so.
 
 Both sides are checked: a station is opened with the integrity check (a damaged one is refused),
 each of its frame batches is verified against its checksum as it is copied, and the central
@@ -32,7 +41,8 @@ overtook between its plan and its transaction plans again inside it.
 
 A participant handed to a station runs there: the central study refuses to run them
 (``Store.check_runs_here``) until the station gives them back (``give_up``: a ``station_give_ups``
-row, sealed); a merge then leaves the station's sessions and withdrawals of them out, naming them.
+row, sealed; a trainee whose sessions were merged from it too, while a session of their program is
+left); a merge then leaves the station's new sessions and withdrawals of them out, naming them.
 """
 
 from __future__ import annotations
@@ -50,6 +60,7 @@ from typing import Sequence
 from . import framelog, ledger
 from .assignment import ParticipantError
 from .protocol import ONE_SESSION
+from .schedule import ScheduleError, choose_session, next_session
 from .store import Store, StoreError, check_integrity, create_study, open_study, utc_now
 
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,31}")
@@ -76,14 +87,17 @@ class Station:
 
 @dataclass
 class StationMerge:
-    """What a merge did with one station: participants whose sessions it merged now, had merged
-    before (the same), left for later (still running at the station), withdrawals it carried, and
-    participants taken back from the station (``give_up``) whose session or withdrawal there it left out."""
+    """What a merge did with one station: sessions it merged now, had merged before (the same),
+    found the central study's own (carried to the station with their trainee: the same), each named
+    by participant (and session, in a training program); participants left for later (still running
+    at the station), withdrawals it carried, and participants taken back from the station
+    (``give_up``) whose session or withdrawal there it left out."""
 
     station: str
     folder: Path
     merged: list[str] = field(default_factory=list)
     already: list[str] = field(default_factory=list)
+    carried: list[str] = field(default_factory=list)
     running: list[str] = field(default_factory=list)
     withdrawn: list[str] = field(default_factory=list)
     given_up: list[str] = field(default_factory=list)
@@ -119,7 +133,8 @@ def make_station(central: Store, name: str, *, out_dir: str | Path, participants
                  say=print) -> Store:
     """A station's study in the new folder ``out_dir`` (module docstring) that may run
     ``participants`` (default: every active participant with no session in the central study and
-    given to no station yet); recorded in the central study. Returns the station's open store."""
+    given to no station yet; a trainee with sessions is named), with a trainee's earlier sessions;
+    recorded in the central study. Returns the station's open store."""
     out_dir = Path(out_dir)
     if central.station is not None:
         raise StoreError(f"{central.dir} is station {central.station}'s study; stations are made from the central "
@@ -134,11 +149,12 @@ def make_station(central: Store, name: str, *, out_dir: str | Path, participants
         raise FileExistsError(f"{out_dir} exists and is not an empty folder; a station's study is made in a new one")
     given = {pid: s.name for s in made.values() for pid in set(s.participants) - set(given_up(central.db, s.name))}
     if participants:
-        chosen = _chosen(central, participants)
+        chosen = _chosen(central, name, participants)
         for pid in chosen:
             if pid in given:
-                say(f"warning: {pid} was given to station {given[pid]} too: run them at one station only (the merge "
-                    "refuses a participant run at two)")
+                say(f"warning: {pid} was given to station {given[pid]} too: run each of their sessions at one station "
+                    "only (the merge refuses a session run at two), or take them back from it first: microg study "
+                    f"station {central.dir} --name {given[pid]} --give-up --participant {pid}")
     else:
         chosen = [p.id for p in central.participants() if p.status == "active"
                   and central.session_of(p.id) is None and p.id not in given]
@@ -157,6 +173,13 @@ def make_station(central: Store, name: str, *, out_dir: str | Path, participants
                 db.execute(f"INSERT INTO participants ({', '.join(columns)}) VALUES ({', '.join('?' * len(columns))})",
                            tuple(_enrolment(central.db, pid)))
                 ledger.seal(db, "participant", pid)
+            for pid in chosen:
+                for session in central.sessions_of(pid):
+                    _carry(db, central, session, name)
+            problems = check_integrity(db, out_dir, snapshot=False)
+            if problems:
+                raise StoreError(f"{out_dir}: station {name}'s study would not be sound, so it was not made:\n"
+                                 + "\n".join(f"  - {p}" for p in problems))
         with central.transaction() as db:
             _insert_station(db, station)
     except BaseException:
@@ -179,8 +202,10 @@ def _empty(folder: Path, remove: bool) -> None:
             path.unlink(missing_ok=True)
 
 
-def _chosen(central: Store, participants: Sequence[str]) -> list[str]:
-    """The named participants, by enrolment number, each active with no session in the central study."""
+def _chosen(central: Store, name: str, participants: Sequence[str]) -> list[str]:
+    """The named participants, by enrolment number, each active with a session left to run: no
+    session in the central study, or a trainee whose next session is not under way
+    (``schedule.choose_session``)."""
     records = []
     for pid in dict.fromkeys(participants):
         record = central.participant(pid)
@@ -188,16 +213,29 @@ def _chosen(central: Store, participants: Sequence[str]) -> list[str]:
             raise ParticipantError(f"participant {pid} is withdrawn from study {central.name!r}; a station runs active "
                                    "participants only")
         session = central.session_of(pid)
-        if session is not None:
+        if session is not None and not central.protocol.program:
             where = "" if _session_station(central.db, session.id)[0] is None else " (merged from a station)"
-            if central.protocol.program:
-                raise ParticipantError(f"participant {pid} ran session {session.name!r} in study {central.name!r}"
-                                       f"{where}: a trainee runs the whole program at one place for now, here or "
-                                       "at a station given them before their first session")
             raise ParticipantError(f"participant {pid} already has session {session.id} ({session.status}) in study "
                                    f"{central.name!r}{where}; a session is never run twice")
+        if session is not None:
+            try:
+                choose_session(central.protocol, pid, record.group, [s.sitting for s in central.sessions_of(pid)],
+                               None)
+            except ScheduleError as error:
+                raise ParticipantError(f"--participant {pid}: not handed to station {name}: {error} (in study "
+                                       f"{central.name!r})") from None
         records.append(record)
     return [r.id for r in sorted(records, key=lambda r: r.number)]
+
+
+def _carry(db: sqlite3.Connection, central: Store, session, name: str) -> None:
+    """Copy a trainee's ended session from the central study into station ``name``'s study ``db``,
+    as the central study holds it (its station and merge time too)."""
+    try:
+        _copy_session(db, central.db, session.id, _session_station(central.db, session.id)[1])
+    except framelog.DamagedFramesError as error:
+        raise StoreError(f"participant {session.participant_id}'s session {session.name!r} cannot go to station "
+                         f"{name}: {error}; nothing was made. See: microg study check {central.dir}") from None
 
 
 def _session_station(db: sqlite3.Connection, session_id: int) -> tuple[str | None, str | None]:
@@ -210,11 +248,11 @@ def _session_station(db: sqlite3.Connection, session_id: int) -> tuple[str | Non
 
 def give_up(central: Store, name: str, participants: Sequence[str] = (), reason: str | None = None) -> list[str]:
     """Take back from station ``name`` the ``participants`` (default: every one of its participants
-    whose session was not merged from it and who was not taken back before): the central study may
-    run them (or hand them to another station), and a merge of the station leaves its sessions and
-    withdrawals of them out, naming them. A participant whose session was merged from the station
-    stays merged; one named that was not the station's, was merged or was taken back before is
-    refused. Returns the participants taken back."""
+    with a session left to run and not taken back before): the central study may run them (or hand
+    them to another station), and a merge of the station leaves its new sessions and withdrawals of
+    them out, naming them. Sessions merged from the station stay merged; a participant named that
+    was not the station's, was taken back before, or whose last session was merged from it with
+    none left to run (a trainee's program run through) is refused. Returns the participants taken back."""
     if central.station is not None:
         raise StoreError(f"{central.dir} is station {central.station}'s study; a station is given up in the central "
                          "study that made it")
@@ -224,9 +262,19 @@ def give_up(central: Store, name: str, participants: Sequence[str] = (), reason:
                          f"{', '.join(made) or 'none'})")
     station = made[name]
     back = given_up(central.db, name)
-    merged = dict(central.db.execute("SELECT participant_id, merged_at FROM sessions WHERE station = ?", (name,)))
-    why = {pid: f"{pid}'s session was merged from station {name} on {merged[pid]}: it stays in the study"
-           for pid in station.participants if pid in merged}
+    why = {}
+    for pid in station.participants:
+        sessions = central.sessions_of(pid)
+        if not sessions or next_session(central.protocol, central.participant(pid).group,
+                                        [s.sitting for s in sessions]) is not None:
+            continue
+        last = sessions[-1]
+        ran_at, merged_at = _session_station(central.db, last.id)
+        if ran_at == name:
+            which = f" {last.name!r}" if central.protocol.program else ""
+            ran = " (the last of their program)" if central.protocol.program else ""
+            why[pid] = (f"{pid}'s session{which} was merged from station {name} on {merged_at}{ran}: it stays in the "
+                        "study, and no session is left to run")
     why |= {pid: f"{pid} was taken back from station {name} on {back[pid]}" for pid in station.participants
             if pid in back}
     if participants:
@@ -398,6 +446,12 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
                 plan.outcome.withdrawn.append(person.id)
         for session in (side.session(r[0]) for r in side.db.execute("SELECT id FROM sessions ORDER BY id")):
             pid = session.participant_id
+            theirs = central.session_of(pid, session.name)
+            ran_here = _session_station(side.db, session.id)[0] == side.station
+            if theirs is not None and session.status != "running" and \
+                    session_content(central.db, theirs.id) == session_content(side.db, session.id):
+                (plan.outcome.already if ran_here else plan.outcome.carried).append(_label(session))
+                continue
             if pid in back:
                 if pid not in plan.outcome.given_up:
                     plan.outcome.given_up.append(pid)
@@ -405,15 +459,21 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
             if session.status == "running":
                 plan.outcome.running.append(pid)
                 continue
+            if not ran_here:
+                found = "the central study holds no such session" if theirs is None else \
+                    f"it differs from the central study's (session {theirs.id})"
+                conflicts.append(f"participant {pid}'s session{_named(session)} went to {where} with them from the "
+                                 f"central study, but {found}: the station was not made from the central study as it "
+                                 "is (put back from another copy?)")
+                continue
             if (pid, session.name) in claimed:
                 conflicts.append(f"participant {pid}{_named(session)} was run at {claimed[pid, session.name]} and at "
                                  f"{where}: a session is run once")
                 continue
             claimed[pid, session.name] = where
-            theirs = central.session_of(pid, session.name)
             if theirs is None:
                 plan.sessions.append(session.id)
-                plan.outcome.merged.append(pid)
+                plan.outcome.merged.append(_label(session))
                 continue
             station, merged_at = _session_station(central.db, theirs.id)
             if station is None:
@@ -422,12 +482,10 @@ def _plan(central: Store, sides: list[Store]) -> tuple[list[_Plan], list[str]]:
             elif station != side.station:
                 conflicts.append(f"participant {pid}{_named(session)} was run at station {station} (merged "
                                  f"{merged_at}) and at {where}: a session is run once")
-            elif session_content(central.db, theirs.id) != session_content(side.db, session.id):
-                conflicts.append(f"participant {pid}'s session{_named(session)} at {where} differs from the one merged from station "
-                                 f"{station} on {merged_at} (central session {theirs.id}): the station's study was "
-                                 "changed or made anew since")
             else:
-                plan.outcome.already.append(pid)
+                conflicts.append(f"participant {pid}'s session{_named(session)} at {where} differs from the one merged "
+                                 f"from station {station} on {merged_at} (central session {theirs.id}): the station's "
+                                 "study was changed or made anew since")
     return plans, conflicts
 
 
@@ -436,9 +494,15 @@ def _named(session) -> str:
     return "" if session.name == ONE_SESSION else f" (session {session.name!r})"
 
 
-def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id: int, merged_at: str) -> int:
-    """Write the station's session ``session_id`` (from its database ``source``) into ``db`` as it was
-    written there, each row sealed in the ledger; returns the new session's id. Rows go in as a
+def _label(session) -> str:
+    """A session as a merge's outcome lists it: ``P01``, or ``P01 train1`` in a training program."""
+    return session.participant_id if session.name == ONE_SESSION else f"{session.participant_id} {session.name}"
+
+
+def _copy_session(db: sqlite3.Connection, source: sqlite3.Connection, session_id: int, merged_at: str | None) -> int:
+    """Write the session ``session_id`` of another study (its database ``source``: a station's, or
+    the central study's for a trainee handed to a station) into ``db`` as it was written there,
+    with ``merged_at``, each row sealed in the ledger; returns the new session's id. Rows go in as a
     session writes them (the store's triggers take nothing else): the session and its runs open,
     their frames, events and answers, then the runs' results and the session's end."""
     s = source.execute("SELECT * FROM sessions WHERE id = ?", (session_id,)).fetchone()

@@ -230,13 +230,14 @@ def test_motion_bids_names_each_session_and_counts_an_objects_repeated_runs(prog
     assert [name.rsplit("_run-", 1)[1] for name in trained] == [f"{k}_motion.tsv" for k in range(1, len(trained) + 1)]
 
 
-def test_a_trainee_who_ran_a_session_here_is_not_handed_to_a_station(program, tmp_path):
+def test_a_trainee_who_ran_the_whole_program_is_not_handed_to_a_station(program, tmp_path):
+    """(A trainee with sessions left goes to a station with their earlier sessions: test_stations.py.)"""
     from microg.study.assignment import ParticipantError
     from microg.study.stations import make_station
 
     with open_study(program[0]) as store:
-        with pytest.raises(ParticipantError, match="participant P01 ran session 'retention' in study .*: a trainee "
-                                                   "runs the whole program at one place for now"):
+        with pytest.raises(ParticipantError, match=r"--participant P01: not handed to station B: participant P01 has "
+                                                   r"run every session of the program \(pretest, "):
             make_station(store, "B", out_dir=tmp_path / "station", participants=["P01"])
     assert not (tmp_path / "station").exists()
 

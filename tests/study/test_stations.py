@@ -4,6 +4,7 @@ refuses conflicts naming them, and a merge killed with SIGKILL leaves the centra
 
 from __future__ import annotations
 
+import datetime
 import hashlib
 import os
 import shutil
@@ -18,11 +19,12 @@ import pytest
 from click.testing import CliRunner
 
 from microg.cli import main
-from microg.study import ledger
+from microg.study import ledger, open_inputs
 from microg.study.assignment import Participant
 from microg.study.export import export_study
 from microg.study.protocol import load_protocol
-from microg.study.session import SimulationClock, run_session
+from microg.study.session import SimulationClock, earlier_sessions, run_session
+from microg.study.stations import session_content
 from microg.study.store import DATABASE, StoreError, create_study, open_study
 
 from .conftest import PROTOCOLS, scripted_inputs
@@ -302,3 +304,188 @@ def test_a_merge_overtaken_by_another_plans_again_and_merges_nothing_twice(tmp_p
     with open_study(central, readonly=True) as store:
         assert store.db.execute("SELECT COUNT(*) FROM sessions").fetchone()[0] == 1
     assert "sound" in ok("study", "check", central)
+
+
+# ---------------------------------------------------------------- a trainee's sessions at several places
+
+MONDAY = datetime.date(2027, 3, 1)
+"""The lab's calendar of P03, who runs their first session centrally on a Monday."""
+
+
+def refusal(action) -> str:
+    """What ``action`` was refused with (a StoreError)."""
+    with pytest.raises(StoreError) as refused:
+        action()
+    return str(refused.value)
+
+
+def on_the_lab_calendar(study: Path, participant: str, day: datetime.date, **asked) -> None:
+    """Run ``participant``'s next session on ``day`` of the lab's calendar, played by the simulated participant."""
+    with open_study(study) as store:
+        inputs = open_inputs("simulated", store.protocol.group(store.participant(participant).group))
+        session = store.create_session(participant, input_spec="leap", simulated=False, clock="wall", today=day,
+                                       **asked)
+        run_session(store, session.id, inputs, clock=SimulationClock())
+
+
+@pytest.fixture(scope="module")
+def trainees(tmp_path_factory) -> dict:
+    """The toy program (train1, then retention a week later) run at several places. Centrally, P01
+    runs train1 on the simulated calendar and P03 on a Monday of the lab's calendar; station B gets
+    P01 (with their train1) and P02 (no session yet), station C gets P03. B runs P01's retention and
+    P02's train1; C refuses P03's retention three days after the Monday, then runs it with
+    ``ignore_schedule``. Kept: the central study before the merge (``before``: a copy, its state,
+    its ledger head, P01's train1), what each step said, and ``single``: P01 run through in one study
+    with the same seed."""
+    root = tmp_path_factory.mktemp("trainees")
+    central = enrolled(root / "central", protocol="program-toy")
+    single = enrolled(root / "single", protocol="program-toy")
+    said = {"central": ok("session", "run", central, "--participant", "P01", "--input", "simulated", "--quiet")}
+    for _ in range(2):
+        ok("session", "run", single, "--participant", "P01", "--input", "simulated", "--quiet")
+    on_the_lab_calendar(central, "P03", MONDAY)
+    said["B"] = ok("study", "station", central, "--name", "B", "--out", root / "b", "--participant", "P01",
+                   "--participant", "P02")
+    said["C"] = ok("study", "station", central, "--name", "C", "--out", root / "c", "--participant", "P03")
+    said["held"] = cli("session", "run", central, "--participant", "P01", "--input", "simulated")
+    said["at B"] = ok("session", "run", root / "b", "--all", "--input", "simulated", "--quiet")
+    thursday = MONDAY + datetime.timedelta(days=3)
+    with open_study(root / "c") as store:
+        said["early"] = refusal(lambda: store.create_session("P03", input_spec="leap", simulated=False, clock="wall",
+                                                             today=thursday))
+    on_the_lab_calendar(root / "c", "P03", thursday, ignore_schedule=True)
+    with open_study(central, readonly=True) as store:
+        train1 = session_content(store.db, store.session_of("P01", "train1").id)
+        head = ledger.head_of(store.db)
+    before = copied(central, root / "before")
+    said["merge"] = ok("study", "merge", central, root / "b", root / "c")
+    return {"central": central, "b": root / "b", "c": root / "c", "single": single, "before": before,
+            "state": state(before), "head": head, "train1": train1, "said": said}
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)  # the toy's catch kind compiles on a cold numba cache; a bound against a hang
+def test_a_trainee_runs_their_next_session_at_a_station_and_the_merge_brings_back_only_it(trainees, tmp_path):
+    central, said = trainees["central"], trainees["said"]
+    assert "P01's sessions run so far went with them: train1" in said["B"] and "P02's" not in said["B"]
+    assert "P03's sessions run so far went with them: train1" in said["C"]
+    assert "session 'retention' of P01: completed" in said["at B"] and "session 'train1' of P02" in said["at B"]
+    assert f"station B ({trainees['b']}): merged 2 session(s) (P01 retention, P02 train1); 1 given to the station " \
+           "from here, unchanged (P01 train1)" in said["merge"]
+    assert f"station C ({trainees['c']}): merged 1 session(s) (P03 retention); 1 given to the station from here, " \
+           "unchanged (P03 train1)" in said["merge"]
+
+    with open_study(central, readonly=True) as store, open_study(trainees["b"], readonly=True) as b, \
+            open_study(trainees["single"], readonly=True) as single:
+        sessions = store.sessions_of("P01")
+        rows = [tuple(r) for r in store.db.execute("SELECT name, session_index, station, merged_at IS NOT NULL "
+                                                   "FROM sessions WHERE participant_id = 'P01' ORDER BY id")]
+        assert rows == [("train1", 1, None, 0), ("retention", 2, "B", 1)]
+        assert session_content(store.db, sessions[0].id) == trainees["train1"]  # train1 as it was
+        assert session_content(store.db, sessions[1].id) == session_content(b.db, b.session_of("P01", "retention").id)
+        # the station knew P01's first session: the due date a week after it, the second session's seed and practice
+        alone = single.sessions_of("P01")
+        assert [(s.date, s.due, s.seed) for s in sessions] == [(s.date, s.due, s.seed) for s in alone]
+        assert sessions[1].due == sessions[0].date + datetime.timedelta(days=7)
+        assert earlier_sessions(store, sessions[1]) == earlier_sessions(single, alone[1]) and \
+            earlier_sessions(store, sessions[1])[0][1] > 0
+    for study in (central, trainees["b"], trainees["c"]):
+        assert "sound" in ok("study", "check", study)
+    assert "sound" in ok("study", "check", central, "--head", str(trainees["head"]))  # the chain only grew
+
+    export_study(central, tmp_path / "merged", progress=False, say=lambda text: None, frames=False, bids=False)
+    export_study(trainees["single"], tmp_path / "one", progress=False, say=lambda text: None, frames=False, bids=False)
+    progression = pd.read_csv(tmp_path / "merged" / "progression.csv")
+    assert set(map(tuple, progression[["participant", "session"]].values)) == {
+        ("P01", "train1"), ("P01", "retention"), ("P02", "train1"), ("P03", "train1"), ("P03", "retention")}
+    merged, one = (pd.read_csv(folder / "trials.csv") for folder in (tmp_path / "merged", tmp_path / "one"))
+    assert merged.groupby("session")["station"].unique().map(list).to_dict()["retention"] == ["B", "C"]
+    keep = [c for c in one.columns if c not in ("station", "session_id")]
+    pd.testing.assert_frame_equal(merged[merged.participant == "P01"][keep].reset_index(drop=True),
+                                  one[keep].reset_index(drop=True))  # as if P01 had run both here
+
+    before = state(central)
+    again = ok("study", "merge", central, trainees["c"], trainees["b"])
+    assert "merged 0 session(s); 2 merged before, unchanged (P01 retention, P02 train1); 1 given to the station " \
+           "from here, unchanged (P01 train1)" in again
+    assert state(central) == before
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)
+def test_a_station_keeps_the_schedule_and_the_central_study_keeps_its_hands_off(trainees):
+    """C refused P03's retention before its day, naming the date, and ran it with ``ignore_schedule``
+    (logged); the central study refuses to run P01 and P02 while B has them, before the merge and after
+    (P02's retention is left to run at B)."""
+    assert "participant P03's session 'retention' is due on 2027-03-08 (7 day(s) after their session 'train1' " \
+           "on 2027-03-01)" in trainees["said"]["early"] and "--ignore-schedule" in trainees["said"]["early"]
+    held = trainees["said"]["held"]
+    assert held.exit_code == 1 and "participant P01 was handed to station B on 20" in held.output
+    with open_study(trainees["central"], readonly=True) as store:
+        retention = store.session_of("P03", "retention")
+        assert (retention.date, retention.due, retention.ignored_schedule) == (
+            MONDAY + datetime.timedelta(days=3), MONDAY + datetime.timedelta(days=7), True)
+        assert [e.data for e in store.events(retention.id) if e.kind == "schedule_ignored"] == [
+            {"session": "retention", "due": "2027-03-08", "date": "2027-03-04"}]
+    refused = cli("session", "run", trainees["central"], "--participant", "P02", "--input", "simulated")
+    assert refused.exit_code == 1 and "participant P02 was handed to station B" in refused.output  # merged, still B's
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)
+def test_one_session_run_at_two_stations_is_refused_naming_trainee_session_and_both(trainees, tmp_path):
+    central = copied(trainees["before"], tmp_path / "central")
+    made = cli("study", "station", central, "--name", "D", "--out", tmp_path / "d", "--participant", "P01")
+    assert made.exit_code == 0 and "P01 was given to station B too" in made.output
+    assert "--name B --give-up --participant P01" in made.output
+    ok("session", "run", tmp_path / "d", "--participant", "P01", "--input", "simulated", "--quiet")
+    before = state(central)
+    refused = cli("study", "merge", central, trainees["b"], tmp_path / "d")
+    assert refused.exit_code == 1 and "1 conflict(s)" in refused.output
+    assert f"participant P01 (session 'retention') was run at station B ({trainees['b']}) and at station D " \
+           f"({tmp_path / 'd'}): a session is run once" in refused.output
+    assert state(central) == before
+    ok("study", "merge", central, trainees["b"])
+    refused = cli("study", "merge", central, tmp_path / "d")
+    assert refused.exit_code == 1 and "participant P01 (session 'retention') was run at station B (merged 20" \
+        in refused.output and f"and at station D ({tmp_path / 'd'})" in refused.output
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(1800)
+def test_a_trainee_is_taken_back_for_the_sessions_left_and_a_finished_one_is_not(trainees, tmp_path):
+    """After the merge P01 has run the whole program (B's retention merged): not taken back, not
+    handed again. P02 (train1 merged from B) is taken back, runs retention here, and B's own
+    retention of P02 is left out of a later merge; train1 stays merged."""
+    central = copied(trainees["central"], tmp_path / "central")
+    b = copied(trainees["b"], tmp_path / "b")
+    refused = cli("study", "station", central, "--name", "B", "--give-up", "--participant", "P01")
+    assert refused.exit_code == 1 and "P01's session 'retention' was merged from station B on 20" in refused.output
+    assert "(the last of their program): it stays in the study, and no session is left to run" in refused.output
+    refused = cli("study", "station", central, "--name", "E", "--out", tmp_path / "e", "--participant", "P01")
+    assert refused.exit_code == 1 and "--participant P01: not handed to station E: participant P01 has run every " \
+        "session of the program (train1, retention)" in refused.output
+    assert not (tmp_path / "e").exists()
+
+    said = ok("study", "station", central, "--name", "B", "--give-up")  # everyone of B's with a session left
+    assert "took P02 back from station B" in said
+    ok("session", "run", central, "--participant", "P02", "--input", "simulated", "--quiet")
+    ok("session", "run", b, "--participant", "P02", "--input", "simulated", "--quiet")
+    merged = state(central)
+    said = ok("study", "merge", central, b)
+    assert "merged 0 session(s); 2 merged before, unchanged (P01 retention, P02 train1)" in said
+    assert "taken back from the station (study station --give-up), not merged: P02" in said
+    assert state(central) == merged and "sound" in ok("study", "check", central)
+    with open_study(central, readonly=True) as store:
+        assert [(s.name, store.db.execute("SELECT station FROM sessions WHERE id = ?", (s.id,)).fetchone()[0])
+                for s in store.sessions_of("P02")] == [("train1", "B"), ("retention", None)]
+
+
+def test_a_trainee_whose_session_is_under_way_here_is_not_handed_to_a_station(tmp_path):
+    central = enrolled(tmp_path / "central", protocol="program-toy")
+    with open_study(central) as store:
+        store.create_session("P04", input_spec="scripted", simulated=True, clock="simulation")
+    refused = cli("study", "station", central, "--name", "F", "--out", tmp_path / "f", "--participant", "P04")
+    assert refused.exit_code == 1 and "--participant P04: not handed to station F: participant P04's session " \
+        "'train1' is running (not ended); continue it with: microg session resume" in refused.output
+    assert not (tmp_path / "f").exists()
