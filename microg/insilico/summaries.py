@@ -8,6 +8,9 @@ group, phase, interaction model and object), and what is taken over the particip
   of the measure over the selected tasks;
 - ``ratio``: the mean over participants in the selection over the mean in ``versus`` (an effect:
   beginners over veterans, the flat cuboid over the cube);
+- ``paired``: the same ratio over the same people: the participants with tasks in both selections
+  only (a training program's retest over its post-test: the trainees' own change across the gap,
+  free of most of the differences between them);
 - ``slope``: the practice curve, the mean over participants of the slope of log time against
   log(1 + tasks done before) over their completed tasks (the power law of practice: -rate).
 
@@ -24,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 MEASURES = ("time_s", "attempts", "completed")
-STATISTICS = ("mean", "sd", "ratio", "slope")
+STATISTICS = ("mean", "sd", "ratio", "paired", "slope")
 WHERE = ("group", "session", "phase", "interaction", "object")
 """The columns a selection may name, in the order keys show them."""
 RESOLUTION = {"time_s": 0.5, "attempts": 0.05, "completed": 0.02, "slope": 0.02, "ratio": 0.02}
@@ -45,11 +48,16 @@ class Statistic:
     """A ratio's denominator selection."""
 
     @property
+    def compares(self) -> bool:
+        """Whether it is a ratio of two selections (``ratio`` or ``paired``), compared on the log scale."""
+        return self.statistic in ("ratio", "paired")
+
+    @property
     def key(self) -> str:
         """How calibration.csv, the printout and ``--hold-out`` name it, e.g.
         ``time_s.mean[group=V,phase=stage1,object=C]`` or ``attempts.ratio[group=B]/[group=V]``."""
         text = f"{self.measure}.{self.statistic}[{_selection(self.where)}]"
-        return text + (f"/[{_selection(self.versus)}]" if self.statistic == "ratio" else "")
+        return text + (f"/[{_selection(self.versus)}]" if self.compares else "")
 
 
 def _selection(where: tuple[tuple[str, str], ...]) -> str:
@@ -58,8 +66,11 @@ def _selection(where: tuple[tuple[str, str], ...]) -> str:
 
 def participant_cells(trials: pd.DataFrame) -> pd.DataFrame:
     """Each participant's tasks as they count: one row per task that ran, with the participant's
-    group, the task's session (a training program's; ``main`` otherwise), phase, interaction model,
-    object, ``tasks_done`` (tasks before it in the session) and its ``time_s`` (NaN unless completed), ``attempts`` and ``completed`` (0 or 1).
+    group, the task's session (a training program's; ``main`` otherwise) and its place among the
+    participant's sessions (``session_index``, from 1; without that column, the order in which the
+    sessions first appear in the table), phase, interaction model, object, ``tasks_done`` (tasks
+    before it in the session) and its ``time_s`` (NaN unless completed), ``attempts`` and
+    ``completed`` (0 or 1).
 
     Examples
     --------
@@ -77,10 +88,14 @@ def participant_cells(trials: pd.DataFrame) -> pd.DataFrame:
     if "status" in ran:
         ran = ran[~ran["status"].isin(["not_run", "skipped"])]
     completed = ran["completed"].fillna(False).astype(bool)
+    session = ran["session"].astype(str) if "session" in ran else pd.Series("main", index=ran.index)
+    order = (pd.to_numeric(ran["session_index"]).astype(float) if "session_index" in ran
+             else session.map({name: i + 1.0 for i, name in enumerate(session.unique())}))
     return pd.DataFrame({
         "participant": ran["participant"].astype(str),
         "group": ran["group"].astype(str),
-        "session": ran["session"].astype(str) if "session" in ran else "main",
+        "session": session,
+        "session_index": order,
         "phase": ran["phase"].astype(str),
         "interaction": ran["interaction"].astype(str),
         "object": ran["object"].astype(str),
@@ -120,7 +135,7 @@ def participant_values(cells: pd.DataFrame, statistics) -> pd.DataFrame:
             columns[s.key] = _slopes(cells[selected(s.where)]).reindex(people).to_numpy()
             continue
         columns[s.key] = means(s.where, s.measure)
-        if s.statistic == "ratio":
+        if s.compares:
             columns[f"{s.key}/versus"] = means(s.versus, s.measure)
     return pd.DataFrame(columns, index=pd.Index(people, name="participant"))
 
@@ -148,8 +163,11 @@ def aggregate(values: pd.DataFrame, statistics) -> np.ndarray:
         column = values[s.key].dropna()
         if s.statistic == "sd":
             out[i] = column.std(ddof=1) if len(column) >= 2 else np.nan
-        elif s.statistic == "ratio":
+        elif s.compares:
             denominator = values[f"{s.key}/versus"].dropna()
+            if s.statistic == "paired":
+                both = column.index.intersection(denominator.index)
+                column, denominator = column[both], denominator[both]
             if len(column) and len(denominator) and denominator.mean() > 0:
                 out[i] = column.mean() / denominator.mean()
         elif len(column):
@@ -202,7 +220,8 @@ def study_statistics(trials: pd.DataFrame) -> list[Statistic]:
     attempts, per group x phase the completion rate, and per group the practice slope (only where
     at least two participants have a value, so that every SD is defined). A training program's
     cells are per group x session x phase instead (over its objects): each session's level is what
-    carries practice kept and lost across days."""
+    carries practice kept and lost across days; and a phase a group runs in several sessions gives
+    its time in each session over its time in the session before, the same trainees' (``session_ratios``)."""
     cells = participant_cells(trials)
     program = cells["session"].nunique() > 1
     wanted = []
@@ -214,7 +233,9 @@ def study_statistics(trials: pd.DataFrame) -> list[Statistic]:
         for measure in ("time_s", "attempts"):
             if rows.dropna(subset=[measure])["participant"].nunique() >= 2:
                 wanted += [Statistic(measure, "mean", where), Statistic(measure, "sd", where)]
-    if not program:
+    if program:
+        wanted += session_ratios(cells)
+    else:
         for (group, phase), rows in cells.groupby(["group", "phase"], sort=True):
             if rows["participant"].nunique() >= 2:
                 where = (("group", group), ("phase", phase), ("interaction", rows["interaction"].iloc[0]))
@@ -222,6 +243,27 @@ def study_statistics(trials: pd.DataFrame) -> list[Statistic]:
     for group, rows in cells.groupby("group", sort=True):
         if _slopes(rows).notna().sum() >= 2:
             wanted.append(Statistic("time_s", "slope", (("group", group),)))
+    return wanted
+
+
+def session_ratios(cells: pd.DataFrame) -> list[Statistic]:
+    """For each group and each phase it runs in more than one session: the ``paired`` ratio of the
+    phase's time in each session over its time in the group's session before that ran it (a
+    retest over the post-test, a training day over the one before), where at least two participants
+    have a time in both: the trainees' own change across the gap (how much practice they kept is
+    the forgetting's signal), free of most of the differences between people that the sessions'
+    levels carry."""
+    done = cells.dropna(subset=["time_s"])
+    wanted = []
+    for (group, phase), rows in done.groupby(["group", "phase"], sort=True):
+        order = rows.groupby("session")["session_index"].min().sort_values().index
+        people = rows.groupby("session")["participant"].agg(set)
+        interaction = rows["interaction"].iloc[0]
+        for before, after in zip(order[:-1], order[1:]):
+            if len(people[before] & people[after]) >= 2:
+                cell = [(("group", group), ("session", session), ("phase", phase), ("interaction", interaction))
+                        for session in (after, before)]
+                wanted.append(Statistic("time_s", "paired", *cell))
     return wanted
 
 
@@ -238,9 +280,8 @@ def bootstrap_se(trials: pd.DataFrame, statistics, seed: int, resamples: int = 2
     for b in range(resamples):
         rows = np.concatenate([rng.choice(m, size=len(m)) for m in members])
         draws[b] = aggregate(values.iloc[rows].reset_index(drop=True), statistics)
-    kinds = [("ratio" if s.statistic == "ratio" else "slope" if s.statistic == "slope" else s.measure)
-             for s in statistics]  # fmt: skip
-    logged = np.array([s.statistic == "ratio" for s in statistics])
+    kinds = [("ratio" if s.compares else "slope" if s.statistic == "slope" else s.measure) for s in statistics]
+    logged = np.array([s.compares for s in statistics])
     with np.errstate(divide="ignore", invalid="ignore"):
         draws[:, logged] = np.log(draws[:, logged])
         spread = np.nanstd(draws, axis=0, ddof=1)

@@ -83,9 +83,9 @@ class Target:
 
     def z(self, simulated: float) -> float:
         """How many standard errors the simulated value is from the target (0: on target)."""
-        if not math.isfinite(simulated) or (self.statistic.statistic == "ratio" and simulated <= 0):
+        if not math.isfinite(simulated) or (self.statistic.compares and simulated <= 0):
             return MISSING_Z
-        if self.statistic.statistic != "ratio":
+        if not self.statistic.compares:
             return (simulated - self.value) / self.se
         gap = math.log(simulated) - math.log(self.value)
         if self.direction == "above":

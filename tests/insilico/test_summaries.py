@@ -140,3 +140,32 @@ def test_a_pilot_program_shows_each_session_level():
     assert not any("object=" in key for key in keys)
     values = dict(zip(keys, summarise(trials, statistics)["value"]))
     assert values["time_s.mean[group=B,session=retention,phase=test,interaction=m]"] == (20.0 + 26.0) / 2
+
+
+def test_a_phase_repeated_across_sessions_gives_the_same_trainees_change():
+    """A test repeated in later sessions gives, per group, its time in each session over the session
+    before (the sessions in the trainees' order, ``session_index``, not by name), over the trainees
+    who have a time in both: P3, who timed out on the retest, counts in neither mean of that ratio."""
+    times = {"P1": (10.0, 15.0, 12.0), "P2": (12.0, 16.0, 14.0), "P3": (8.0, None, 9.0)}
+    rows = []
+    for person, tests in times.items():
+        rows.append([person, "T", "training", "m", "C", True, 20.0, 0, 0, "completed", False, "post", 1])
+        for index, (session, time) in enumerate(zip(("post", "fortnight", "month"), tests)):
+            rows.append([person, "T", "test", "m", "C", time is not None, time, 0, int(index == 0), "completed"
+                         if time is not None else "timeout", False, session, index + 1])
+    trials = pd.DataFrame(rows, columns=["participant", "group", "phase", "interaction", "object", "completed",
+                                         "time_s", "attempts", "task_index", "status", "withdrawn", "session",
+                                         "session_index"])
+    statistics = [s for s in study_statistics(trials) if s.statistic == "paired"]
+    cell = "group=T,session={},phase=test,interaction=m"
+    assert [s.key for s in statistics] == [
+        f"time_s.paired[{cell.format('fortnight')}]/[{cell.format('post')}]",
+        f"time_s.paired[{cell.format('month')}]/[{cell.format('fortnight')}]"]  # training runs in one session only
+    values = summarise(trials, statistics)["value"]
+    assert values[0] == pytest.approx((15.0 + 16.0) / 2 / ((10.0 + 12.0) / 2))
+    assert values[1] == pytest.approx((12.0 + 14.0) / 2 / ((15.0 + 16.0) / 2))
+    # a ratio of the same selections over whoever has a time in each: P3 in the post-test's mean
+    unpaired = Statistic("time_s", "ratio", statistics[0].where, statistics[0].versus)
+    assert summarise(trials, [unpaired])["value"][0] == pytest.approx((15.0 + 16.0) / 2 / ((10.0 + 12.0 + 8.0) / 3))
+    se = bootstrap_se(trials, statistics, seed=2)
+    assert np.all(se >= RESOLUTION["ratio"]) and np.all(np.isfinite(se))
