@@ -183,10 +183,11 @@ def apply_impulses(p, s, o, rot, springs, h):
     with penetration ``springs``, as at their time of impact (module docstring). Returns True when
     that moved the object."""
     count, held = 0, False
+    impulse, onset, active = s.impulse, s.onset, s.active
     for k in range(SLOTS):
-        s.impulse[k, o] = 0.0
-        count += s.onset[k, o]
-        held |= s.active[k, o] and not s.onset[k, o]
+        impulse[k, o] = 0.0
+        count += onset[k, o]
+        held |= active[k, o] and not onset[k, o]
     if count == 0:
         return False
     velocity, angular_velocity = row(s.velocity, o), row(s.angular_velocity, o)
