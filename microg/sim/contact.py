@@ -255,19 +255,18 @@ def out_of_reach(p, s, o, reach):
 
 @kernel
 def apart(s, o):
-    """What ``detect`` finds of object o with no phalanx near it: no contact, no onset, and a
-    ghost phalanx has left it."""
+    """What ``detect`` finds of object o, in contact with no phalanx, when no phalanx is near it:
+    still no contact, no onset, and a ghost phalanx has left it."""
+    valid, ghost, onset, active, depth, normal_velocity = s.valid, s.ghost, s.onset, s.active, s.depth, \
+        s.normal_velocity
     for k in range(SLOTS):
-        if not s.valid[k]:
-            s.active[k, o] = False
-            s.ghost[k, o] = False
-        elif s.ghost[k, o]:
-            s.ghost[k, o] = False
-        else:
-            s.onset[k, o] = False
-            s.active[k, o] = False
-            s.depth[k, o] = 0.0
-            s.normal_velocity[k, o] = 0.0
+        looked_at = valid[k] and not ghost[k, o]
+        active[k, o] = False
+        ghost[k, o] = False
+        if looked_at:
+            onset[k, o] = False
+            depth[k, o] = 0.0
+            normal_velocity[k, o] = 0.0
 
 
 @kernel
