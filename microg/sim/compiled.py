@@ -19,6 +19,10 @@ Recipe:
 
 - *A state field* (something of a world that changes): one line in ``microg.sim.state.FIELDS``
   (name, buffer, shape); kernels read it as ``s.name``, Python as ``world.data.name``.
+- *A loop over the phalanges that writes the state*: read the fields it uses into locals before
+  it (``active, onset = s.active, s.onset``): a field read through ``s`` after a write is read
+  again from the state's memory, its pointer and shape each time (the compiler cannot tell that
+  the write left them alone); a loop that only looks pays nothing for ``s.``.
 - *A parameter* (a number of the scene): one line in ``microg.sim.state.PARAMETERS`` (name, buffer,
   shape, where ``make_model`` takes it from); kernels read it as ``p.name``, Python as
   ``world.model.name``.

@@ -37,6 +37,9 @@ from .vec import (add, cell, cross, dot, kernel, mat_t_vec, mat_vec, norm, quat_
                   row, scale, set_cell, sub)
 
 SEPARATING, RESTING, COLLIDING = 1, 0, -1
+REACH_SLACK = math.sqrt(3.0)
+"""How far past an object's bounding radius, in phalanx radii, the object grown by a phalanx
+reaches (a box's corner grown by rho along each axis: sqrt(3) rho)."""
 
 
 @kernel
@@ -195,6 +198,75 @@ def detect(p, s, o, rot, anchored, mesh):
                 set_cell(anchor, k, o, point)
                 set_cell(normal, k, o, surface_normal)
         s.normal_velocity[k, o] = normal_velocity(s, o, rot, k) if active[k, o] else 0.0
+
+
+@kernel
+def hand_reach(s):
+    """The box (its low and high corners) that holds every tracked phalanx's centre at the end of
+    this step and of the step before, the largest phalanx radius (NaN where a centre is not
+    finite: then no object is out of reach) and how many phalanges are tracked: what the broad
+    phase (``out_of_reach``) tests each object against."""
+    low, high = (math.inf, math.inf, math.inf), (-math.inf, -math.inf, -math.inf)
+    rho, total, tracked = 0.0, 0.0, 0
+    for k in range(SLOTS):
+        if not s.valid[k]:
+            continue
+        tracked += 1
+        rho = max(rho, s.radius[k])
+        now, before = row(s.hand_position, k), row(s.hand_previous, k)
+        total += now[0] + now[1] + now[2] + before[0] + before[1] + before[2]
+        low = (min(low[0], now[0], before[0]), min(low[1], now[1], before[1]), min(low[2], now[2], before[2]))
+        high = (max(high[0], now[0], before[0]), max(high[1], now[1], before[1]), max(high[2], now[2], before[2]))
+    return low, high, rho if math.isfinite(total) else math.nan, tracked
+
+
+@kernel
+def out_of_reach(p, s, o, reach):
+    """The broad phase: True when object o (a box or a sphere) has no contact and no phalanx's path
+    this step can come within its radius of it, so that ``sweep`` and ``detect`` would find
+    nothing (``apart`` does what ``detect`` does then).
+
+    Every point of a path ``sweep`` tests, put back in the world at the object's present pose, lies
+    within h |v| + h |omega| (|hand a step ago - centre| + h |v|) of the segment between the
+    phalanx's two centres (the object turns back by at most h |omega|), so within that of the
+    ``hand_reach`` box; the object grown by a phalanx's radius rho lies within |half size| +
+    sqrt(3) rho of its centre (a box's slab test grows it by rho along each axis; a sphere's
+    radius + rho is less). A mesh's parts grown face by face reach further at sharp corners: a
+    mesh is always looked at."""
+    if p.shape[o] == MESH:
+        return False
+    for k in range(SLOTS):
+        if s.active[k, o]:
+            return False
+    low, high, rho, tracked = reach
+    if tracked == 0:
+        return True
+    x = row(s.position, o)
+    nearest = (max(low[0] - x[0], 0.0, x[0] - high[0]), max(low[1] - x[1], 0.0, x[1] - high[1]),
+               max(low[2] - x[2], 0.0, x[2] - high[2]))
+    farthest = norm((max(abs(x[0] - low[0]), abs(x[0] - high[0])), max(abs(x[1] - low[1]), abs(x[1] - high[1])),
+                     max(abs(x[2] - low[2]), abs(x[2] - high[2]))))
+    h = s.clock[CLOCK_DRIFT]
+    drift = h * norm(row(s.velocity, o))
+    carried = drift + h * norm(row(s.angular_velocity, o)) * (farthest + drift)
+    radius = norm(row(p.half_size, o)) if p.shape[o] == BOX else p.half_size[o, 0]
+    return norm(nearest) - carried > radius + REACH_SLACK * rho + 1e-9 * (1.0 + farthest)
+
+
+@kernel
+def apart(s, o):
+    """What ``detect`` finds of object o, in contact with no phalanx, when no phalanx is near it:
+    still no contact, no onset, and a ghost phalanx has left it."""
+    valid, ghost, onset, active, depth, normal_velocity = s.valid, s.ghost, s.onset, s.active, s.depth, \
+        s.normal_velocity
+    for k in range(SLOTS):
+        looked_at = valid[k] and not ghost[k, o]
+        active[k, o] = False
+        ghost[k, o] = False
+        if looked_at:
+            onset[k, o] = False
+            depth[k, o] = 0.0
+            normal_velocity[k, o] = 0.0
 
 
 @kernel

@@ -96,9 +96,9 @@ def move_hand(s, previous_frame_time, frame_time, time, h):
     a new step starts with no contact onsets."""
     interval = frame_time - previous_frame_time
     alpha = 1.0 if interval <= 0 else min(1.0, (time + h - previous_frame_time) / interval)
+    previous, position, start, end = s.hand_previous, s.hand_position, s.hand_from, s.hand_to
+    s.onset[:, :] = False  # one fill (row by row, it was a call to memset per slot)
     for k in range(SLOTS):
-        for o in range(s.onset.shape[1]):
-            s.onset[k, o] = False
-        set_row(s.hand_previous, k, row(s.hand_position, k))
-        start = row(s.hand_from, k)
-        set_row(s.hand_position, k, add(start, scale(alpha, sub(row(s.hand_to, k), start))))
+        set_row(previous, k, row(position, k))
+        first = row(start, k)
+        set_row(position, k, add(first, scale(alpha, sub(row(end, k), first))))

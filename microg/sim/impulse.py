@@ -182,13 +182,16 @@ def apply_impulses(p, s, o, rot, springs, h):
     """Eqs. 9-15 for the contacts with object o that began colliding this step, solved together;
     with penetration ``springs``, as at their time of impact (module docstring). Returns True when
     that moved the object."""
-    count, held = 0, False
+    impulse, onset = s.impulse, s.onset
+    count = 0
     for k in range(SLOTS):
-        s.impulse[k, o] = 0.0
-        count += s.onset[k, o]
-        held |= s.active[k, o] and not s.onset[k, o]
+        impulse[k, o] = 0.0
+        count += onset[k, o]
     if count == 0:
         return False
+    held = False
+    for k in range(SLOTS):
+        held |= s.active[k, o] and not onset[k, o]
     velocity, angular_velocity = row(s.velocity, o), row(s.angular_velocity, o)
     inverse_inertia = conjugated(rot, (1.0 / p.inertia[o, 0], 1.0 / p.inertia[o, 1], 1.0 / p.inertia[o, 2]))
     slots = np.empty(count, dtype=np.int64)

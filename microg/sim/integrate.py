@@ -83,19 +83,19 @@ def update_velocity(p, s, o, rot, wrench, stiffness, damping, h):
         u = solve6(stiffness, wrench)
         set_row(s.velocity, o, (u[0], u[1], u[2]))
         set_row(s.angular_velocity, o, (u[3], u[4], u[5]))
-    for i in range(6):
-        wrench[i] = 0.0
-        for j in range(6):
-            stiffness[i, j] = damping[i, j] = 0.0
+    wrench[:] = 0.0
+    stiffness[:, :] = 0.0
+    damping[:, :] = 0.0
 
 
 @kernel
 def _any(matrix):
+    """Whether any entry is not 0 (all of them looked at: a loop without an early exit is vectorised)."""
+    found = False
     for i in range(6):
         for j in range(6):
-            if matrix[i, j] != 0.0:
-                return True
-    return False
+            found |= matrix[i, j] != 0.0
+    return found
 
 
 @kernel

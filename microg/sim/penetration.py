@@ -73,9 +73,10 @@ def friction_cone(p, s, o, rot, mesh):
     the tangential pull is phi times the normal one."""
     position = row(s.position, o)
     mu, phi = p.static_friction[o], p.dynamic_friction[o]
+    sliding, active = s.sliding, s.active
     for k in range(SLOTS):
-        s.sliding[k, o] = False
-        if not s.active[k, o]:
+        sliding[k, o] = False
+        if not active[k, o]:
             continue
         anchor, normal = cell(s.anchor, k, o), cell(s.normal, k, o)
         _, delta, tangential = spring_offset(rot, position, row(s.hand_position, k), s.radius[k], anchor, normal)
@@ -85,7 +86,7 @@ def friction_cone(p, s, o, rot, mesh):
             anchor, normal = project_on_face(mesh, o, p.shape[o], row(p.half_size, o), moved, normal)
             set_cell(s.anchor, k, o, anchor)
             set_cell(s.normal, k, o, normal)
-            s.sliding[k, o] = True
+            sliding[k, o] = True
 
 
 @kernel
@@ -99,8 +100,9 @@ def penetration_forces(p, s, o, rot, friction, wrench, stiffness, h, mesh, under
     gamma = p.penetration_stiffness
     position = row(s.position, o)
     velocity, angular_velocity = row(s.velocity, o), row(s.angular_velocity, o)
+    active = s.active
     for k in range(SLOTS):
-        if not s.active[k, o]:
+        if not active[k, o]:
             continue
         hand, radius = row(s.hand_position, k), s.radius[k]
         anchor, normal = cell(s.anchor, k, o), cell(s.normal, k, o)

@@ -6,7 +6,10 @@ timestamp; ``step_worlds`` runs it for each world of a batch. A step moves the h
 once, the paper's sequence: contacts (Eqs. 2-8), impulses at the onsets (Eqs. 9-15), the friction
 cone (Eqs. 19-20), the penetration springs (Eqs. 16-18), the compliant contacts, gravity, the
 velocity update and the pose update. Objects never touch each other, so one object's step needs
-nothing of another's.
+nothing of another's. An object that no phalanx can reach this step (the box around the hand's
+phalanges, now and a step ago, against the object's bounding sphere and its motion:
+``contact.out_of_reach``) skips the contact search, which would find nothing there: the broad
+phase, which changes no result (``tests/sim/test_broad_phase.py``).
 
 The effects are compile-time constants of ``step`` (its closure): numba prunes the branches of
 the effects a scene does not name before it types the function, so their kernels are not in the
@@ -31,7 +34,7 @@ import numpy as np
 
 from .bodies import MESH
 from .compiled import specialised
-from .contact import closest_surface_point, detect, sweep
+from .contact import apart, closest_surface_point, detect, hand_reach, out_of_reach, sweep
 from .hand_path import move_hand, take_hands
 from .impulse import apply_impulses, spring_onsets
 from .integrate import add_gravity, rotate_constant, rotate_free, update_position, update_velocity
@@ -172,12 +175,17 @@ def specialise(effects: frozenset[str], meshes: bool = False):
             h = p.dt / parts
             for _ in range(parts):
                 move_hand(s, s.clock[CLOCK_PREVIOUS_FRAME], s.clock[CLOCK_FRAME], s.clock[CLOCK_TIME], h)
+                if contacts:
+                    reach = hand_reach(s)
                 for o in range(n):
                     rot = rotation(s.orientation[o])
                     if contacts:
-                        if swept:
-                            sweep(p, s, o, rot, mesh)                        # continuous collision
-                        detect(p, s, o, rot, anchored, mesh)                 # contacts, Eqs. 2-8
+                        if out_of_reach(p, s, o, reach):                     # broad phase
+                            apart(s, o)
+                        else:
+                            if swept:
+                                sweep(p, s, o, rot, mesh)                    # continuous collision
+                            detect(p, s, o, rot, anchored, mesh)             # contacts, Eqs. 2-8
                     if impulse:
                         if apply_impulses(p, s, o, rot, penetration, h):     # impulse phase, Eqs. 9-15
                             rot = rotation(s.orientation[o])

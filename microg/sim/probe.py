@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .bodies import SceneError
-from .contact import detect
+from .contact import apart, detect, hand_reach, out_of_reach, sweep
 from .impulse import apply_impulses as _apply_impulses
 from .penetration import friction_cone, penetration_forces
 from .soft_hand import soft_hand_forces
@@ -25,6 +25,24 @@ def _detect(params, ints, reals, flags, counts, anchored):
     p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
     for o in range(n):
         detect(p, s, o, rotation(s.orientation[o]), anchored, None)
+
+
+@entry
+def _find(params, ints, reals, flags, counts, anchored, swept, broad_phase):
+    n = ints[OBJECT_COUNT]
+    p, s = unpack_params(params, ints, n), unpack(reals, flags, counts, n)
+    reach = hand_reach(s)
+    skipped = np.zeros(n, dtype=np.bool_)
+    for o in range(n):
+        rot = rotation(s.orientation[o])
+        if broad_phase and out_of_reach(p, s, o, reach):
+            skipped[o] = True
+            apart(s, o)
+            continue
+        if swept:
+            sweep(p, s, o, rot, None)
+        detect(p, s, o, rot, anchored, None)
+    return skipped
 
 
 @entry
@@ -61,6 +79,16 @@ def detect_contacts(model, data) -> None:
     """Start, keep or end every phalanx-object contact at the current poses (Eqs. 2-8)."""
     _analytic(model)
     _detect(model.params, model.ints, data.reals, data.flags, data.counts, "soft_hand" not in model.effects)
+
+
+def find_contacts(model, data, broad_phase: bool = True) -> np.ndarray:
+    """The step's contact search at the current state, in place: continuous collision (when the
+    model has it) and Eqs. 2-8 for every object, those out of every phalanx's reach left out as
+    the step leaves them out (``contact.out_of_reach``) unless ``broad_phase`` is False. Returns
+    (N,) which objects the broad phase left out."""
+    _analytic(model)
+    return _find(model.params, model.ints, data.reals, data.flags, data.counts, "soft_hand" not in model.effects,
+                 "continuous_collision" in model.effects, broad_phase)
 
 
 def apply_impulses(model, data) -> None:

@@ -8,7 +8,7 @@
 
 ``make_world`` validates the scene once and compiles (or loads from the cache) the step for exactly
 the effects the scene names (``pipeline.specialise``). ``step`` takes one hand frame (already
-filtered: ``microg.hands.filter``) and advances the world to the frame's timestamp in one compiled
+filtered: ``microg.hands.filter``; a ``HandFrame`` or its ``HANDS`` record) and advances the world to the frame's timestamp in one compiled
 call: the frame intake (a new track where a hand appears, its track id changes or it jumped: the
 jump rule, ``skeleton.is_jump``; the phalanx slots) and every physics step of ``scene.dt`` that
 fits, with the hand moving linearly from the previous frame to this one.
@@ -171,13 +171,22 @@ def _step_worlds(model: Model, buffers, frames: np.ndarray) -> None:
     model.step_worlds(model.params, model.ints, *buffers, frames)
 
 
-def step(world: World, frame: HandFrame) -> World:
-    """Advance the world to ``frame.timestamp`` with the hand as the frame shows it."""
+def step(world: World, frame: HandFrame | np.void) -> World:
+    """Advance the world to the frame's timestamp with the hand as the frame shows it: a
+    ``HandFrame``, or the same as a ``HANDS`` record (``stack_frames(frames)[i]``: frames
+    converted once, before a loop steps through them; a conversion takes longer than the step)."""
+    if isinstance(frame, HandFrame):
+        timestamp, frames = frame.timestamp, stack_frames((frame,))
+    elif isinstance(frame, np.void) and frame.dtype == HANDS:
+        timestamp, frames = float(frame["t"]), np.asarray(frame)[None]
+    else:
+        raise SceneError(f"step: frame is a {type(frame).__name__} ({getattr(frame, 'dtype', '')}); "
+                         "expected a HandFrame or a microg.skeleton.HANDS record (stack_frames(frames)[i])")
     data = world.data
-    _late(frame.timestamp, float(data.reals[CLOCK_FRAME]), int(data.counts[COUNT_FRAMES]))
-    buffers = (data.reals[None].copy(), data.flags[None].copy(), data.counts[None].copy())
-    _step_worlds(world.model, buffers, stack_frames((frame,)))
-    return World(world.model, Data(data.n_objects, buffers[0][0], buffers[1][0], buffers[2][0]))
+    _late(timestamp, float(data.reals[CLOCK_FRAME]), int(data.counts[COUNT_FRAMES]))
+    reals, flags, counts = data.reals.copy(), data.flags.copy(), data.counts.copy()
+    _step_worlds(world.model, (reals[None], flags[None], counts[None]), frames)
+    return World(world.model, Data(data.n_objects, reals, flags, counts))
 
 
 @dataclass(frozen=True, eq=False)

@@ -57,3 +57,22 @@ def test_step_batch_leaves_its_argument_untouched_and_checks_frame_order():
         step_batch(later, [HandFrame(1.0), HandFrame(0.5), HandFrame(1.0)])
     with pytest.raises(SceneError, match="2 frames for a batch of 3"):
         step_batch(later, [HandFrame(1.0)] * 2)
+
+
+def test_step_takes_a_frame_as_its_record_to_the_same_world():
+    world = world_of([placed("cube"), placed("long_cuboid", position=(0.2, 0.2, 0.0))])
+    frames = [HandFrame(float(t), hand_at(t, 2)) for t in np.arange(0.0, 0.4, 1 / 110)]
+    records = stack_frames(frames)
+    from_frames, from_records = world, world
+    for frame, record in zip(frames, records):
+        from_frames, from_records = step(from_frames, frame), step(from_records, record)
+        assert from_frames.data.reals.tobytes() == from_records.data.reals.tobytes()
+        assert from_frames.data.flags.tobytes() == from_records.data.flags.tobytes()
+        assert from_frames.data.counts.tobytes() == from_records.data.counts.tobytes()
+    assert np.abs(from_records.data.velocity[0]).max() > 0.1  # the fingertip hit the cube
+    with pytest.raises(SceneError, match="not after the previous frame"):
+        step(from_records, records[3])
+    with pytest.raises(SceneError, match=r"frame is a ndarray .*expected a HandFrame or a microg.skeleton.HANDS record"):
+        step(from_records, records[3:4])
+    with pytest.raises(SceneError, match="frame is a float"):
+        step(from_records, 0.5)
