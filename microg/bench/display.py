@@ -27,8 +27,9 @@ had the physics result (``webxr_latency.csv``).
 
 The floor: a minimal page (``microg.bench.floor``: a WebSocket and raw WebGL) takes a stream of the
 same frame messages at 110 Hz from a server of its own and draws each newest frame's bones as lines,
-measured the same way in the same run and at the same load: the browser's share of the latency,
-which no participant page on this machine can beat. Each of ``loads`` (CPU-bound processes
+measured the same way in the same run and at the same load: the browser's share of the latency
+for a page that draws every pixel of the viewport (the participant page, adapting, may draw fewer
+and come in under it). Each of ``loads`` (CPU-bound processes
 beside every run) measures all of it in turn.
 
 Each runs its server in a subprocess (the benchmark imports nothing of the study or the view)

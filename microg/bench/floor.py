@@ -5,8 +5,9 @@ frame messages of the participant page's shape (one hand's 20 bones as segments 
 contacts, the object's pose, the task's state) at 110 Hz, each stamped with when it was ready
 on the server's clock, and answers the page's clock pings as the session does. The page keeps
 the newest frame and draws its bones as lines with raw WebGL on the next animation frame, so
-the latency it reports (ready to drawn) is the browser's share alone: what no participant page
-can beat on the same machine under the same load.
+the latency it reports (ready to drawn) is the browser's share alone for a page that draws
+every pixel (a page drawing fewer, as the participant page does when it adapts, may come in
+under it).
 """
 
 from __future__ import annotations
