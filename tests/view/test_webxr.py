@@ -451,7 +451,7 @@ def flat_hand(side: str = "right") -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_webxr_joints_map_onto_the_skeleton():
-    joints, radii = flat_hand("right")
+    joints, radii = (values.astype(np.float32).astype(float) for values in flat_hand("right"))  # a Float32Array's
     hand = hand_from_webxr("right", joints, radii, track_id=4)
     # Fingers: WebXR's five joints in order; the thumb: its metacarpal joint twice (zero length).
     assert np.array_equal(hand.joints[1:].reshape(-1, 3), joints[5:])
