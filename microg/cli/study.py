@@ -203,7 +203,8 @@ def station(study_dir: str, name: str, out_dir: str | None, participants: tuple[
             back = give_up(central, name, participants, reason)
         click.echo(f"took {', '.join(back)} back from station {name}: run them here (microg session run "
                    f"{study_dir} --participant {back[0]} ...) or make another station for them")
-        click.echo(f"  a merge of station {name} leaves its new sessions of {', '.join(back)} out (they stay in its folder)")
+        click.echo(f"  a merge of station {name} leaves its new sessions of {', '.join(back)} out (they stay in "
+                   "its folder)")
         return
     if out_dir is None:
         raise click.UsageError("give --out FOLDER for the station's study (or --give-up to give a station up)")

@@ -8,10 +8,11 @@
 
 ``make_world`` validates the scene once and compiles (or loads from the cache) the step for exactly
 the effects the scene names (``pipeline.specialise``). ``step`` takes one hand frame (already
-filtered: ``microg.hands.filter``; a ``HandFrame`` or its ``HANDS`` record) and advances the world to the frame's timestamp in one compiled
-call: the frame intake (a new track where a hand appears, its track id changes or it jumped: the
-jump rule, ``skeleton.is_jump``; the phalanx slots) and every physics step of ``scene.dt`` that
-fits, with the hand moving linearly from the previous frame to this one.
+filtered: ``microg.hands.filter``; a ``HandFrame`` or its ``HANDS`` record) and advances the world
+to the frame's timestamp in one compiled call: the frame intake (a new track where a hand
+appears, its track id changes or it jumped: the jump rule, ``skeleton.is_jump``; the phalanx
+slots) and every physics step of ``scene.dt`` that fits, with the hand moving linearly from the
+previous frame to this one.
 
 Copy on step: the world's state is three flat buffers (``state``); ``step`` copies them (three
 ``memcpy``s, a few kilobytes), advances the copy and returns it in a new World, so its argument is
