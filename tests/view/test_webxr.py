@@ -265,7 +265,9 @@ def test_a_headset_hand_places_the_workspace_carries_the_cube_through_the_places
         wait_until(lambda: display.placement is not None, "the session got the placement")
         assert np.allclose(display.placement, anchor)
 
-        # The hand closes on the cube and carries it through the places, through the session.
+        # The hand closes on the cube and carries it through the places, through the session, once
+        # the session's physics runs the task (its first frame: a cold start compiles it first).
+        wait(driver, "return window.microg.latest")
         start, _ = protocol.start_pose("cube")
         play(driver, grasp_path(hand, anchor, start, protocol.task.places, palm_at))
         assert not failures
